@@ -1,0 +1,304 @@
+//! Scheduler time: one timer queue for the virtual and the real clock.
+//!
+//! Every wait in a run (a guest's `sleep`, an event's check cadence, a
+//! deliberative `sleep` or `waitfor` timeout) is a [`Sleep`] on this queue, so
+//! that under the virtual clock the scheduler can jump straight to the next
+//! deadline once nothing is ready, and so that timers with the same deadline
+//! fire in the order they were set (the key is `(deadline, sequence)`).
+//!
+//! The queue is shared with host calls made from inside wasm (which must be
+//! `Send`), hence the mutex; it is only ever taken on the scheduler's thread,
+//! so it is never contended.
+
+use std::collections::BTreeMap;
+use std::future::Future;
+use std::pin::Pin;
+use std::sync::atomic::{AtomicU8, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::task::{Context, Poll, Waker};
+use std::time::Instant;
+
+/// Which clock a system runs on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ClockKind {
+    /// Time jumps to the next timer whenever every task is waiting: a run is
+    /// a pure function of its inputs, and 30 s of robot time take
+    /// milliseconds. For tests and replays.
+    #[default]
+    Virtual,
+    /// The wall clock.
+    Real,
+}
+
+impl std::str::FromStr for ClockKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "virtual" => Ok(Self::Virtual),
+            "real" => Ok(Self::Real),
+            other => Err(format!(
+                "unknown clock `{other}` (expected `virtual` or `real`)"
+            )),
+        }
+    }
+}
+
+/// Why the host asks a running slot to stop.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StopReason {
+    /// The response's interrupt slot was signalled.
+    Interrupt = 1,
+    /// The response's exit slot was signalled (or a `restart` delivery).
+    Exit = 2,
+    /// The event lost its last connection.
+    Deactivate = 3,
+}
+
+/// A line a plugin logged, waiting to be copied into the trace.
+pub(crate) struct LogLine {
+    pub t: u64,
+    pub plugin: Arc<str>,
+    pub level: &'static str,
+    pub message: String,
+}
+
+struct Timers {
+    kind: ClockKind,
+    start: Instant,
+    virtual_now: u64,
+    seq: u64,
+    queue: BTreeMap<(u64, u64), Waker>,
+    logs: Vec<LogLine>,
+}
+
+/// The clock and timer queue of one system; cheap to clone.
+#[derive(Clone)]
+pub(crate) struct TimeBase(Arc<Mutex<Timers>>);
+
+pub(crate) type TimerKey = (u64, u64);
+
+impl TimeBase {
+    pub fn new(kind: ClockKind) -> Self {
+        Self(Arc::new(Mutex::new(Timers {
+            kind,
+            start: Instant::now(),
+            virtual_now: 0,
+            seq: 0,
+            queue: BTreeMap::new(),
+            logs: Vec::new(),
+        })))
+    }
+
+    fn lock(&self) -> MutexGuard<'_, Timers> {
+        // Only the scheduler's thread takes this lock; a panic while it was
+        // held has already ended the run, so the data is still consistent.
+        self.0.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    pub fn kind(&self) -> ClockKind {
+        self.lock().kind
+    }
+
+    /// Nanoseconds since the run began.
+    pub fn now(&self) -> u64 {
+        let t = self.lock();
+        match t.kind {
+            ClockKind::Virtual => t.virtual_now,
+            ClockKind::Real => u64::try_from(t.start.elapsed().as_nanos()).unwrap_or(u64::MAX),
+        }
+    }
+
+    /// Restarts the real clock's origin (when a run begins).
+    pub fn restart(&self) {
+        self.lock().start = Instant::now();
+    }
+
+    fn add(&self, deadline: u64, waker: Waker) -> TimerKey {
+        let mut t = self.lock();
+        t.seq += 1;
+        let key = (deadline, t.seq);
+        t.queue.insert(key, waker);
+        key
+    }
+
+    fn refresh(&self, key: TimerKey, waker: &Waker) {
+        if let Some(w) = self.lock().queue.get_mut(&key) {
+            if !w.will_wake(waker) {
+                *w = waker.clone();
+            }
+        }
+    }
+
+    fn cancel(&self, key: TimerKey) {
+        self.lock().queue.remove(&key);
+    }
+
+    /// The earliest pending deadline.
+    pub fn next_deadline(&self) -> Option<u64> {
+        self.lock().queue.keys().next().map(|k| k.0)
+    }
+
+    /// Virtual clock: moves time to `t` (never backwards).
+    pub fn advance_to(&self, t: u64) {
+        let mut timers = self.lock();
+        timers.virtual_now = timers.virtual_now.max(t);
+    }
+
+    /// Wakes, in (deadline, sequence) order, every timer due at `now`.
+    pub fn fire_due(&self, now: u64) {
+        let due: Vec<Waker> = {
+            let mut t = self.lock();
+            let mut due = Vec::new();
+            while let Some(entry) = t.queue.first_entry() {
+                if entry.key().0 > now {
+                    break;
+                }
+                due.push(entry.remove());
+            }
+            due
+        };
+        for w in due {
+            w.wake();
+        }
+    }
+
+    pub fn push_log(&self, plugin: &Arc<str>, level: &'static str, message: String) {
+        let now = self.now();
+        self.lock().logs.push(LogLine {
+            t: now,
+            plugin: plugin.clone(),
+            level,
+            message,
+        });
+    }
+
+    pub fn take_logs(&self) -> Vec<LogLine> {
+        let mut t = self.lock();
+        if t.logs.is_empty() {
+            Vec::new()
+        } else {
+            std::mem::take(&mut t.logs)
+        }
+    }
+
+    /// A future that completes at `deadline` (nanoseconds since the run
+    /// began), or early when `stop` is requested.
+    pub fn sleep_until(&self, deadline: u64, stop: Option<Arc<StopFlag>>) -> Sleep {
+        Sleep {
+            base: self.clone(),
+            deadline,
+            key: None,
+            stop,
+        }
+    }
+}
+
+/// A per-plugin request to stop the running slot at its next interruption
+/// point. Set by the scheduler, read by the plugin's host calls.
+#[derive(Default)]
+pub(crate) struct StopFlag {
+    reason: AtomicU8,
+    waker: Mutex<Option<Waker>>,
+}
+
+impl StopFlag {
+    pub fn request(&self, reason: StopReason) {
+        self.reason.store(reason as u8, Ordering::Relaxed);
+        let waker = self.waker.lock().unwrap_or_else(|e| e.into_inner()).take();
+        if let Some(w) = waker {
+            w.wake();
+        }
+    }
+
+    pub fn clear(&self) {
+        self.reason.store(0, Ordering::Relaxed);
+    }
+
+    pub fn get(&self) -> Option<StopReason> {
+        match self.reason.load(Ordering::Relaxed) {
+            1 => Some(StopReason::Interrupt),
+            2 => Some(StopReason::Exit),
+            3 => Some(StopReason::Deactivate),
+            _ => None,
+        }
+    }
+
+    fn register(&self, waker: &Waker) {
+        let mut slot = self.waker.lock().unwrap_or_else(|e| e.into_inner());
+        match slot.as_ref() {
+            Some(w) if w.will_wake(waker) => {}
+            _ => *slot = Some(waker.clone()),
+        }
+    }
+}
+
+/// See [`TimeBase::sleep_until`].
+pub(crate) struct Sleep {
+    base: TimeBase,
+    deadline: u64,
+    key: Option<TimerKey>,
+    stop: Option<Arc<StopFlag>>,
+}
+
+impl Future for Sleep {
+    type Output = Result<(), StopReason>;
+
+    fn poll(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Self::Output> {
+        if let Some(stop) = &self.stop {
+            if let Some(reason) = stop.get() {
+                return Poll::Ready(Err(reason));
+            }
+            stop.register(cx.waker());
+        }
+        if self.base.now() >= self.deadline {
+            return Poll::Ready(Ok(()));
+        }
+        match self.key {
+            Some(key) => self.base.refresh(key, cx.waker()),
+            None => {
+                let key = self.base.add(self.deadline, cx.waker().clone());
+                self.key = Some(key);
+            }
+        }
+        Poll::Pending
+    }
+}
+
+impl Drop for Sleep {
+    fn drop(&mut self) {
+        if let Some(key) = self.key.take() {
+            self.base.cancel(key);
+        }
+    }
+}
+
+/// Lets every other ready task run once before continuing.
+pub(crate) struct YieldNow {
+    yielded: bool,
+    stop: Arc<StopFlag>,
+}
+
+impl YieldNow {
+    pub fn new(stop: Arc<StopFlag>) -> Self {
+        Self {
+            yielded: false,
+            stop,
+        }
+    }
+}
+
+impl Future for YieldNow {
+    type Output = Result<(), StopReason>;
+
+    fn poll(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Self::Output> {
+        if let Some(reason) = self.stop.get() {
+            return Poll::Ready(Err(reason));
+        }
+        if self.yielded {
+            return Poll::Ready(Ok(()));
+        }
+        self.yielded = true;
+        cx.waker().wake_by_ref();
+        Poll::Pending
+    }
+}

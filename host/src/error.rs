@@ -1,0 +1,106 @@
+//! The errors of the host library. Every variant that concerns a plugin
+//! names it, so that a robot programmer sees at once which file to fix.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong when building or driving a system.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum RadarError {
+    /// The plugin's file could not be read.
+    #[error("plugin `{plugin}`: cannot read {path}: {cause}")]
+    Read {
+        /// The plugin's name in the system.
+        plugin: String,
+        /// The file that was asked for.
+        path: PathBuf,
+        /// What the operating system said.
+        cause: std::io::Error,
+    },
+    /// The plugin's bytes are not a WebAssembly component wasmtime can compile.
+    #[error("plugin `{plugin}`: not a valid WebAssembly component: {cause}")]
+    NotAComponent {
+        /// The plugin's name in the system.
+        plugin: String,
+        /// Why it was refused.
+        cause: String,
+    },
+    /// The component is valid but does not have the shape of an event or a
+    /// response (DESIGN §1.1, `wit/reactive.wit`).
+    #[error("plugin `{plugin}`: wrong world: {cause}")]
+    WrongWorld {
+        /// The plugin's name in the system.
+        plugin: String,
+        /// What is missing or unexpected.
+        cause: String,
+    },
+    /// Two plugins with the same name.
+    #[error("plugin `{0}` is defined twice")]
+    DuplicatePlugin(String),
+    /// A name that no plugin of the system has.
+    #[error("no plugin named `{0}` in this system")]
+    UnknownPlugin(String),
+    /// A plugin has no signal or slot of that name.
+    #[error("plugin `{plugin}` has no {what} `{name}` (it has: {known})")]
+    UnknownPort {
+        /// The plugin's name.
+        plugin: String,
+        /// `signal` or `slot`.
+        what: &'static str,
+        /// The name asked for.
+        name: String,
+        /// What the plugin does have.
+        known: String,
+    },
+    /// A connection whose signal payload the slot cannot take.
+    #[error("type mismatch: `{from}` emits {from_type}, but `{to}` takes {to_type}")]
+    TypeMismatch {
+        /// The signal, as `Plugin.signal`.
+        from: String,
+        /// The signal's payload type in WIT syntax.
+        from_type: String,
+        /// The slot, as `Plugin.slot`.
+        to: String,
+        /// The slot's parameter type in WIT syntax.
+        to_type: String,
+    },
+    /// A connection that makes no sense (for example `until` on a slot other
+    /// than `start`).
+    #[error("invalid connection {from} -> {to}: {cause}")]
+    InvalidConnection {
+        /// The signal side.
+        from: String,
+        /// The slot side.
+        to: String,
+        /// Why it is refused.
+        cause: String,
+    },
+    /// A JSON payload that does not fit the slot's type.
+    #[error("payload for `{to}`: {cause}")]
+    BadPayload {
+        /// The slot, as `Plugin.slot`.
+        to: String,
+        /// Why it does not fit.
+        cause: String,
+    },
+    /// `reset` of a plugin that is not in `error`.
+    #[error("plugin `{0}` is not in error; only a faulted plugin can be reset")]
+    NotFaulted(String),
+    /// The engine or linker could not be set up.
+    #[error("wasm engine: {0}")]
+    Engine(String),
+    /// The system is not running (the run ended, or was never started).
+    #[error("the system is not running")]
+    Stopped,
+    /// Deliberative code returned an error or panicked.
+    #[error("deliberative program failed: {0}")]
+    Program(String),
+    /// The manifest could not be read or does not describe a system.
+    #[error("manifest {path}: {cause}")]
+    Manifest {
+        /// The manifest file.
+        path: PathBuf,
+        /// What is wrong with it.
+        cause: String,
+    },
+}

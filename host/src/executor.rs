@@ -1,0 +1,112 @@
+//! A single-threaded, deterministic executor for the scheduler's tasks.
+//!
+//! Every plugin is driven by one task (an `async` loop that owns the plugin's
+//! `Store`); wasmtime runs guest code on fibers inside those tasks. Tasks run
+//! strictly in the order they became ready (a FIFO of task ids), which is
+//! the order rule of DESIGN §1.3; a task woken twice before it runs is queued
+//! once.
+
+use std::collections::{HashMap, VecDeque};
+use std::future::Future;
+use std::pin::Pin;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::task::{Context, Poll, Wake, Waker};
+
+/// A task of the scheduler. Tasks hold `Rc`s to the scheduler's state, so
+/// they are not `Send`: they never leave the scheduler's thread.
+pub(crate) type LocalTask = Pin<Box<dyn Future<Output = ()>>>;
+
+/// Identifies a task for its whole life; ids are never reused, so a stale
+/// waker can never wake the wrong task.
+pub(crate) type TaskId = u64;
+
+#[derive(Default)]
+struct ReadyQueue(Mutex<VecDeque<TaskId>>);
+
+impl ReadyQueue {
+    fn push(&self, id: TaskId) {
+        self.0
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push_back(id);
+    }
+    fn pop(&self) -> Option<TaskId> {
+        self.0.lock().unwrap_or_else(|e| e.into_inner()).pop_front()
+    }
+}
+
+struct TaskWaker {
+    id: TaskId,
+    queued: AtomicBool,
+    ready: Arc<ReadyQueue>,
+}
+
+impl Wake for TaskWaker {
+    fn wake(self: Arc<Self>) {
+        self.wake_by_ref();
+    }
+    fn wake_by_ref(self: &Arc<Self>) {
+        if !self.queued.swap(true, Ordering::AcqRel) {
+            self.ready.push(self.id);
+        }
+    }
+}
+
+struct Slot {
+    future: LocalTask,
+    state: Arc<TaskWaker>,
+    waker: Waker,
+}
+
+/// Owns the tasks and runs them in ready order.
+#[derive(Default)]
+pub(crate) struct Executor {
+    tasks: HashMap<TaskId, Slot>,
+    ready: Arc<ReadyQueue>,
+}
+
+impl Executor {
+    /// Adds a task under an id chosen by the caller and makes it ready.
+    pub fn insert(&mut self, id: TaskId, future: LocalTask) {
+        let state = Arc::new(TaskWaker {
+            id,
+            queued: AtomicBool::new(false),
+            ready: self.ready.clone(),
+        });
+        let waker = Waker::from(state.clone());
+        waker.wake_by_ref();
+        self.tasks.insert(
+            id,
+            Slot {
+                future,
+                state,
+                waker,
+            },
+        );
+    }
+
+    /// Drops a task (and so whatever it was waiting on).
+    pub fn cancel(&mut self, id: TaskId) {
+        self.tasks.remove(&id);
+    }
+
+    /// Polls the next ready task once. Returns false if none was ready.
+    pub fn run_one(&mut self) -> bool {
+        loop {
+            let Some(id) = self.ready.pop() else {
+                return false;
+            };
+            let Some(slot) = self.tasks.get_mut(&id) else {
+                continue; // finished or cancelled since it was woken
+            };
+            slot.state.queued.store(false, Ordering::Release);
+            let waker = slot.waker.clone();
+            let mut cx = Context::from_waker(&waker);
+            if let Poll::Ready(()) = slot.future.as_mut().poll(&mut cx) {
+                self.tasks.remove(&id);
+            }
+            return true;
+        }
+    }
+}

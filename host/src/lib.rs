@@ -1,0 +1,32 @@
+//! Radar runs robot *reactive behaviours* as sandboxed WebAssembly
+//! components, with the semantics of the RADAR robot language.
+//!
+//! - **Events** (components exporting `check`) emit `triggered` when their
+//!   condition holds; they run only while something listens.
+//! - **Responses** (components exporting `start`, and optionally `interrupt`
+//!   and `exit`) emit `started`, `interrupted` and `exited`.
+//! - **Deliberative code** wires them with `once`, `whenever`, `until` and
+//!   `waitfor`, anonymous slots and scoped connections: see [`Radar`].
+//!
+//! A [`System`] owns one scheduler thread that owns every plugin's store;
+//! under the virtual clock a run is deterministic, trace and all.
+#![warn(missing_docs)]
+
+pub mod clock;
+pub mod error;
+pub mod example;
+pub(crate) mod executor;
+pub mod manifest;
+pub mod payload;
+pub mod plugin;
+pub(crate) mod scheduler;
+pub mod system;
+pub mod timeline;
+pub mod trace;
+
+pub use clock::ClockKind;
+pub use error::RadarError;
+pub use payload::{Payload, PayloadType};
+pub use plugin::Limits;
+pub use scheduler::{AnonymousSlot, Busy, Mode};
+pub use system::{Connection, Link, Plugin, Radar, RunReport, System, SystemBuilder};

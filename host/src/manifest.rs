@@ -1,0 +1,226 @@
+//! `radar.toml`: a system described in a file (DESIGN §3.2).
+//!
+//! ```toml
+//! [plugins.TestEvent]
+//! wasm = "plugins/test_event.wasm"     # relative to the manifest
+//! config = { count_to = 5 }
+//! period_ms = 10                       # optional: an event's check period
+//! fuel = 200000000                     # optional: fuel per call
+//!
+//! [[connect]]
+//! mode = "whenever"                    # once | whenever
+//! from = "TestEvent.triggered"
+//! to = "TestResponse.start"
+//! busy = "queue"                       # optional: drop | queue | restart
+//! queue = 4                            # optional, with busy = "queue"
+//! min_interval_ms = 500                # optional
+//! until = "Stop.triggered"             # optional, with to = "X.start"
+//! ```
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use serde::Deserialize;
+
+use crate::error::RadarError;
+use crate::plugin::Limits;
+use crate::scheduler::Busy;
+use crate::system::{Link, Plugin, SystemBuilder};
+
+/// A parsed manifest.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Manifest {
+    /// The plugins, by name.
+    #[serde(default)]
+    pub plugins: BTreeMap<String, PluginEntry>,
+    /// A deliberative component (not supported yet: see the README).
+    pub deliberative: Option<DeliberativeEntry>,
+    /// Static connections, made when the run begins.
+    #[serde(default)]
+    pub connect: Vec<ConnectEntry>,
+    #[serde(skip)]
+    dir: PathBuf,
+}
+
+/// `[plugins.NAME]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PluginEntry {
+    /// The component file, relative to the manifest.
+    pub wasm: PathBuf,
+    /// Values the plugin reads through the `config` interface.
+    #[serde(default)]
+    pub config: BTreeMap<String, toml::Value>,
+    /// An event's check period in milliseconds.
+    pub period_ms: Option<u64>,
+    /// Fuel per call.
+    pub fuel: Option<u64>,
+    /// Memory limit in bytes.
+    pub memory_bytes: Option<usize>,
+}
+
+/// `[deliberative]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DeliberativeEntry {
+    /// The deliberative component.
+    pub wasm: PathBuf,
+}
+
+/// `[[connect]]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConnectEntry {
+    /// `once` or `whenever`.
+    pub mode: String,
+    /// `Plugin.signal`.
+    pub from: String,
+    /// `Plugin.slot`.
+    pub to: String,
+    /// `drop`, `queue` or `restart`.
+    pub busy: Option<String>,
+    /// Queue length with `busy = "queue"` (default 1).
+    pub queue: Option<usize>,
+    /// Minimum interval between deliveries, in milliseconds.
+    pub min_interval_ms: Option<u64>,
+    /// `Plugin.signal` that interrupts the activation this connection starts.
+    pub until: Option<String>,
+}
+
+fn config_text(value: &toml::Value) -> String {
+    match value {
+        toml::Value::String(s) => s.clone(),
+        other => other.to_string(),
+    }
+}
+
+impl Manifest {
+    /// Reads and checks a manifest file.
+    pub fn load(path: &Path) -> Result<Self, RadarError> {
+        let bad = |cause: String| RadarError::Manifest {
+            path: path.to_path_buf(),
+            cause,
+        };
+        let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
+        let mut manifest: Manifest = toml::from_str(&text).map_err(|e| bad(e.to_string()))?;
+        manifest.dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        if manifest.deliberative.is_some() {
+            return Err(bad(
+                "[deliberative] components are not supported yet; wire the system with [[connect]] \
+                 or the native Rust API"
+                    .into(),
+            ));
+        }
+        if manifest.plugins.is_empty() {
+            return Err(bad("it defines no [plugins]".into()));
+        }
+        for c in &manifest.connect {
+            manifest.link(c).map_err(bad)?;
+        }
+        Ok(manifest)
+    }
+
+    /// Adds the manifest's plugins to a system builder.
+    pub fn add_plugins(&self, mut builder: SystemBuilder) -> SystemBuilder {
+        for (name, entry) in &self.plugins {
+            let mut plugin = Plugin::file(name, self.dir.join(&entry.wasm));
+            for (key, value) in &entry.config {
+                plugin = plugin.config(key, config_text(value));
+            }
+            if let Some(ms) = entry.period_ms {
+                plugin = plugin.period(Duration::from_millis(ms));
+            }
+            if entry.fuel.is_some() || entry.memory_bytes.is_some() {
+                let mut limits = Limits::default();
+                limits.fuel_per_call = entry.fuel.unwrap_or(limits.fuel_per_call);
+                limits.memory_bytes = entry.memory_bytes.unwrap_or(limits.memory_bytes);
+                plugin = plugin.limits(limits);
+            }
+            builder = builder.plugin(plugin);
+        }
+        builder
+    }
+
+    /// The static connections, as links to make when the run begins.
+    pub fn links(&self) -> Vec<Link> {
+        self.connect
+            .iter()
+            .filter_map(|c| self.link(c).ok())
+            .collect()
+    }
+
+    fn link(&self, c: &ConnectEntry) -> Result<Link, String> {
+        let mut link = match c.mode.as_str() {
+            "once" => Link::once(&c.from, &c.to),
+            "whenever" => Link::whenever(&c.from, &c.to),
+            other => {
+                return Err(format!(
+                    "connect {} -> {}: unknown mode `{other}`",
+                    c.from, c.to
+                ))
+            }
+        };
+        let busy = match c.busy.as_deref() {
+            None | Some("drop") => Busy::Drop,
+            Some("queue") => Busy::Queue(c.queue.unwrap_or(1)),
+            Some("restart") => Busy::Restart,
+            Some(other) => {
+                return Err(format!(
+                    "connect {} -> {}: unknown busy policy `{other}`",
+                    c.from, c.to
+                ))
+            }
+        };
+        link = link.busy(busy);
+        if let Some(ms) = c.min_interval_ms {
+            link = link.min_interval(Duration::from_millis(ms));
+        }
+        if let Some(until) = &c.until {
+            link = link.until(until);
+        }
+        Ok(link)
+    }
+}
+
+/// Parses a duration such as `30s`, `500ms`, `1.5s`, `2m` or `100us`.
+pub fn parse_duration(text: &str) -> Result<Duration, String> {
+    let text = text.trim();
+    let split = text
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(text.len());
+    let (number, unit) = text.split_at(split);
+    let value: f64 = number
+        .parse()
+        .map_err(|_| format!("`{text}` is not a duration (try 30s, 500ms, 2m)"))?;
+    let scale = match unit.trim() {
+        "ns" => 1e-9,
+        "us" | "µs" => 1e-6,
+        "ms" => 1e-3,
+        "s" | "" => 1.0,
+        "m" | "min" => 60.0,
+        "h" => 3600.0,
+        other => {
+            return Err(format!(
+                "unknown unit `{other}` in `{text}` (ns, us, ms, s, m, h)"
+            ))
+        }
+    };
+    Duration::try_from_secs_f64(value * scale).map_err(|e| format!("`{text}`: {e}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn durations_parse_with_units() {
+        assert_eq!(parse_duration("30s"), Ok(Duration::from_secs(30)));
+        assert_eq!(parse_duration("500ms"), Ok(Duration::from_millis(500)));
+        assert_eq!(parse_duration("1.5s"), Ok(Duration::from_millis(1500)));
+        assert_eq!(parse_duration("2m"), Ok(Duration::from_secs(120)));
+        assert!(parse_duration("soon").is_err());
+        assert!(parse_duration("5 parsecs").is_err());
+    }
+}

@@ -1,0 +1,422 @@
+//! Typed payloads: values that travel along connections, and their WIT types.
+//!
+//! Payload types are declared by each plugin's own world, so the host knows
+//! them only at run time, from the components' type information. Values move
+//! between plugins as [`wasmtime::component::Val`], structurally, without a
+//! serialization format of our own; JSON is used only at the edges (trace,
+//! CLI, `inject`).
+//!
+//! wasmtime's `Type` compares equal only within one component, so this
+//! module keeps an owned, structural copy ([`PayloadType`]) that can be
+//! compared across components and printed in WIT syntax for error messages.
+
+use std::fmt;
+
+use serde_json::{json, Map, Number, Value as Json};
+use wasmtime::component::{types, Val};
+
+/// The WIT type of a payload, comparable across components.
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[allow(missing_docs)]
+pub enum PayloadType {
+    Bool,
+    S8,
+    U8,
+    S16,
+    U16,
+    S32,
+    U32,
+    S64,
+    U64,
+    F32,
+    F64,
+    Char,
+    String,
+    List(Box<PayloadType>),
+    Record(Vec<(String, PayloadType)>),
+    Tuple(Vec<PayloadType>),
+    Variant(Vec<(String, Option<PayloadType>)>),
+    Enum(Vec<String>),
+    Option(Box<PayloadType>),
+    Result {
+        ok: Option<Box<PayloadType>>,
+        err: Option<Box<PayloadType>>,
+    },
+    Flags(Vec<String>),
+    /// Resources, streams and futures cannot travel between plugins.
+    Unsupported(String),
+}
+
+impl PayloadType {
+    /// Copies a component's type into the structural form.
+    pub fn from_wasm(ty: &types::Type) -> Self {
+        use types::Type as T;
+        let boxed = |t: &types::Type| Box::new(Self::from_wasm(t));
+        match ty {
+            T::Bool => Self::Bool,
+            T::S8 => Self::S8,
+            T::U8 => Self::U8,
+            T::S16 => Self::S16,
+            T::U16 => Self::U16,
+            T::S32 => Self::S32,
+            T::U32 => Self::U32,
+            T::S64 => Self::S64,
+            T::U64 => Self::U64,
+            T::Float32 => Self::F32,
+            T::Float64 => Self::F64,
+            T::Char => Self::Char,
+            T::String => Self::String,
+            T::List(l) => Self::List(boxed(&l.ty())),
+            T::Record(r) => Self::Record(
+                r.fields()
+                    .map(|f| (f.name.to_string(), Self::from_wasm(&f.ty)))
+                    .collect(),
+            ),
+            T::Tuple(t) => Self::Tuple(t.types().map(|t| Self::from_wasm(&t)).collect()),
+            T::Variant(v) => Self::Variant(
+                v.cases()
+                    .map(|c| (c.name.to_string(), c.ty.as_ref().map(Self::from_wasm)))
+                    .collect(),
+            ),
+            T::Enum(e) => Self::Enum(e.names().map(str::to_string).collect()),
+            T::Option(o) => Self::Option(boxed(&o.ty())),
+            T::Result(r) => Self::Result {
+                ok: r.ok().as_ref().map(boxed),
+                err: r.err().as_ref().map(boxed),
+            },
+            T::Flags(f) => Self::Flags(f.names().map(str::to_string).collect()),
+            other => Self::Unsupported(format!("{other:?}")),
+        }
+    }
+}
+
+fn write_list(f: &mut fmt::Formatter<'_>, items: &[PayloadType]) -> fmt::Result {
+    for (i, t) in items.iter().enumerate() {
+        if i > 0 {
+            f.write_str(", ")?;
+        }
+        write!(f, "{t}")?;
+    }
+    Ok(())
+}
+
+impl fmt::Display for PayloadType {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Bool => f.write_str("bool"),
+            Self::S8 => f.write_str("s8"),
+            Self::U8 => f.write_str("u8"),
+            Self::S16 => f.write_str("s16"),
+            Self::U16 => f.write_str("u16"),
+            Self::S32 => f.write_str("s32"),
+            Self::U32 => f.write_str("u32"),
+            Self::S64 => f.write_str("s64"),
+            Self::U64 => f.write_str("u64"),
+            Self::F32 => f.write_str("f32"),
+            Self::F64 => f.write_str("f64"),
+            Self::Char => f.write_str("char"),
+            Self::String => f.write_str("string"),
+            Self::List(t) => write!(f, "list<{t}>"),
+            Self::Record(fields) => {
+                f.write_str("record { ")?;
+                for (i, (name, t)) in fields.iter().enumerate() {
+                    if i > 0 {
+                        f.write_str(", ")?;
+                    }
+                    write!(f, "{name}: {t}")?;
+                }
+                f.write_str(" }")
+            }
+            Self::Tuple(items) => {
+                f.write_str("tuple<")?;
+                write_list(f, items)?;
+                f.write_str(">")
+            }
+            Self::Variant(cases) => {
+                f.write_str("variant { ")?;
+                for (i, (name, t)) in cases.iter().enumerate() {
+                    if i > 0 {
+                        f.write_str(", ")?;
+                    }
+                    match t {
+                        Some(t) => write!(f, "{name}({t})")?,
+                        None => f.write_str(name)?,
+                    }
+                }
+                f.write_str(" }")
+            }
+            Self::Enum(names) => write!(f, "enum {{ {} }}", names.join(", ")),
+            Self::Option(t) => write!(f, "option<{t}>"),
+            Self::Result { ok, err } => match (ok, err) {
+                (None, None) => f.write_str("result"),
+                (Some(ok), None) => write!(f, "result<{ok}>"),
+                (None, Some(err)) => write!(f, "result<_, {err}>"),
+                (Some(ok), Some(err)) => write!(f, "result<{ok}, {err}>"),
+            },
+            Self::Flags(names) => write!(f, "flags {{ {} }}", names.join(", ")),
+            Self::Unsupported(what) => write!(f, "unsupported({what})"),
+        }
+    }
+}
+
+/// A value carried by a signal: what an event's check returned, what a
+/// response's start slot was given, and so on. Signals without a payload
+/// (an event whose `check` returns `bool`, `exited` of a start slot that
+/// returns nothing) carry an empty payload, rendered as JSON `null`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Payload(pub(crate) Option<Val>);
+
+impl Payload {
+    /// The value as wasmtime sees it, if the signal carries one.
+    pub fn value(&self) -> Option<&Val> {
+        self.0.as_ref()
+    }
+
+    /// The value rendered as JSON (the form used by the trace and the CLI).
+    pub fn to_json(&self) -> Json {
+        self.0.as_ref().map(val_to_json).unwrap_or(Json::Null)
+    }
+
+    /// The value as an unsigned integer, if it is one.
+    pub fn as_u64(&self) -> Option<u64> {
+        self.to_json().as_u64()
+    }
+}
+
+impl fmt::Display for Payload {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.to_json())
+    }
+}
+
+/// Renders a component value as JSON: records as objects, variants as
+/// `{"case": payload}` (or `"case"` without payload), results as
+/// `{"ok": v}` / `{"err": v}`, options as the value or `null`.
+pub fn val_to_json(val: &Val) -> Json {
+    let num = |n: Option<Number>| n.map(Json::Number).unwrap_or(Json::Null);
+    match val {
+        Val::Bool(b) => json!(b),
+        Val::S8(n) => json!(n),
+        Val::U8(n) => json!(n),
+        Val::S16(n) => json!(n),
+        Val::U16(n) => json!(n),
+        Val::S32(n) => json!(n),
+        Val::U32(n) => json!(n),
+        Val::S64(n) => json!(n),
+        Val::U64(n) => json!(n),
+        Val::Float32(x) => num(Number::from_f64(f64::from(*x))),
+        Val::Float64(x) => num(Number::from_f64(*x)),
+        Val::Char(c) => json!(c.to_string()),
+        Val::String(s) => json!(s),
+        Val::List(items) | Val::Tuple(items) | Val::FixedLengthList(items) => {
+            Json::Array(items.iter().map(val_to_json).collect())
+        }
+        Val::Map(pairs) => Json::Array(
+            pairs
+                .iter()
+                .map(|(k, v)| json!([val_to_json(k), val_to_json(v)]))
+                .collect(),
+        ),
+        Val::Record(fields) => Json::Object(
+            fields
+                .iter()
+                .map(|(k, v)| (k.clone(), val_to_json(v)))
+                .collect::<Map<_, _>>(),
+        ),
+        Val::Variant(case, None) | Val::Enum(case) => json!(case),
+        Val::Variant(case, Some(v)) => json!({ case.clone(): val_to_json(v) }),
+        Val::Option(None) => Json::Null,
+        Val::Option(Some(v)) => val_to_json(v),
+        Val::Result(r) => {
+            let (key, v) = match r {
+                Ok(v) => ("ok", v),
+                Err(v) => ("err", v),
+            };
+            json!({ key: v.as_deref().map(val_to_json).unwrap_or(Json::Null) })
+        }
+        Val::Flags(names) => json!(names),
+        Val::Resource(_) | Val::Future(_) | Val::Stream(_) | Val::ErrorContext(_) => {
+            json!("<unsupported>")
+        }
+    }
+}
+
+/// Parses JSON into a value of type `ty`: the inverse of [`val_to_json`].
+pub fn json_to_val(json: &Json, ty: &PayloadType) -> Result<Val, String> {
+    use PayloadType as P;
+    let mismatch = || format!("expected {ty}, found {json}");
+    let int = |lo: i128, hi: i128| -> Result<i128, String> {
+        let n = json
+            .as_i64()
+            .map(i128::from)
+            .or_else(|| json.as_u64().map(i128::from))
+            .ok_or_else(mismatch)?;
+        if n < lo || n > hi {
+            return Err(format!("{n} is out of range for {ty}"));
+        }
+        Ok(n)
+    };
+    // Range-checked just above, so the narrowing casts below cannot wrap.
+    Ok(match ty {
+        P::Bool => Val::Bool(json.as_bool().ok_or_else(mismatch)?),
+        P::S8 => Val::S8(int(i8::MIN.into(), i8::MAX.into())? as i8),
+        P::U8 => Val::U8(int(0, u8::MAX.into())? as u8),
+        P::S16 => Val::S16(int(i16::MIN.into(), i16::MAX.into())? as i16),
+        P::U16 => Val::U16(int(0, u16::MAX.into())? as u16),
+        P::S32 => Val::S32(int(i32::MIN.into(), i32::MAX.into())? as i32),
+        P::U32 => Val::U32(int(0, u32::MAX.into())? as u32),
+        P::S64 => Val::S64(int(i64::MIN.into(), i64::MAX.into())? as i64),
+        P::U64 => Val::U64(int(0, u64::MAX.into())? as u64),
+        P::F32 => Val::Float32(json.as_f64().ok_or_else(mismatch)? as f32),
+        P::F64 => Val::Float64(json.as_f64().ok_or_else(mismatch)?),
+        P::Char => {
+            let s = json.as_str().ok_or_else(mismatch)?;
+            let mut chars = s.chars();
+            match (chars.next(), chars.next()) {
+                (Some(c), None) => Val::Char(c),
+                _ => return Err(mismatch()),
+            }
+        }
+        P::String => Val::String(json.as_str().ok_or_else(mismatch)?.to_string()),
+        P::List(t) => Val::List(
+            json.as_array()
+                .ok_or_else(mismatch)?
+                .iter()
+                .map(|j| json_to_val(j, t))
+                .collect::<Result<_, _>>()?,
+        ),
+        P::Tuple(ts) => {
+            let items = json.as_array().ok_or_else(mismatch)?;
+            if items.len() != ts.len() {
+                return Err(mismatch());
+            }
+            Val::Tuple(
+                items
+                    .iter()
+                    .zip(ts)
+                    .map(|(j, t)| json_to_val(j, t))
+                    .collect::<Result<_, _>>()?,
+            )
+        }
+        P::Record(fields) => {
+            let obj = json.as_object().ok_or_else(mismatch)?;
+            Val::Record(
+                fields
+                    .iter()
+                    .map(|(name, t)| {
+                        let j = obj
+                            .get(name)
+                            .ok_or_else(|| format!("missing field `{name}` of {ty}"))?;
+                        Ok((name.clone(), json_to_val(j, t)?))
+                    })
+                    .collect::<Result<_, String>>()?,
+            )
+        }
+        P::Enum(names) => {
+            let s = json.as_str().ok_or_else(mismatch)?;
+            if !names.iter().any(|n| n == s) {
+                return Err(mismatch());
+            }
+            Val::Enum(s.to_string())
+        }
+        P::Variant(cases) => {
+            let (name, payload) = match json {
+                Json::String(s) => (s.as_str(), None),
+                Json::Object(o) if o.len() == 1 => {
+                    let (k, v) = o.iter().next().ok_or_else(mismatch)?;
+                    (k.as_str(), Some(v))
+                }
+                _ => return Err(mismatch()),
+            };
+            let (_, case_ty) = cases.iter().find(|(n, _)| n == name).ok_or_else(mismatch)?;
+            let inner = match (case_ty, payload) {
+                (Some(t), Some(j)) => Some(Box::new(json_to_val(j, t)?)),
+                (None, None) => None,
+                _ => return Err(mismatch()),
+            };
+            Val::Variant(name.to_string(), inner)
+        }
+        P::Option(t) => match json {
+            Json::Null => Val::Option(None),
+            j => Val::Option(Some(Box::new(json_to_val(j, t)?))),
+        },
+        P::Result { ok, err } => {
+            let obj = json
+                .as_object()
+                .filter(|o| o.len() == 1)
+                .ok_or_else(mismatch)?;
+            let side = |t: &Option<Box<PayloadType>>, j: &Json| -> Result<_, String> {
+                match t {
+                    Some(t) => Ok(Some(Box::new(json_to_val(j, t)?))),
+                    None => Ok(None),
+                }
+            };
+            if let Some(j) = obj.get("ok") {
+                Val::Result(Ok(side(ok, j)?))
+            } else if let Some(j) = obj.get("err") {
+                Val::Result(Err(side(err, j)?))
+            } else {
+                return Err(mismatch());
+            }
+        }
+        P::Flags(names) => {
+            let set = json.as_array().ok_or_else(mismatch)?;
+            let mut out = Vec::new();
+            for j in set {
+                let s = j.as_str().ok_or_else(mismatch)?;
+                if !names.iter().any(|n| n == s) {
+                    return Err(mismatch());
+                }
+                out.push(s.to_string());
+            }
+            Val::Flags(out)
+        }
+        P::Unsupported(what) => return Err(format!("cannot build a value of type {what}")),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn json_round_trips_through_a_record_type() {
+        let ty = PayloadType::Record(vec![
+            ("count".into(), PayloadType::U32),
+            (
+                "label".into(),
+                PayloadType::Option(Box::new(PayloadType::String)),
+            ),
+            (
+                "state".into(),
+                PayloadType::Variant(vec![
+                    ("idle".into(), None),
+                    ("at".into(), Some(PayloadType::F64)),
+                ]),
+            ),
+        ]);
+        let input = json!({"count": 3, "label": "x", "state": {"at": 1.5}});
+        let val = json_to_val(&input, &ty).expect("parses");
+        assert_eq!(val_to_json(&val), input);
+    }
+
+    #[test]
+    fn json_of_the_wrong_shape_is_refused_with_the_type() {
+        let err = json_to_val(&json!("five"), &PayloadType::U32).expect_err("refused");
+        assert!(err.contains("expected u32"), "{err}");
+        let err = json_to_val(&json!(300), &PayloadType::U8).expect_err("refused");
+        assert!(err.contains("out of range"), "{err}");
+    }
+
+    #[test]
+    fn types_print_in_wit_syntax() {
+        let ty = PayloadType::Result {
+            ok: Some(Box::new(PayloadType::U32)),
+            err: Some(Box::new(PayloadType::Enum(vec![
+                "interrupt".into(),
+                "exit".into(),
+            ]))),
+        };
+        assert_eq!(ty.to_string(), "result<u32, enum { interrupt, exit }>");
+    }
+}

@@ -1,0 +1,557 @@
+//! Plugins: loading components, checking their world, and calling their
+//! slots under a fuel budget.
+//!
+//! A [`Loader`] holds the one `Engine` and `Linker` of a system and compiles
+//! each component once (keyed by content hash and engine settings, in memory
+//! and on disk). What it returns, [`PluginCode`], knows the plugin's kind
+//! (event or response) and the WIT types of its signals and slots, read from
+//! the component's own type information, so that connections can be
+//! type-checked before anything runs. [`PluginInstance`] is one live
+//! instance: its own `Store` (memory, fuel, limits), rebuilt from scratch by
+//! `reset` because a trap poisons a store for good.
+
+use std::collections::{BTreeMap, HashMap};
+use std::hash::{Hash, Hasher};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use sha2::{Digest, Sha256};
+use wasmtime::component::{types, Component, Func, InstancePre, Linker, ResourceTable, Val};
+use wasmtime::{Config, Engine, Store, StoreLimits, StoreLimitsBuilder, Trap};
+use wasmtime_wasi::{WasiCtx, WasiCtxView, WasiView};
+
+use crate::clock::{ClockKind, StopFlag, StopReason, TimeBase, YieldNow};
+use crate::error::RadarError;
+use crate::payload::PayloadType;
+
+mod bindings {
+    wasmtime::component::bindgen!({
+        world: "plugin",
+        path: "../wit",
+        imports: {
+            "radar:reactive/clock.sleep": async,
+            "radar:reactive/clock.yield": async,
+        },
+    });
+}
+
+use bindings::radar::reactive::{clock, config, logging, types as wit_types};
+use wit_types::{Interruption, Level};
+
+/// Limits that bound every call into a plugin.
+#[derive(Clone, Debug)]
+pub struct Limits {
+    /// Fuel (roughly, wasm instructions) one call may use before it traps.
+    pub fuel_per_call: u64,
+    /// Bytes of linear memory the plugin may grow to.
+    pub memory_bytes: usize,
+    /// Fuel between two forced yields, so that compute-bound guests share the
+    /// scheduler's thread fairly.
+    pub fuel_yield_interval: u64,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Self {
+            fuel_per_call: 200_000_000,
+            memory_bytes: 64 << 20,
+            fuel_yield_interval: 10_000,
+        }
+    }
+}
+
+/// Whether a plugin is an event or a response, with its slot signatures.
+#[derive(Clone, Debug)]
+pub(crate) enum Kind {
+    Event {
+        /// The payload of `triggered`, if any.
+        payload: Option<PayloadType>,
+    },
+    Response {
+        start_param: Option<PayloadType>,
+        start_result: Option<PayloadType>,
+        interrupt_param: Option<PayloadType>,
+    },
+}
+
+/// A compiled, validated plugin component, ready to instantiate.
+pub(crate) struct PluginCode {
+    pub kind: Kind,
+    pre: InstancePre<PluginCtx>,
+}
+
+/// The per-store state of a plugin: what its host calls can reach.
+pub(crate) struct PluginCtx {
+    name: Arc<str>,
+    base: TimeBase,
+    stop: Arc<StopFlag>,
+    config: Arc<BTreeMap<String, String>>,
+    wasi: WasiCtx,
+    table: ResourceTable,
+    limits: StoreLimits,
+}
+
+impl WasiView for PluginCtx {
+    fn ctx(&mut self) -> WasiCtxView<'_> {
+        WasiCtxView {
+            ctx: &mut self.wasi,
+            table: &mut self.table,
+        }
+    }
+}
+
+fn interruption(reason: StopReason) -> Interruption {
+    match reason {
+        StopReason::Interrupt => Interruption::Interrupt,
+        StopReason::Exit => Interruption::Exit,
+        StopReason::Deactivate => Interruption::Deactivate,
+    }
+}
+
+impl wit_types::Host for PluginCtx {}
+
+impl clock::Host for PluginCtx {
+    fn now(&mut self) -> u64 {
+        self.base.now()
+    }
+
+    async fn sleep(&mut self, nanos: u64) -> Result<(), Interruption> {
+        let deadline = self.base.now().saturating_add(nanos);
+        self.base
+            .sleep_until(deadline, Some(self.stop.clone()))
+            .await
+            .map_err(interruption)
+    }
+
+    async fn yield_(&mut self) -> Result<(), Interruption> {
+        YieldNow::new(self.stop.clone()).await.map_err(interruption)
+    }
+
+    fn interrupted(&mut self) -> Option<Interruption> {
+        self.stop.get().map(interruption)
+    }
+}
+
+impl logging::Host for PluginCtx {
+    fn log(&mut self, level: Level, message: String) {
+        let level = match level {
+            Level::Trace => "trace",
+            Level::Debug => "debug",
+            Level::Info => "info",
+            Level::Warn => "warn",
+            Level::Error => "error",
+        };
+        self.base.push_log(&self.name, level, message);
+    }
+}
+
+impl config::Host for PluginCtx {
+    fn get(&mut self, key: String) -> Option<String> {
+        self.config.get(&key).cloned()
+    }
+
+    fn keys(&mut self) -> Vec<String> {
+        self.config.keys().cloned().collect()
+    }
+}
+
+/// The clocks WASI sees under the virtual clock: scheduler time, so that a
+/// guest reading `wasi:clocks` stays deterministic.
+struct VirtualWasiClock(TimeBase);
+
+impl wasmtime_wasi::HostMonotonicClock for VirtualWasiClock {
+    fn resolution(&self) -> u64 {
+        1
+    }
+    fn now(&self) -> u64 {
+        self.0.now()
+    }
+}
+
+impl wasmtime_wasi::HostWallClock for VirtualWasiClock {
+    fn resolution(&self) -> std::time::Duration {
+        std::time::Duration::from_nanos(1)
+    }
+    fn now(&self) -> std::time::Duration {
+        std::time::Duration::from_nanos(self.0.now())
+    }
+}
+
+/// A deterministic byte stream for WASI's random sources under the virtual
+/// clock (splitmix64 of a seed derived from the plugin's name).
+fn seeded_bytes(seed: u64) -> Vec<u8> {
+    let mut state = seed;
+    let mut out = Vec::with_capacity(4096);
+    while out.len() < 4096 {
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        out.extend_from_slice(&(z ^ (z >> 31)).to_le_bytes());
+    }
+    out
+}
+
+fn name_seed(name: &str, seed: u64) -> u64 {
+    let digest = Sha256::digest(name.as_bytes());
+    let mut bytes = [0u8; 8];
+    bytes.copy_from_slice(&digest[..8]);
+    u64::from_le_bytes(bytes) ^ seed
+}
+
+/// Everything an instance needs besides its code.
+pub(crate) struct InstanceSetup {
+    pub name: Arc<str>,
+    pub base: TimeBase,
+    pub stop: Arc<StopFlag>,
+    pub config: Arc<BTreeMap<String, String>>,
+    pub limits: Limits,
+    pub seed: u64,
+}
+
+/// How a call into a plugin ended badly.
+#[derive(Debug)]
+pub(crate) struct Fault(pub String);
+
+/// One live instance of a plugin, in its own store.
+pub(crate) struct PluginInstance {
+    store: Store<PluginCtx>,
+    fuel_per_call: u64,
+    check: Option<Func>,
+    start: Option<Func>,
+    interrupt: Option<Func>,
+    exit: Option<Func>,
+}
+
+fn describe_fault(err: &wasmtime::Error) -> String {
+    match err.downcast_ref::<Trap>() {
+        Some(Trap::OutOfFuel) => "fuel exhausted (the call ran too long without returning)".into(),
+        Some(trap) => format!("trapped: {trap} ({err:#})"),
+        None => format!("{err:#}"),
+    }
+}
+
+impl PluginCode {
+    pub async fn instantiate(&self, setup: InstanceSetup) -> Result<PluginInstance, Fault> {
+        let mut wasi = WasiCtx::builder();
+        if setup.base.kind() == ClockKind::Virtual {
+            let seed = name_seed(&setup.name, setup.seed);
+            wasi.wall_clock(VirtualWasiClock(setup.base.clone()))
+                .monotonic_clock(VirtualWasiClock(setup.base.clone()))
+                .secure_random(wasmtime_wasi::Deterministic::new(seeded_bytes(seed)))
+                .insecure_random(wasmtime_wasi::Deterministic::new(seeded_bytes(!seed)))
+                .insecure_random_seed(u128::from(seed));
+        }
+        let ctx = PluginCtx {
+            name: setup.name,
+            base: setup.base,
+            stop: setup.stop,
+            config: setup.config,
+            wasi: wasi.build(),
+            table: ResourceTable::new(),
+            limits: StoreLimitsBuilder::new()
+                .memory_size(setup.limits.memory_bytes)
+                .trap_on_grow_failure(true)
+                .build(),
+        };
+        let mut store = Store::new(self.pre.engine(), ctx);
+        store.limiter(|ctx| &mut ctx.limits);
+        let fault = |e: wasmtime::Error| Fault(describe_fault(&e));
+        store
+            .fuel_async_yield_interval(Some(setup.limits.fuel_yield_interval))
+            .map_err(fault)?;
+        store.set_fuel(setup.limits.fuel_per_call).map_err(fault)?;
+        let instance = self
+            .pre
+            .instantiate_async(&mut store)
+            .await
+            .map_err(fault)?;
+        let check = instance.get_func(&mut store, "check");
+        let start = instance.get_func(&mut store, "start");
+        let interrupt = instance.get_func(&mut store, "interrupt");
+        let exit = instance.get_func(&mut store, "exit");
+        Ok(PluginInstance {
+            store,
+            fuel_per_call: setup.limits.fuel_per_call,
+            check,
+            start,
+            interrupt,
+            exit,
+        })
+    }
+}
+
+impl PluginInstance {
+    async fn call(
+        &mut self,
+        func: Func,
+        params: &[Val],
+        has_result: bool,
+    ) -> Result<Option<Val>, Fault> {
+        let fault = |e: wasmtime::Error| Fault(describe_fault(&e));
+        self.store.set_fuel(self.fuel_per_call).map_err(fault)?;
+        let mut results = if has_result {
+            vec![Val::Bool(false)]
+        } else {
+            Vec::new()
+        };
+        func.call_async(&mut self.store, params, &mut results)
+            .await
+            .map_err(fault)?;
+        Ok(results.pop())
+    }
+
+    /// Runs `check`: `Some(payload)` when the event triggered (`Val::Tuple`
+    /// of nothing for a payload-less trigger is never produced: `None` inside
+    /// means triggered without payload).
+    pub async fn check(&mut self) -> Result<Option<Option<Val>>, Fault> {
+        let Some(f) = self.check else {
+            return Err(Fault("plugin has no `check` export".into()));
+        };
+        match self.call(f, &[], true).await? {
+            Some(Val::Bool(true)) => Ok(Some(None)),
+            Some(Val::Option(Some(v))) => Ok(Some(Some(*v))),
+            _ => Ok(None),
+        }
+    }
+
+    pub async fn start(
+        &mut self,
+        payload: Option<Val>,
+        has_result: bool,
+    ) -> Result<Option<Val>, Fault> {
+        let Some(f) = self.start else {
+            return Err(Fault("plugin has no `start` export".into()));
+        };
+        let params: Vec<Val> = payload.into_iter().collect();
+        self.call(f, &params, has_result).await
+    }
+
+    pub async fn interrupt(&mut self, payload: Option<Val>) -> Result<(), Fault> {
+        let Some(f) = self.interrupt else {
+            return Ok(());
+        };
+        let params: Vec<Val> = payload.into_iter().collect();
+        self.call(f, &params, false).await.map(drop)
+    }
+
+    pub async fn exit(&mut self) -> Result<(), Fault> {
+        let Some(f) = self.exit else { return Ok(()) };
+        self.call(f, &[], false).await.map(drop)
+    }
+}
+
+/// Compiles and validates plugin components for one engine.
+pub(crate) struct Loader {
+    engine: Engine,
+    linker: Linker<PluginCtx>,
+    cache_dir: Option<PathBuf>,
+    compiled: HashMap<String, Component>,
+    engine_key: u64,
+}
+
+/// Where compiled artifacts are kept between runs: `$RADAR_CACHE_DIR`, else
+/// the user's cache folder, else nowhere (compile every time).
+pub fn default_cache_dir() -> Option<PathBuf> {
+    if let Some(dir) = std::env::var_os("RADAR_CACHE_DIR") {
+        return Some(PathBuf::from(dir));
+    }
+    if let Some(dir) = std::env::var_os("XDG_CACHE_HOME") {
+        return Some(PathBuf::from(dir).join("radar"));
+    }
+    std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache").join("radar"))
+}
+
+const COMPONENT_LAYER: [u8; 4] = [0x0d, 0x00, 0x01, 0x00];
+
+impl Loader {
+    pub fn new(cache_dir: Option<PathBuf>) -> Result<Self, RadarError> {
+        let mut config = Config::new();
+        config.consume_fuel(true);
+        let engine = Engine::new(&config).map_err(|e| RadarError::Engine(format!("{e:#}")))?;
+        let mut linker = Linker::new(&engine);
+        wasmtime_wasi::p2::add_to_linker_async(&mut linker)
+            .map_err(|e| RadarError::Engine(format!("{e:#}")))?;
+        bindings::Plugin::add_to_linker::<PluginCtx, wasmtime::component::HasSelf<PluginCtx>>(
+            &mut linker,
+            |ctx| ctx,
+        )
+        .map_err(|e| RadarError::Engine(format!("{e:#}")))?;
+        let mut hasher = std::collections::hash_map::DefaultHasher::new();
+        engine.precompile_compatibility_hash().hash(&mut hasher);
+        Ok(Self {
+            engine,
+            linker,
+            cache_dir,
+            compiled: HashMap::new(),
+            engine_key: hasher.finish(),
+        })
+    }
+
+    /// Reads, compiles (or fetches from the cache) and validates a plugin.
+    pub fn load_file(&mut self, plugin: &str, path: &Path) -> Result<PluginCode, RadarError> {
+        let bytes = std::fs::read(path).map_err(|cause| RadarError::Read {
+            plugin: plugin.into(),
+            path: path.into(),
+            cause,
+        })?;
+        self.load_bytes(plugin, &bytes)
+    }
+
+    pub fn load_bytes(&mut self, plugin: &str, bytes: &[u8]) -> Result<PluginCode, RadarError> {
+        let component = self.compile(plugin, bytes)?;
+        let kind = self.validate(plugin, &component)?;
+        let pre = self
+            .linker
+            .instantiate_pre(&component)
+            .map_err(|e| RadarError::WrongWorld {
+                plugin: plugin.into(),
+                cause: format!("{e:#}"),
+            })?;
+        Ok(PluginCode { kind, pre })
+    }
+
+    fn compile(&mut self, plugin: &str, bytes: &[u8]) -> Result<Component, RadarError> {
+        let not_component = |cause: String| RadarError::NotAComponent {
+            plugin: plugin.into(),
+            cause,
+        };
+        if bytes.len() < 8 || &bytes[..4] != b"\0asm" {
+            return Err(not_component(
+                "the file does not start with the wasm magic number".into(),
+            ));
+        }
+        if bytes[4..8] != COMPONENT_LAYER {
+            return Err(not_component(
+                "it is a core wasm module; build it as a component (target wasm32-wasip2, \
+                 or `wasm-tools component new`)"
+                    .into(),
+            ));
+        }
+        let key = format!("{:x}-{:016x}", Sha256::digest(bytes), self.engine_key);
+        if let Some(c) = self.compiled.get(&key) {
+            return Ok(c.clone());
+        }
+        let cached = self
+            .cache_dir
+            .as_ref()
+            .map(|d| d.join(format!("{key}.cwasm")));
+        if let Some(c) = cached.as_ref().and_then(|p| self.deserialize(p)) {
+            self.compiled.insert(key, c.clone());
+            return Ok(c);
+        }
+        let component =
+            Component::new(&self.engine, bytes).map_err(|e| not_component(format!("{e:#}")))?;
+        if let (Some(path), Ok(artifact)) = (cached, component.serialize()) {
+            // The cache only saves time: failing to write it is not an error.
+            let _ = write_atomically(&path, &artifact);
+        }
+        self.compiled.insert(key, component.clone());
+        Ok(component)
+    }
+
+    #[allow(unsafe_code)]
+    fn deserialize(&self, path: &Path) -> Option<Component> {
+        if !path.exists() {
+            return None;
+        }
+        // SAFETY: the file was written by `compile` above from
+        // `Component::serialize` for an engine with these exact settings (the
+        // key includes the engine's compatibility hash); wasmtime re-checks
+        // the artifact's header and refuses a mismatched one.
+        unsafe { Component::deserialize_file(&self.engine, path) }.ok()
+    }
+
+    fn validate(&self, plugin: &str, component: &Component) -> Result<Kind, RadarError> {
+        let wrong = |cause: String| RadarError::WrongWorld {
+            plugin: plugin.into(),
+            cause,
+        };
+        let ty = component.component_type();
+        for (name, _) in ty.imports(&self.engine) {
+            let provided = name.starts_with("wasi:")
+                || ["clock", "logging", "config", "types"]
+                    .iter()
+                    .any(|i| name == format!("radar:reactive/{i}@0.1.0"));
+            if !provided {
+                return Err(wrong(format!(
+                    "it imports `{name}`, which Radar does not provide \
+                     (plugins import radar:reactive@0.1.0 and WASI only)"
+                )));
+            }
+        }
+        let mut funcs = BTreeMap::new();
+        for (name, item) in ty.exports(&self.engine) {
+            if let types::ComponentItem::ComponentFunc(f) = item.ty {
+                funcs.insert(name.to_string(), f);
+            }
+        }
+        let params =
+            |f: &types::ComponentFunc, slot: &str| -> Result<Option<PayloadType>, RadarError> {
+                let ps: Vec<_> = f
+                    .params()
+                    .map(|(_, t)| PayloadType::from_wasm(&t))
+                    .collect();
+                match ps.len() {
+                    0 => Ok(None),
+                    1 => Ok(ps.into_iter().next()),
+                    n => Err(wrong(format!(
+                        "`{slot}` takes {n} parameters; a slot takes at most one payload"
+                    ))),
+                }
+            };
+        let result =
+            |f: &types::ComponentFunc| f.results().next().map(|t| PayloadType::from_wasm(&t));
+        match (funcs.get("check"), funcs.get("start")) {
+            (Some(_), Some(_)) => Err(wrong(
+                "it exports both `check` (event) and `start` (response); a plugin is one or the other".into(),
+            )),
+            (Some(check), None) => {
+                if check.params().len() != 0 {
+                    return Err(wrong("`check` must take no parameters".into()));
+                }
+                match result(check) {
+                    Some(PayloadType::Option(t)) => Ok(Kind::Event { payload: Some(*t) }),
+                    Some(PayloadType::Bool) => Ok(Kind::Event { payload: None }),
+                    other => Err(wrong(format!(
+                        "`check` must return option<T> or bool, not {}",
+                        other.map_or("nothing".to_string(), |t| t.to_string())
+                    ))),
+                }
+            }
+            (None, Some(start)) => {
+                let interrupt = funcs.get("interrupt");
+                if let Some(exit) = funcs.get("exit") {
+                    if exit.params().len() != 0 {
+                        return Err(wrong("`exit` must take no parameters".into()));
+                    }
+                }
+                Ok(Kind::Response {
+                    start_param: params(start, "start")?,
+                    start_result: result(start),
+                    interrupt_param: match interrupt {
+                        Some(f) => params(f, "interrupt")?,
+                        None => None,
+                    },
+                })
+            }
+            (None, None) => Err(wrong(format!(
+                "it exports neither `check` (an event) nor `start` (a response); its exports are: {}",
+                if funcs.is_empty() {
+                    "none".to_string()
+                } else {
+                    funcs.keys().cloned().collect::<Vec<_>>().join(", ")
+                }
+            ))),
+        }
+    }
+}
+
+fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir)?;
+    }
+    let tmp = path.with_extension(format!("tmp{}", std::process::id()));
+    std::fs::write(&tmp, bytes)?;
+    std::fs::rename(&tmp, path)
+}

@@ -1,0 +1,616 @@
+//! The public face of the host: build a [`System`] of plugins, run it, and
+//! drive it from native Rust deliberative code through a [`Radar`] handle.
+//!
+//! ```no_run
+//! use radar::{ClockKind, Plugin, System};
+//! use std::time::Duration;
+//!
+//! # fn main() -> anyhow::Result<()> {
+//! let system = System::builder()
+//!     .clock(ClockKind::Virtual)
+//!     .plugin(Plugin::file("TestEvent", "test_event.wasm").config("count_to", 5))
+//!     .plugin(Plugin::file("TestResponse", "test_response.wasm"))
+//!     .build()?;
+//! let report = system.run_with(Some(Duration::from_secs(30)), |radar| {
+//!     // Lives until the program ends: a scoped connection.
+//!     let _c = radar.whenever("TestEvent.triggered", "TestResponse.start")?;
+//!     let payload = radar.waitfor("TestEvent", Some(Duration::from_secs(6)))?;
+//!     println!("TestEvent triggered with {payload:?}");
+//!     radar.sleep(Duration::from_secs(10))
+//! })?;
+//! println!("{} trace records", report.trace.len());
+//! # Ok(()) }
+//! ```
+//!
+//! The handle is cheap to clone and `Send`: every call is a command on a
+//! crossbeam channel to the scheduler's thread, which owns every store.
+//! Under the virtual clock the thread given to [`System::run_with`] runs in
+//! lockstep with the scheduler (time stands still while it computes), so a
+//! run with native deliberative code is as deterministic as one without.
+//! Handles from [`System::handle`] are *external*: their commands are
+//! applied when they arrive, like a user typing at a console.
+
+use std::collections::BTreeMap;
+use std::fmt::Display;
+use std::path::PathBuf;
+use std::rc::Rc;
+use std::sync::Arc;
+use std::time::Duration;
+
+use crossbeam_channel::{bounded, unbounded, Receiver, Sender};
+use serde_json::Value as Json;
+
+use crate::clock::{ClockKind, TimeBase};
+use crate::error::RadarError;
+use crate::payload::Payload;
+use crate::plugin::{default_cache_dir, Limits, Loader};
+use crate::scheduler::{
+    duration_nanos, AnonymousJob, AnonymousSlot, Busy, Command, LinkSpec, LinkTarget, Mode,
+    PluginDef, Scheduler, TraceOut,
+};
+use crate::trace::{Record, TraceSink};
+
+/// Where a plugin's component comes from.
+#[derive(Clone, Debug)]
+enum Source {
+    File(PathBuf),
+    Bytes(Vec<u8>),
+}
+
+/// One plugin of a system: a name, a component, configuration and limits.
+#[derive(Clone, Debug)]
+pub struct Plugin {
+    name: String,
+    source: Source,
+    config: BTreeMap<String, String>,
+    period: Option<Duration>,
+    limits: Option<Limits>,
+}
+
+impl Plugin {
+    /// A plugin whose component is the file at `path`.
+    pub fn file(name: impl Into<String>, path: impl Into<PathBuf>) -> Self {
+        Self::new(name.into(), Source::File(path.into()))
+    }
+
+    /// A plugin whose component is `bytes`.
+    pub fn bytes(name: impl Into<String>, bytes: impl Into<Vec<u8>>) -> Self {
+        Self::new(name.into(), Source::Bytes(bytes.into()))
+    }
+
+    fn new(name: String, source: Source) -> Self {
+        Self {
+            name,
+            source,
+            config: BTreeMap::new(),
+            period: None,
+            limits: None,
+        }
+    }
+
+    /// A configuration value the plugin reads through the `config` interface.
+    pub fn config(mut self, key: impl Into<String>, value: impl Display) -> Self {
+        self.config.insert(key.into(), value.to_string());
+        self
+    }
+
+    /// An event's check period (default 10 ms): the next check starts at
+    /// `max(previous start + period, previous end)`.
+    pub fn period(mut self, period: Duration) -> Self {
+        self.period = Some(period);
+        self
+    }
+
+    /// Fuel, memory and yield limits for this plugin.
+    pub fn limits(mut self, limits: Limits) -> Self {
+        self.limits = Some(limits);
+        self
+    }
+
+    /// The plugin's name in its system.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+}
+
+/// Builds a [`System`]; see the module docs.
+pub struct SystemBuilder {
+    clock: ClockKind,
+    plugins: Vec<Plugin>,
+    sinks: Vec<Box<dyn TraceSink>>,
+    keep_trace: bool,
+    cache_dir: Option<PathBuf>,
+    seed: u64,
+    limits: Limits,
+    period: Duration,
+}
+
+impl Default for SystemBuilder {
+    fn default() -> Self {
+        Self {
+            clock: ClockKind::Virtual,
+            plugins: Vec::new(),
+            sinks: Vec::new(),
+            keep_trace: true,
+            cache_dir: default_cache_dir(),
+            seed: 0,
+            limits: Limits::default(),
+            period: Duration::from_millis(10),
+        }
+    }
+}
+
+impl SystemBuilder {
+    /// The clock the system runs on (default: virtual).
+    pub fn clock(mut self, clock: ClockKind) -> Self {
+        self.clock = clock;
+        self
+    }
+
+    /// Adds a plugin.
+    pub fn plugin(mut self, plugin: Plugin) -> Self {
+        self.plugins.push(plugin);
+        self
+    }
+
+    /// Sends every trace record to `sink` as it is made.
+    pub fn trace_to(mut self, sink: impl TraceSink + 'static) -> Self {
+        self.sinks.push(Box::new(sink));
+        self
+    }
+
+    /// Whether [`RunReport::trace`] keeps every record (default: yes).
+    pub fn keep_trace(mut self, keep: bool) -> Self {
+        self.keep_trace = keep;
+        self
+    }
+
+    /// Where compiled components are cached (`None`: no disk cache).
+    pub fn cache_dir(mut self, dir: Option<PathBuf>) -> Self {
+        self.cache_dir = dir;
+        self
+    }
+
+    /// Seed of the random sources plugins see under the virtual clock.
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.seed = seed;
+        self
+    }
+
+    /// Limits for plugins that do not set their own.
+    pub fn default_limits(mut self, limits: Limits) -> Self {
+        self.limits = limits;
+        self
+    }
+
+    /// Compiles and validates every plugin. The first plugin that cannot be
+    /// loaded is named in the error.
+    pub fn build(self) -> Result<System, RadarError> {
+        let mut loader = Loader::new(self.cache_dir)?;
+        let mut defs: Vec<PluginDef> = Vec::new();
+        for p in self.plugins {
+            if defs.iter().any(|d| d.name == p.name) {
+                return Err(RadarError::DuplicatePlugin(p.name));
+            }
+            let code = match &p.source {
+                Source::File(path) => loader.load_file(&p.name, path)?,
+                Source::Bytes(bytes) => loader.load_bytes(&p.name, bytes)?,
+            };
+            defs.push(PluginDef {
+                code: Rc::new(code),
+                config: Arc::new(p.config),
+                limits: p.limits.unwrap_or_else(|| self.limits.clone()),
+                period: duration_nanos(p.period.unwrap_or(self.period)),
+                name: p.name,
+            });
+        }
+        let (tx, rx) = unbounded();
+        Ok(System {
+            clock: self.clock,
+            plugins: defs,
+            sinks: self.sinks,
+            keep_trace: self.keep_trace,
+            seed: self.seed,
+            tx,
+            rx,
+        })
+    }
+}
+
+/// A set of plugins ready to run. See the module docs.
+pub struct System {
+    clock: ClockKind,
+    plugins: Vec<PluginDef>,
+    sinks: Vec<Box<dyn TraceSink>>,
+    keep_trace: bool,
+    seed: u64,
+    tx: Sender<Command>,
+    rx: Receiver<Command>,
+}
+
+/// What a run produced.
+#[derive(Debug)]
+pub struct RunReport {
+    /// Every trace record, in order (empty if `keep_trace(false)`).
+    pub trace: Vec<Record>,
+    /// Scheduler time when the run ended.
+    pub ended_at: Duration,
+    /// The deliberative program's result (`Err` holds its error or
+    /// `panicked`), if it finished before the run ended.
+    pub program: Option<Result<(), String>>,
+}
+
+impl RunReport {
+    /// The trace as JSON Lines.
+    pub fn trace_json_lines(&self) -> String {
+        crate::trace::to_json_lines(&self.trace)
+    }
+}
+
+impl System {
+    /// Starts building a system.
+    pub fn builder() -> SystemBuilder {
+        SystemBuilder::default()
+    }
+
+    /// The clock this system runs on.
+    pub fn clock(&self) -> ClockKind {
+        self.clock
+    }
+
+    /// An external handle: commands are applied as they arrive.
+    pub fn handle(&self) -> Radar {
+        Radar {
+            tx: self.tx.clone(),
+            lockstep: false,
+        }
+    }
+
+    /// Runs the system alone (connections come from external handles) until
+    /// `limit` of scheduler time has passed, a handle calls
+    /// [`Radar::stop`], or, under the virtual clock, nothing is left to run.
+    pub fn run(self, limit: Option<Duration>) -> Result<RunReport, RadarError> {
+        self.run_inner(limit, None)
+    }
+
+    /// Runs the system with native deliberative code `program`, on a thread
+    /// of its own. The run goes on after the program returns, until `limit`
+    /// (or, under the virtual clock, until nothing is left to run).
+    pub fn run_with<F, E>(
+        self,
+        limit: Option<Duration>,
+        program: F,
+    ) -> Result<RunReport, RadarError>
+    where
+        F: FnOnce(Radar) -> Result<(), E> + Send + 'static,
+        E: Display,
+    {
+        let handle = Radar {
+            tx: self.tx.clone(),
+            lockstep: true,
+        };
+        std::thread::Builder::new()
+            .name("radar-deliberative".into())
+            .spawn(move || {
+                let mut notice = ProgramNotice {
+                    tx: handle.tx.clone(),
+                    outcome: "panicked".into(),
+                };
+                notice.outcome = match program(handle) {
+                    Ok(()) => "ok".into(),
+                    Err(e) => e.to_string(),
+                };
+            })
+            .map_err(|e| RadarError::Program(format!("cannot start its thread: {e}")))?;
+        self.run_inner(limit, Some(()))
+    }
+
+    fn run_inner(
+        self,
+        limit: Option<Duration>,
+        program: Option<()>,
+    ) -> Result<RunReport, RadarError> {
+        let base = TimeBase::new(self.clock);
+        let (job_tx, job_rx) = unbounded::<AnonymousJob>();
+        let runner_tx = self.tx.clone();
+        let runner = std::thread::Builder::new()
+            .name("radar-anonymous-slots".into())
+            .spawn(move || run_anonymous_slots(job_rx, runner_tx))
+            .map_err(|e| {
+                RadarError::Program(format!("cannot start the anonymous-slot thread: {e}"))
+            })?;
+        drop(self.tx);
+        base.restart();
+        let scheduler = Scheduler::new(
+            base,
+            self.plugins,
+            TraceOut {
+                sinks: self.sinks,
+                kept: self.keep_trace.then(Vec::new),
+            },
+            self.rx,
+            job_tx,
+            limit,
+            self.seed,
+            u32::from(program.is_some()),
+        );
+        let end = scheduler.run();
+        // The scheduler dropped the job sender: the runner ends after its
+        // current closure.
+        drop(runner);
+        Ok(RunReport {
+            trace: end.trace,
+            ended_at: Duration::from_nanos(end.ended_at),
+            program: end
+                .program_outcome
+                .map(|o| if o == "ok" { Ok(()) } else { Err(o) }),
+        })
+    }
+}
+
+/// Tells the scheduler the program ended, even if it panicked.
+struct ProgramNotice {
+    tx: Sender<Command>,
+    outcome: String,
+}
+
+impl Drop for ProgramNotice {
+    fn drop(&mut self) {
+        let outcome = std::mem::take(&mut self.outcome);
+        let _ = self.tx.send(Command::ProgramDone { outcome });
+    }
+}
+
+fn run_anonymous_slots(jobs: Receiver<AnonymousJob>, tx: Sender<Command>) {
+    for mut job in jobs {
+        let payload = job.payload;
+        let closure = &mut job.closure;
+        let panicked =
+            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| closure(payload))).is_err();
+        let done = Command::AnonymousDone {
+            slot: job.slot,
+            closure: job.closure,
+            panicked,
+        };
+        if tx.send(done).is_err() {
+            return;
+        }
+    }
+}
+
+/// A connection as deliberative code describes it, before it is made.
+///
+/// ```
+/// # use radar::{Link, Busy};
+/// # use std::time::Duration;
+/// let link = Link::whenever("TestEvent.triggered", "TestResponse.start")
+///     .busy(Busy::Queue(2))
+///     .min_interval(Duration::from_millis(500));
+/// ```
+///
+/// A signal is written `Plugin.signal` (`Plugin` alone means an event's
+/// `triggered` or a response's `exited`); a slot `Plugin.slot` (`Plugin`
+/// alone means `start`).
+pub struct Link {
+    spec: LinkSpec,
+}
+
+impl Link {
+    fn new(from: &str, to: LinkTarget, mode: Mode) -> Self {
+        Self {
+            spec: LinkSpec {
+                from: from.to_string(),
+                to,
+                mode,
+                busy: Busy::Drop,
+                min_interval: None,
+                until: None,
+            },
+        }
+    }
+
+    /// `whenever from to`: every signal is delivered.
+    pub fn whenever(from: &str, to: &str) -> Self {
+        Self::new(from, LinkTarget::Slot(to.to_string()), Mode::Whenever)
+    }
+
+    /// `once from to`: the first signal is delivered, then the connection ends.
+    pub fn once(from: &str, to: &str) -> Self {
+        Self::new(from, LinkTarget::Slot(to.to_string()), Mode::Once)
+    }
+
+    /// An anonymous slot: `slot` runs (on Radar's slot thread) for every signal.
+    pub fn whenever_do(from: &str, slot: impl FnMut(Payload) + Send + 'static) -> Self {
+        Self::new(
+            from,
+            LinkTarget::Closure(Box::new(slot) as AnonymousSlot),
+            Mode::Whenever,
+        )
+    }
+
+    /// An anonymous slot run for the first signal only.
+    pub fn once_do(from: &str, slot: impl FnMut(Payload) + Send + 'static) -> Self {
+        Self::new(
+            from,
+            LinkTarget::Closure(Box::new(slot) as AnonymousSlot),
+            Mode::Once,
+        )
+    }
+
+    /// What a start signal does while the response is busy (default: drop).
+    pub fn busy(mut self, busy: Busy) -> Self {
+        self.spec.busy = busy;
+        self
+    }
+
+    /// Signals closer than `interval` to the last delivery are dropped.
+    pub fn min_interval(mut self, interval: Duration) -> Self {
+        self.spec.min_interval = Some(interval);
+        self
+    }
+
+    /// `... until signal`: `signal` interrupts the activation this
+    /// connection starts, and that connection ends when the activation exits.
+    pub fn until(mut self, signal: &str) -> Self {
+        self.spec.until = Some(signal.to_string());
+        self
+    }
+}
+
+/// A live connection. Dropping it disconnects (the scope it was made in has
+/// ended); [`Connection::close`] says so explicitly, [`Connection::keep`]
+/// leaves it for the rest of the run.
+#[must_use = "a connection ends when its guard is dropped"]
+pub struct Connection {
+    ids: Vec<u64>,
+    tx: Sender<Command>,
+    armed: bool,
+}
+
+impl Connection {
+    /// The trace ids of this connection (two for `once ... until`).
+    pub fn ids(&self) -> &[u64] {
+        &self.ids
+    }
+
+    /// Ends the connection now (recorded with reason `closed`).
+    pub fn close(mut self) {
+        self.armed = false;
+        let _ = self.tx.send(Command::Disconnect {
+            ids: std::mem::take(&mut self.ids),
+            reason: "closed",
+        });
+    }
+
+    /// Keeps the connection until the run ends.
+    pub fn keep(mut self) {
+        self.armed = false;
+    }
+}
+
+impl Drop for Connection {
+    fn drop(&mut self) {
+        if self.armed {
+            let _ = self.tx.send(Command::Disconnect {
+                ids: std::mem::take(&mut self.ids),
+                reason: "scope",
+            });
+        }
+    }
+}
+
+/// A handle on a running system, for deliberative code: cheap to clone,
+/// usable from any thread. Every call fails with [`RadarError::Stopped`] once
+/// the run has ended.
+#[derive(Clone)]
+pub struct Radar {
+    tx: Sender<Command>,
+    lockstep: bool,
+}
+
+impl Radar {
+    fn ask<T>(&self, make: impl FnOnce(Sender<T>) -> Command) -> Result<T, RadarError> {
+        let (reply, answer) = bounded(1);
+        self.tx.send(make(reply)).map_err(|_| RadarError::Stopped)?;
+        answer.recv().map_err(|_| RadarError::Stopped)
+    }
+
+    /// Makes a connection described by a [`Link`].
+    pub fn connect(&self, link: Link) -> Result<Connection, RadarError> {
+        let ids = self.ask(|reply| Command::Connect {
+            link: link.spec,
+            reply,
+        })??;
+        Ok(Connection {
+            ids,
+            tx: self.tx.clone(),
+            armed: true,
+        })
+    }
+
+    /// `whenever from to`.
+    pub fn whenever(&self, from: &str, to: &str) -> Result<Connection, RadarError> {
+        self.connect(Link::whenever(from, to))
+    }
+
+    /// `once from to`.
+    pub fn once(&self, from: &str, to: &str) -> Result<Connection, RadarError> {
+        self.connect(Link::once(from, to))
+    }
+
+    /// `once from start to until until_signal`.
+    pub fn once_until(&self, from: &str, to: &str, until: &str) -> Result<Connection, RadarError> {
+        self.connect(Link::once(from, to).until(until))
+    }
+
+    /// `whenever from { slot }`: an anonymous slot.
+    pub fn whenever_do(
+        &self,
+        from: &str,
+        slot: impl FnMut(Payload) + Send + 'static,
+    ) -> Result<Connection, RadarError> {
+        self.connect(Link::whenever_do(from, slot))
+    }
+
+    /// `once from { slot }`.
+    pub fn once_do(
+        &self,
+        from: &str,
+        slot: impl FnMut(Payload) + Send + 'static,
+    ) -> Result<Connection, RadarError> {
+        self.connect(Link::once_do(from, slot))
+    }
+
+    /// `waitfor signal [timeout]`: blocks until `signal` is emitted and
+    /// returns its payload, or `None` when `timeout` passes first. An event
+    /// is active for the wait.
+    pub fn waitfor(
+        &self,
+        signal: &str,
+        timeout: Option<Duration>,
+    ) -> Result<Option<Payload>, RadarError> {
+        self.ask(|reply| Command::WaitFor {
+            event: signal.to_string(),
+            timeout,
+            lockstep: self.lockstep,
+            reply,
+        })?
+    }
+
+    /// Sends `payload` (JSON, parsed by the slot's WIT type) straight into a
+    /// slot, as OpenRTM's `rtinject` does.
+    pub fn inject(&self, slot: &str, payload: Json) -> Result<(), RadarError> {
+        self.ask(|reply| Command::Inject {
+            to: slot.to_string(),
+            payload,
+            reply,
+        })?
+    }
+
+    /// Sleeps `duration` of the system's time (virtual or real).
+    pub fn sleep(&self, duration: Duration) -> Result<(), RadarError> {
+        self.ask(|reply| Command::Sleep {
+            duration,
+            lockstep: self.lockstep,
+            reply,
+        })
+    }
+
+    /// The system's time since the run began.
+    pub fn now(&self) -> Result<Duration, RadarError> {
+        self.ask(|reply| Command::Now { reply })
+    }
+
+    /// Re-instantiates a plugin in `error` with a fresh store.
+    pub fn reset(&self, plugin: &str) -> Result<(), RadarError> {
+        self.ask(|reply| Command::Reset {
+            plugin: plugin.to_string(),
+            reply,
+        })?
+    }
+
+    /// Ends the run.
+    pub fn stop(&self) {
+        let _ = self.tx.send(Command::Stop);
+    }
+}

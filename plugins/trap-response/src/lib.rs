@@ -1,0 +1,30 @@
+//! Test fixture: `start` sleeps `after_s` seconds (default 1) and then traps
+//! (a Rust panic is a wasm `unreachable`). Its exit slot never runs.
+use radar_guest::prelude::*;
+
+radar_guest::plugin!(
+    r#"
+    package radar-fixtures:trap-response;
+    world trap-response {
+        include radar:reactive/response@0.1.0;
+        use radar:reactive/types@0.1.0.{interruption};
+        export start: func() -> result<_, interruption>;
+        export exit: func();
+    }
+"#
+);
+
+struct TrapResponse;
+
+impl Guest for TrapResponse {
+    fn start() -> Result<(), Interrupted> {
+        sleep(config_secs("after_s", Duration::from_secs(1)))?;
+        panic!("the fixture traps on purpose");
+    }
+
+    fn exit() {
+        info("exit (never reached after a trap)");
+    }
+}
+
+export!(TrapResponse);
