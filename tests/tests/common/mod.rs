@@ -1,0 +1,103 @@
+//! Helpers shared by the integration tests: running a system under the
+//! virtual clock and finding records in its trace.
+#![allow(dead_code)]
+
+use std::time::Duration;
+
+use radar::example::plugins;
+use radar::{ClockKind, Plugin, Radar, RadarError, RunReport, System, SystemBuilder};
+use serde_json::Value as Json;
+
+/// A virtual-clock system builder.
+pub fn virtual_system() -> SystemBuilder {
+    System::builder().clock(ClockKind::Virtual)
+}
+
+/// TestEvent triggering every `every` whole seconds (one count a second).
+pub fn test_event(name: &str, every: u32) -> Plugin {
+    Plugin::file(name, plugins::TEST_EVENT)
+        .config("count_to", every)
+        .config("interval_s", 1)
+}
+
+/// TestResponse counting `counts` times, `interval_s` apart.
+pub fn test_response(name: &str, counts: u32, interval_s: f64) -> Plugin {
+    Plugin::file(name, plugins::TEST_RESPONSE)
+        .config("interval_s", interval_s)
+        .config("count_for_s", f64::from(counts) * interval_s)
+}
+
+/// A timer event triggering `after_s` after each check begins.
+pub fn timer_event(name: &str, after_s: f64) -> Plugin {
+    Plugin::file(name, plugins::TIMER_EVENT).config("after_s", after_s)
+}
+
+/// Runs `builder` for `secs` of virtual time with `program`.
+pub fn run<F>(builder: SystemBuilder, secs: u64, program: F) -> RunReport
+where
+    F: FnOnce(Radar) -> Result<(), RadarError> + Send + 'static,
+{
+    builder
+        .build()
+        .expect("the system builds")
+        .run_with(Some(Duration::from_secs(secs)), program)
+        .expect("the system runs")
+}
+
+/// The trace as JSON objects.
+pub fn records(report: &RunReport) -> Vec<Json> {
+    report
+        .trace
+        .iter()
+        .map(|r| serde_json::to_value(r).expect("records serialize"))
+        .collect()
+}
+
+/// Whether every field of `pattern` is equal in `record`.
+pub fn matches(record: &Json, pattern: &Json) -> bool {
+    pattern
+        .as_object()
+        .expect("a pattern is an object")
+        .iter()
+        .all(|(k, v)| record.get(k) == Some(v))
+}
+
+/// The records that match `pattern`.
+pub fn find(records: &[Json], pattern: Json) -> Vec<Json> {
+    records
+        .iter()
+        .filter(|r| matches(r, &pattern))
+        .cloned()
+        .collect()
+}
+
+/// The index of the first record matching `pattern` at or after `from`.
+pub fn position(records: &[Json], from: usize, pattern: Json) -> Option<usize> {
+    records[from..]
+        .iter()
+        .position(|r| matches(r, &pattern))
+        .map(|i| i + from)
+}
+
+/// Asserts that records matching `patterns` appear in this order.
+pub fn assert_sequence(records: &[Json], patterns: &[Json]) {
+    let mut at = 0;
+    for p in patterns {
+        match position(records, at, p.clone()) {
+            Some(i) => at = i + 1,
+            None => panic!(
+                "no record matching {p} after position {at}; trace:\n{}",
+                records
+                    .iter()
+                    .map(|r| r.to_string())
+                    .collect::<Vec<_>>()
+                    .join("\n")
+            ),
+        }
+    }
+}
+
+/// Seconds as trace nanoseconds.
+pub fn ns(secs: f64) -> u64 {
+    (secs * 1e9).round() as u64
+}
