@@ -13,7 +13,7 @@
 use std::collections::BTreeMap;
 use std::future::Future;
 use std::pin::Pin;
-use std::sync::atomic::{AtomicU8, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicU8, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::task::{Context, Poll, Waker};
 use std::time::Instant;
@@ -62,55 +62,63 @@ pub(crate) struct LogLine {
     pub message: String,
 }
 
-struct Timers {
+struct Shared {
     kind: ClockKind,
     start: Instant,
-    virtual_now: u64,
+    /// Virtual time; only the scheduler's thread moves it.
+    virtual_now: AtomicU64,
+    timers: Mutex<Timers>,
+    logs: Mutex<Vec<LogLine>>,
+    has_logs: AtomicBool,
+}
+
+struct Timers {
     seq: u64,
-    queue: BTreeMap<(u64, u64), Waker>,
-    logs: Vec<LogLine>,
+    queue: BTreeMap<TimerKey, Waker>,
 }
 
 /// The clock and timer queue of one system; cheap to clone.
 #[derive(Clone)]
-pub(crate) struct TimeBase(Arc<Mutex<Timers>>);
+pub(crate) struct TimeBase(Arc<Shared>);
 
 pub(crate) type TimerKey = (u64, u64);
 
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    // Only the scheduler's thread takes these locks; a panic while one was
+    // held has already ended the run, so the data is still consistent.
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 impl TimeBase {
+    /// A clock whose time 0 is now.
     pub fn new(kind: ClockKind) -> Self {
-        Self(Arc::new(Mutex::new(Timers {
+        Self(Arc::new(Shared {
             kind,
             start: Instant::now(),
-            virtual_now: 0,
-            seq: 0,
-            queue: BTreeMap::new(),
-            logs: Vec::new(),
-        })))
+            virtual_now: AtomicU64::new(0),
+            timers: Mutex::new(Timers {
+                seq: 0,
+                queue: BTreeMap::new(),
+            }),
+            logs: Mutex::new(Vec::new()),
+            has_logs: AtomicBool::new(false),
+        }))
     }
 
     fn lock(&self) -> MutexGuard<'_, Timers> {
-        // Only the scheduler's thread takes this lock; a panic while it was
-        // held has already ended the run, so the data is still consistent.
-        self.0.lock().unwrap_or_else(|e| e.into_inner())
+        lock(&self.0.timers)
     }
 
     pub fn kind(&self) -> ClockKind {
-        self.lock().kind
+        self.0.kind
     }
 
     /// Nanoseconds since the run began.
     pub fn now(&self) -> u64 {
-        let t = self.lock();
-        match t.kind {
-            ClockKind::Virtual => t.virtual_now,
-            ClockKind::Real => u64::try_from(t.start.elapsed().as_nanos()).unwrap_or(u64::MAX),
+        match self.0.kind {
+            ClockKind::Virtual => self.0.virtual_now.load(Ordering::Relaxed),
+            ClockKind::Real => u64::try_from(self.0.start.elapsed().as_nanos()).unwrap_or(u64::MAX),
         }
-    }
-
-    /// Restarts the real clock's origin (when a run begins).
-    pub fn restart(&self) {
-        self.lock().start = Instant::now();
     }
 
     fn add(&self, deadline: u64, waker: Waker) -> TimerKey {
@@ -140,8 +148,7 @@ impl TimeBase {
 
     /// Virtual clock: moves time to `t` (never backwards).
     pub fn advance_to(&self, t: u64) {
-        let mut timers = self.lock();
-        timers.virtual_now = timers.virtual_now.max(t);
+        self.0.virtual_now.fetch_max(t, Ordering::Relaxed);
     }
 
     /// Wakes, in (deadline, sequence) order, every timer due at `now`.
@@ -163,22 +170,23 @@ impl TimeBase {
     }
 
     pub fn push_log(&self, plugin: &Arc<str>, level: &'static str, message: String) {
-        let now = self.now();
-        self.lock().logs.push(LogLine {
-            t: now,
+        let t = self.now();
+        lock(&self.0.logs).push(LogLine {
+            t,
             plugin: plugin.clone(),
             level,
             message,
         });
+        self.0.has_logs.store(true, Ordering::Release);
     }
 
     pub fn take_logs(&self) -> Vec<LogLine> {
-        let mut t = self.lock();
-        if t.logs.is_empty() {
-            Vec::new()
-        } else {
-            std::mem::take(&mut t.logs)
+        if !self.0.has_logs.load(Ordering::Relaxed)
+            || !self.0.has_logs.swap(false, Ordering::Acquire)
+        {
+            return Vec::new();
         }
+        std::mem::take(&mut *lock(&self.0.logs))
     }
 
     /// A future that completes at `deadline` (nanoseconds since the run

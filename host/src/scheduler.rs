@@ -31,7 +31,7 @@ use wasmtime::component::Val;
 use crate::clock::{ClockKind, StopFlag, StopReason, TimeBase};
 use crate::error::RadarError;
 use crate::executor::{Executor, LocalTask, TaskId};
-use crate::payload::{json_to_val, Payload, PayloadType};
+use crate::payload::{json_to_val, val_to_json, Payload, PayloadType};
 use crate::plugin::{Fault, InstanceSetup, Kind, Limits, PluginCode, PluginInstance};
 use crate::trace::{Entry, Record, TraceSink};
 
@@ -303,7 +303,7 @@ struct Connection {
     /// For `once E start R until F`: the `F → R.interrupt` connection(s)
     /// that live as long as the activation this one starts.
     until: Vec<u64>,
-    to_label: String,
+    to_label: Arc<str>,
     /// Whether the target takes the payload (a slot without parameter drops it).
     pass_payload: bool,
 }
@@ -367,9 +367,16 @@ impl State {
         self.base.now()
     }
 
+    fn tracing(&self) -> bool {
+        !self.trace.sinks.is_empty() || self.trace.kept.is_some()
+    }
+
     fn record(&mut self, entry: Entry) {
         // Lines a guest logged during the step that led here come first.
         self.record_logs();
+        if !self.tracing() {
+            return;
+        }
         let t = self.now();
         self.write(Record { t, entry });
     }
@@ -384,11 +391,15 @@ impl State {
     }
 
     fn record_logs(&mut self) {
-        for line in self.base.take_logs() {
+        let lines = self.base.take_logs();
+        if !self.tracing() {
+            return;
+        }
+        for line in lines {
             self.write(Record {
                 t: line.t,
                 entry: Entry::Log {
-                    plugin: line.plugin.to_string(),
+                    plugin: line.plugin,
                     level: line.level,
                     message: line.message,
                 },
@@ -524,7 +535,7 @@ impl State {
                 min_interval: conn.min_interval,
                 last_delivery: None,
                 until: Vec::new(),
-                to_label: conn.to_label,
+                to_label: conn.to_label.into(),
                 pass_payload: conn.pass_payload,
             },
         );
@@ -543,7 +554,7 @@ impl State {
         entry.lifecycle = Lifecycle::Active;
         entry.stop.clear();
         entry.wake();
-        let plugin = entry.def.name.clone();
+        let plugin = entry.name.clone();
         self.record(Entry::Activate { plugin });
     }
 
@@ -652,7 +663,7 @@ impl State {
             if entry.listeners == 0 && entry.lifecycle == Lifecycle::Active {
                 entry.lifecycle = Lifecycle::Inactive;
                 entry.stop.request(StopReason::Deactivate);
-                let plugin = entry.def.name.clone();
+                let plugin = entry.name.clone();
                 self.record(Entry::Deactivate { plugin });
             }
         }
@@ -661,13 +672,15 @@ impl State {
     /// Emits `signal` from `pid` and routes it to every connection, in the
     /// order the connections were made.
     fn emit(&mut self, pid: usize, signal: Signal, payload: Option<Val>) {
-        let plugin = self.plugins[pid].def.name.clone();
-        let json = Payload(payload.clone()).to_json();
-        self.record(Entry::Signal {
-            plugin,
-            signal: signal.as_str(),
-            payload: json,
-        });
+        if self.tracing() {
+            let plugin = self.plugins[pid].name.clone();
+            let json = payload.as_ref().map(val_to_json).unwrap_or(Json::Null);
+            self.record(Entry::Signal {
+                plugin,
+                signal: signal.as_str(),
+                payload: json,
+            });
+        }
         let ids: Vec<u64> = self
             .connections
             .iter()
@@ -720,7 +733,11 @@ impl State {
             }
         };
         match accepted {
-            Ok(()) => self.record(Entry::Deliver { id, to }),
+            Ok(()) => {
+                if self.tracing() {
+                    self.record(Entry::Deliver { id, to });
+                }
+            }
             Err(reason) => {
                 self.record(Entry::Dropped { id, to, reason });
                 for u in until {
@@ -809,11 +826,13 @@ impl State {
             return;
         }
         entry.phase = phase;
-        let plugin = entry.def.name.clone();
-        self.record(Entry::State {
-            plugin,
-            state: phase.as_str(),
-        });
+        if self.tracing() {
+            let plugin = self.plugins[pid].name.clone();
+            self.record(Entry::State {
+                plugin,
+                state: phase.as_str(),
+            });
+        }
     }
 
     fn dispatch_anonymous(&mut self, slot: u64) {
@@ -886,7 +905,7 @@ impl State {
         entry.stop_request = None;
         let dropped: Vec<StartRequest> = entry.pending.drain(..).collect();
         let current_until = std::mem::take(&mut entry.until);
-        let plugin = entry.def.name.clone();
+        let plugin = entry.name.clone();
         let was_event = entry.is_event();
         if !was_event {
             entry.phase = Phase::Idle;
@@ -923,13 +942,13 @@ impl State {
             None => None,
         };
         self.record(Entry::Inject {
-            to: label.clone(),
+            to: label.as_str().into(),
             payload: payload.clone(),
         });
         if let Err(reason) = self.deliver_to_slot(pid, slot, value, Busy::Drop, Vec::new()) {
             self.record(Entry::Dropped {
                 id: 0,
-                to: label,
+                to: label.into(),
                 reason,
             });
         }
@@ -1004,7 +1023,7 @@ impl Core {
             let entry = &mut st.plugins[pid];
             entry.reset_requested = false;
             entry.lifecycle = Lifecycle::Inactive;
-            let name = entry.def.name.clone();
+            let name = entry.name.clone();
             let listening = entry.listeners > 0;
             let event = entry.is_event();
             st.record(Entry::Reset {
@@ -1065,7 +1084,7 @@ async fn event_actor(core: Rc<Core>, pid: usize) {
                     st.emit(pid, Signal::Triggered, payload)
                 }
                 Ok(Some(payload)) => {
-                    let plugin = st.plugins[pid].def.name.clone();
+                    let plugin = st.plugins[pid].name.clone();
                     st.record(Entry::Discarded {
                         plugin,
                         payload: Payload(payload).to_json(),
@@ -1082,7 +1101,10 @@ async fn event_actor(core: Rc<Core>, pid: usize) {
 
 fn slot_end(core: &Core, pid: usize, slot: Slot, outcome: &'static str) {
     core.with(|st| {
-        let plugin = st.plugins[pid].def.name.clone();
+        if !st.tracing() {
+            return;
+        }
+        let plugin = st.plugins[pid].name.clone();
         st.record(Entry::SlotEnd {
             plugin,
             slot: slot.as_str(),
@@ -1092,7 +1114,10 @@ fn slot_end(core: &Core, pid: usize, slot: Slot, outcome: &'static str) {
 }
 
 fn slot_begin(st: &mut State, pid: usize, slot: Slot) {
-    let plugin = st.plugins[pid].def.name.clone();
+    if !st.tracing() {
+        return;
+    }
+    let plugin = st.plugins[pid].name.clone();
     st.record(Entry::SlotBegin {
         plugin,
         slot: slot.as_str(),
@@ -1210,6 +1235,19 @@ pub(crate) struct RunEnd {
     pub program_outcome: Option<String>,
 }
 
+/// What a run is made of.
+pub(crate) struct RunSetup {
+    pub base: TimeBase,
+    pub plugins: Vec<PluginDef>,
+    pub trace: TraceOut,
+    pub commands: Receiver<Command>,
+    pub anonymous_jobs: Sender<AnonymousJob>,
+    pub limit: Option<Duration>,
+    pub seed: u64,
+    /// Native deliberative programs running when the run begins.
+    pub programs: u32,
+}
+
 /// Owns the executor and the command channel; [`Scheduler::run`] is the
 /// scheduler's thread.
 pub(crate) struct Scheduler {
@@ -1220,16 +1258,17 @@ pub(crate) struct Scheduler {
 }
 
 impl Scheduler {
-    pub fn new(
-        base: TimeBase,
-        plugins: Vec<PluginDef>,
-        trace: TraceOut,
-        commands: Receiver<Command>,
-        anonymous_jobs: Sender<AnonymousJob>,
-        limit: Option<Duration>,
-        seed: u64,
-        lockstep: u32,
-    ) -> Self {
+    pub fn new(setup: RunSetup) -> Self {
+        let RunSetup {
+            base,
+            plugins,
+            trace,
+            commands,
+            anonymous_jobs,
+            limit,
+            seed,
+            programs,
+        } = setup;
         let mut by_name = BTreeMap::new();
         let plugins: Vec<PluginEntry> = plugins
             .into_iter()
@@ -1266,7 +1305,7 @@ impl Scheduler {
             waiters: HashMap::new(),
             next_waiter: 0,
             trace,
-            lockstep,
+            lockstep: programs,
             spawned: Vec::new(),
             cancelled: Vec::new(),
             next_task: 0,
@@ -1296,7 +1335,7 @@ impl Scheduler {
             for pid in 0..count {
                 let entry = &st.plugins[pid];
                 let state = if entry.is_event() { "inactive" } else { "idle" };
-                let plugin = entry.def.name.clone();
+                let plugin = entry.name.clone();
                 st.record(Entry::State { plugin, state });
             }
         });

@@ -46,7 +46,7 @@ use crate::payload::Payload;
 use crate::plugin::{default_cache_dir, Limits, Loader};
 use crate::scheduler::{
     duration_nanos, AnonymousJob, AnonymousSlot, Busy, Command, LinkSpec, LinkTarget, Mode,
-    PluginDef, Scheduler, TraceOut,
+    PluginDef, RunSetup, Scheduler, TraceOut,
 };
 use crate::trace::{Record, TraceSink};
 
@@ -320,20 +320,19 @@ impl System {
                 RadarError::Program(format!("cannot start the anonymous-slot thread: {e}"))
             })?;
         drop(self.tx);
-        base.restart();
-        let scheduler = Scheduler::new(
+        let scheduler = Scheduler::new(RunSetup {
             base,
-            self.plugins,
-            TraceOut {
+            plugins: self.plugins,
+            trace: TraceOut {
                 sinks: self.sinks,
                 kept: self.keep_trace.then(Vec::new),
             },
-            self.rx,
-            job_tx,
+            commands: self.rx,
+            anonymous_jobs: job_tx,
             limit,
-            self.seed,
-            u32::from(program.is_some()),
-        );
+            seed: self.seed,
+            programs: u32::from(program.is_some()),
+        });
         let end = scheduler.run();
         // The scheduler dropped the job sender: the runner ends after its
         // current closure.

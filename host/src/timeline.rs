@@ -6,6 +6,7 @@
 
 use std::collections::BTreeMap;
 use std::io::Write;
+use std::sync::Arc;
 
 use crate::trace::{Entry, Record, TraceSink};
 
@@ -15,8 +16,8 @@ pub struct Timeline<W: Write + Send> {
     instant: Option<u64>,
     lines: Vec<String>,
     connections: BTreeMap<u64, String>,
-    events: BTreeMap<String, &'static str>,
-    responses: BTreeMap<String, &'static str>,
+    events: BTreeMap<Arc<str>, &'static str>,
+    responses: BTreeMap<Arc<str>, &'static str>,
     last_summary: String,
 }
 
@@ -68,7 +69,7 @@ impl<W: Write + Send> Timeline<W> {
             .events
             .iter()
             .filter(|(_, s)| **s == "active")
-            .map(|(n, _)| n.as_str())
+            .map(|(n, _)| n.as_ref())
             .collect();
         let active = if active.is_empty() {
             "none".to_string()
@@ -79,7 +80,7 @@ impl<W: Write + Send> Timeline<W> {
             .events
             .iter()
             .filter(|(_, s)| **s == "error")
-            .map(|(n, _)| n.as_str())
+            .map(|(n, _)| n.as_ref())
             .collect();
         let responses = self
             .responses
@@ -141,7 +142,7 @@ impl<W: Write + Send> Timeline<W> {
                 format!("{plugin} returned {payload} after deactivation: discarded")
             }
             Entry::State { plugin, state } => {
-                let is_event = self.events.contains_key(plugin) || *state == "inactive";
+                let is_event = self.events.contains_key(plugin.as_ref()) || *state == "inactive";
                 if is_event {
                     self.events.insert(plugin.clone(), state);
                 } else {

@@ -12,6 +12,7 @@
 //! ```
 
 use std::io::Write;
+use std::sync::Arc;
 
 use serde::Serialize;
 use serde_json::Value as Json;
@@ -52,48 +53,54 @@ pub enum Entry {
     /// `timeout` (waitfor), `stopped`.
     Disconnect { id: u64, reason: &'static str },
     /// An event gained its first connection.
-    Activate { plugin: String },
+    Activate { plugin: Arc<str> },
     /// An event lost its last connection.
-    Deactivate { plugin: String },
+    Deactivate { plugin: Arc<str> },
     /// A plugin emitted a signal.
     Signal {
-        plugin: String,
+        plugin: Arc<str>,
         signal: &'static str,
         payload: Json,
     },
     /// A signal was handed to a connection's target.
-    Deliver { id: u64, to: String },
+    Deliver { id: u64, to: Arc<str> },
     /// A signal reached a connection but its target did not take it.
     Dropped {
         id: u64,
-        to: String,
+        to: Arc<str>,
         reason: &'static str,
     },
     /// A payload an event returned after it lost its last connection.
-    Discarded { plugin: String, payload: Json },
+    Discarded { plugin: Arc<str>, payload: Json },
     /// A slot began to run.
-    SlotBegin { plugin: String, slot: &'static str },
+    SlotBegin {
+        plugin: Arc<str>,
+        slot: &'static str,
+    },
     /// A slot finished: `completed`, `interrupted` or `trapped`.
     SlotEnd {
-        plugin: String,
+        plugin: Arc<str>,
         slot: &'static str,
         outcome: &'static str,
     },
     /// A response changed state (`idle`, `running`, `interrupting`,
     /// `exiting`) or a plugin's lifecycle changed (`error`).
-    State { plugin: String, state: &'static str },
+    State {
+        plugin: Arc<str>,
+        state: &'static str,
+    },
     /// A plugin trapped, ran out of fuel or memory, and is now in `error`.
-    Fault { plugin: String, error: String },
+    Fault { plugin: Arc<str>, error: String },
     /// A plugin was re-instantiated after `reset`.
-    Reset { plugin: String },
+    Reset { plugin: Arc<str> },
     /// A plugin wrote a log line.
     Log {
-        plugin: String,
+        plugin: Arc<str>,
         level: &'static str,
         message: String,
     },
     /// A payload was sent straight into a slot.
-    Inject { to: String, payload: Json },
+    Inject { to: Arc<str>, payload: Json },
     /// Deliberative code finished (`outcome` is `ok` or the error).
     ProgramEnd { outcome: String },
 }
