@@ -12,7 +12,7 @@ use std::sync::{Arc, Mutex};
 use std::task::{Context, Poll, Waker};
 use std::time::{Duration, Instant};
 
-use criterion::{black_box, criterion_group, Criterion};
+use criterion::{black_box, Criterion};
 use radar::example::plugins;
 use radar::trace::{Entry, Record, TraceSink};
 use radar::{ClockKind, Plugin, System};
@@ -209,7 +209,11 @@ fn summary() {
     );
 }
 
-criterion_group!(benches, bench);
+/// Runs the criterion benchmarks with the command line's options.
+fn benches() {
+    let mut criterion = Criterion::default().configure_from_args();
+    bench(&mut criterion);
+}
 
 fn main() {
     benches();

@@ -310,3 +310,73 @@ impl Future for YieldNow {
         Poll::Pending
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Mutex as StdMutex;
+    use std::task::Wake;
+
+    /// A waker that appends its label to a shared log when woken.
+    struct Label(&'static str, Arc<StdMutex<Vec<&'static str>>>);
+
+    impl Wake for Label {
+        fn wake(self: Arc<Self>) {
+            self.1.lock().expect("not poisoned").push(self.0);
+        }
+    }
+
+    #[test]
+    fn timers_with_one_deadline_fire_in_the_order_they_were_set() {
+        let base = TimeBase::new(ClockKind::Virtual);
+        let log = Arc::new(StdMutex::new(Vec::new()));
+        let waker = |l| Waker::from(Arc::new(Label(l, log.clone())));
+        base.add(200, waker("late"));
+        base.add(100, waker("first"));
+        base.add(100, waker("second"));
+        base.add(100, waker("third"));
+        assert_eq!(base.next_deadline(), Some(100));
+        base.advance_to(100);
+        base.fire_due(100);
+        assert_eq!(
+            *log.lock().expect("not poisoned"),
+            ["first", "second", "third"]
+        );
+        assert_eq!(base.next_deadline(), Some(200));
+    }
+
+    #[test]
+    fn virtual_time_only_moves_forward() {
+        let base = TimeBase::new(ClockKind::Virtual);
+        base.advance_to(50);
+        base.advance_to(20);
+        assert_eq!(base.now(), 50);
+    }
+
+    #[test]
+    fn a_stop_request_ends_a_sleep_early_with_its_reason() {
+        let base = TimeBase::new(ClockKind::Virtual);
+        let stop = Arc::new(StopFlag::default());
+        let mut sleep = Box::pin(base.sleep_until(1_000, Some(stop.clone())));
+        let log = Arc::new(StdMutex::new(Vec::new()));
+        let waker = Waker::from(Arc::new(Label("sleeper", log.clone())));
+        let mut cx = Context::from_waker(&waker);
+        assert!(sleep.as_mut().poll(&mut cx).is_pending());
+        stop.request(StopReason::Interrupt);
+        assert_eq!(
+            *log.lock().expect("not poisoned"),
+            ["sleeper"],
+            "the request wakes the sleeper"
+        );
+        assert_eq!(
+            sleep.as_mut().poll(&mut cx),
+            Poll::Ready(Err(StopReason::Interrupt))
+        );
+        drop(sleep);
+        assert_eq!(
+            base.next_deadline(),
+            None,
+            "a dropped sleep leaves no timer behind"
+        );
+    }
+}

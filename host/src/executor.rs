@@ -110,3 +110,64 @@ impl Executor {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::cell::RefCell;
+    use std::rc::Rc;
+
+    /// A task that logs `label`, yields once, and logs it again.
+    fn yielding(label: &'static str, log: Rc<RefCell<Vec<String>>>) -> LocalTask {
+        Box::pin(async move {
+            log.borrow_mut().push(format!("{label}1"));
+            let mut yielded = false;
+            std::future::poll_fn(|cx| {
+                if yielded {
+                    Poll::Ready(())
+                } else {
+                    yielded = true;
+                    cx.waker().wake_by_ref();
+                    Poll::Pending
+                }
+            })
+            .await;
+            log.borrow_mut().push(format!("{label}2"));
+        })
+    }
+
+    #[test]
+    fn tasks_run_in_the_order_they_became_ready() {
+        let log = Rc::new(RefCell::new(Vec::new()));
+        let mut executor = Executor::default();
+        executor.insert(1, yielding("a", log.clone()));
+        executor.insert(2, yielding("b", log.clone()));
+        executor.insert(3, yielding("c", log.clone()));
+        while executor.run_one() {}
+        assert_eq!(*log.borrow(), ["a1", "b1", "c1", "a2", "b2", "c2"]);
+    }
+
+    #[test]
+    fn a_task_woken_twice_runs_once_and_a_cancelled_task_never_runs() {
+        let log = Rc::new(RefCell::new(Vec::new()));
+        let mut executor = Executor::default();
+        let l = log.clone();
+        executor.insert(
+            1,
+            Box::pin(std::future::poll_fn(move |cx| {
+                l.borrow_mut().push("polled".to_string());
+                if l.borrow().len() == 1 {
+                    cx.waker().wake_by_ref();
+                    cx.waker().wake_by_ref();
+                    Poll::Pending
+                } else {
+                    Poll::Ready(())
+                }
+            })),
+        );
+        executor.insert(2, yielding("gone", log.clone()));
+        executor.cancel(2);
+        while executor.run_one() {}
+        assert_eq!(*log.borrow(), ["polled", "polled"]);
+    }
+}

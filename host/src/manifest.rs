@@ -104,7 +104,14 @@ impl Manifest {
             cause,
         };
         let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
-        let mut manifest: Manifest = toml::from_str(&text).map_err(|e| bad(e.to_string()))?;
+        let mut manifest: Manifest = toml::from_str(&text).map_err(|e| {
+            // toml's own rendering spans several lines; the CLI promises one.
+            let line = e.span().map(|s| text[..s.start].lines().count().max(1));
+            bad(match line {
+                Some(line) => format!("line {line}: {}", e.message()),
+                None => e.message().to_string(),
+            })
+        })?;
         manifest.dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         if manifest.deliberative.is_some() {
             return Err(bad(

@@ -440,3 +440,97 @@ fn a_program_that_panics_is_reported_and_the_system_keeps_running() {
         3
     );
 }
+
+#[test]
+fn a_signal_is_delivered_to_its_connections_in_the_order_they_were_made() {
+    let (tx, rx) = mpsc::channel();
+    let system = virtual_system().plugin(test_event("E", 2));
+    let report = run(system, 3, move |radar| {
+        for name in ["first", "second", "third"] {
+            let tx = tx.clone();
+            radar
+                .whenever_do("E", move |_| tx.send(name).expect("alive"))?
+                .keep();
+        }
+        Ok(())
+    });
+    assert_eq!(
+        rx.try_iter().collect::<Vec<_>>(),
+        ["first", "second", "third"]
+    );
+    let delivered: Vec<_> = find(&records(&report), json!({"kind": "deliver"}))
+        .iter()
+        .map(|r| r["id"].clone())
+        .collect();
+    assert_eq!(delivered, [json!(1), json!(2), json!(3)]);
+}
+
+#[test]
+fn a_computing_guest_shares_the_thread_with_other_ready_tasks() {
+    use radar::{Limits, Plugin};
+    // Spin computes without a host call until its fuel runs out; fuel
+    // yields let R's start, ready at the same instant, run in between.
+    let limits = Limits {
+        fuel_per_call: 2_000_000,
+        ..Limits::default()
+    };
+    let system = virtual_system()
+        .plugin(Plugin::file("Spin", radar::example::plugins::SPIN_EVENT).limits(limits))
+        .plugin(test_response("R", 1, 1.0));
+    let report = run(system, 2, |radar| {
+        radar.whenever_do("Spin", |_| {})?.keep();
+        radar.inject("R.start", json!(1))?;
+        Ok(())
+    });
+    let trace = records(&report);
+    let r_began = position(&trace, 0, json!({"kind": "slot-begin", "plugin": "R"})).expect("R ran");
+    let spin_fault =
+        position(&trace, 0, json!({"kind": "fault", "plugin": "Spin"})).expect("Spin faulted");
+    assert!(
+        r_began < spin_fault,
+        "R began while Spin was still computing"
+    );
+    assert_eq!(
+        trace[spin_fault]["t"],
+        json!(0),
+        "virtual time stood still while Spin computed"
+    );
+}
+
+#[test]
+fn the_real_clock_runs_the_same_semantics_in_wall_time() {
+    let started = std::time::Instant::now();
+    let system = radar::System::builder()
+        .clock(radar::ClockKind::Real)
+        .plugin(test_event("E", 1).config("interval_s", 0.1))
+        .plugin(test_response("R", 2, 0.05));
+    let report = run(system, 1, |radar| {
+        radar.whenever("E", "R")?.keep();
+        Ok(())
+    });
+    assert!(
+        started.elapsed() >= Duration::from_secs(1),
+        "a real second passed"
+    );
+    let trace = records(&report);
+    let triggers = find(
+        &trace,
+        json!({"kind": "signal", "plugin": "E", "signal": "triggered"}),
+    );
+    assert!(
+        triggers.len() >= 3,
+        "E triggered every 0.1 s: {}",
+        triggers.len()
+    );
+    // Times are real, so only their order and lower bounds are certain.
+    let first = triggers[0]["t"].as_u64().expect("t");
+    assert!(first >= ns(0.1), "no trigger before its interval: {first}");
+    assert_sequence(
+        &trace,
+        &[
+            json!({"kind": "signal", "plugin": "E", "signal": "triggered"}),
+            json!({"kind": "slot-begin", "plugin": "R", "slot": "start"}),
+            json!({"kind": "signal", "plugin": "R", "signal": "exited", "payload": {"ok": 2}}),
+        ],
+    );
+}

@@ -1,0 +1,130 @@
+//! The `radar` command line (DESIGN §3.1): the built-in example, the trace
+//! file, manifests, and one-line errors with a non-zero status.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use radar::example::plugins;
+
+fn radar(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_radar"))
+        .args(args)
+        .output()
+        .expect("the radar binary runs")
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+#[test]
+fn with_no_arguments_it_prints_the_paper_example_timeline() {
+    let out = radar(&[]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    for expected in [
+        "Listing 2/3",
+        "connect #1: whenever TestEvent.triggered → TestResponse.start",
+        "TestEvent2.triggered(3000)",
+        "dropped at TestResponse.interrupt (#2): idle",
+        "TestResponse.started(5)",
+        "┆ responses: TestResponse running",
+        "run ended at 20.000 s",
+    ] {
+        assert!(
+            stdout.contains(expected),
+            "missing {expected:?} in:\n{stdout}"
+        );
+    }
+}
+
+#[test]
+fn run_writes_the_trace_as_json_lines() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let trace = dir.path().join("t.jsonl");
+    let trace_arg = trace.to_str().expect("utf-8 path");
+    let out = radar(&[
+        "run", "--clock", "virtual", "--for", "30s", "--trace", trace_arg,
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let lines = std::fs::read_to_string(&trace).expect("trace written");
+    let records: Vec<serde_json::Value> = lines
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("each line is JSON"))
+        .collect();
+    assert!(records
+        .iter()
+        .all(|r| r["t"].is_u64() && r["kind"].is_string()));
+    let last = records.last().expect("records");
+    assert!(last["t"].as_u64().expect("t") <= 30_000_000_000);
+    assert!(records
+        .iter()
+        .any(|r| r["kind"] == "connect" && r["from"] == "TestEvent.triggered"));
+}
+
+fn write_manifest(dir: &Path, body: &str) -> String {
+    let path = dir.join("radar.toml");
+    std::fs::write(&path, body).expect("manifest written");
+    path.to_str().expect("utf-8 path").to_string()
+}
+
+#[test]
+fn a_manifest_system_runs_with_its_static_connections() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let manifest = write_manifest(
+        dir.path(),
+        &format!(
+            r#"
+[plugins.Tick]
+wasm = "{}"
+config = {{ count_to = 2, interval_s = 1 }}
+
+[plugins.Counter]
+wasm = "{}"
+config = {{ count_for_s = 1, interval_s = 0.5 }}
+
+[[connect]]
+mode = "whenever"
+from = "Tick.triggered"
+to = "Counter.start"
+"#,
+            plugins::TEST_EVENT,
+            plugins::TEST_RESPONSE
+        ),
+    );
+    let out = radar(&["run", &manifest, "--for", "5s"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(stdout.contains("Counter.started(2)"), "{stdout}");
+    assert!(stdout.contains("Counter.exited({\"ok\":2})"), "{stdout}");
+}
+
+#[test]
+fn bad_input_exits_non_zero_with_a_one_line_cause() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let broken = dir.path().join("broken.wasm");
+    std::fs::write(&broken, b"not wasm").expect("written");
+    let cases = [
+        (
+            format!("[plugins.Broken]\nwasm = \"{}\"\n", broken.display()),
+            "plugin `Broken`: not a valid WebAssembly component",
+        ),
+        ("[plugins.X]\nwasm = 3\n".to_string(), "radar.toml"),
+        (
+            format!(
+                "[plugins.T]\nwasm = \"{}\"\n[plugins.R]\nwasm = \"{}\"\n[[connect]]\nmode = \"whenever\"\nfrom = \"T\"\nto = \"R\"\n",
+                plugins::TEXT_EVENT,
+                plugins::TEST_RESPONSE
+            ),
+            "type mismatch: `T.triggered` emits string, but `R.start` takes u32",
+        ),
+    ];
+    for (body, expected) in cases {
+        let manifest = write_manifest(dir.path(), &body);
+        let out = radar(&["run", &manifest, "--for", "1s"]);
+        assert!(!out.status.success(), "{body} should fail");
+        let stderr = text(&out.stderr);
+        assert_eq!(stderr.lines().count(), 1, "one line: {stderr}");
+        assert!(stderr.contains(expected), "{expected:?} not in {stderr:?}");
+    }
+}
