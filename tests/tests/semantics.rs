@@ -534,3 +534,19 @@ fn the_real_clock_runs_the_same_semantics_in_wall_time() {
         ],
     );
 }
+
+#[test]
+fn the_readme_hello_world_triggers_with_42_every_second() {
+    let (tx, rx) = mpsc::channel();
+    let system = virtual_system().plugin(radar::Plugin::file(
+        "Hello",
+        radar::example::plugins::HELLO_EVENT,
+    ));
+    run(system, 3, move |radar| {
+        radar
+            .whenever_do("Hello", move |p| tx.send(p.as_u64()).expect("alive"))?
+            .keep();
+        Ok(())
+    });
+    assert_eq!(rx.try_iter().collect::<Vec<_>>(), [Some(42); 3]);
+}
