@@ -1,14 +1,9 @@
 use radar_guest::prelude::*;
 
-radar_guest::plugin!(
-    r#"
+radar_guest::plugin! {r#"
     package example:hello;
-    world hello {
-        include radar:reactive/event@0.1.0;
-        export check: func() -> option<u32>;
-    }
-"#
-);
+    world hello { include radar:reactive/event@0.1.0; export check: func() -> option<u32>; }
+"#}
 
 struct Hello;
 impl Guest for Hello {
