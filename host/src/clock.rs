@@ -1,7 +1,7 @@
 //! Scheduler time: one timer queue for the virtual and the real clock.
 //!
 //! Every wait in a run (a guest's `sleep`, an event's check cadence, a
-//! deliberative `sleep` or `waitfor` timeout) is a [`Sleep`] on this queue, so
+//! deliberative `sleep` or `waitfor` timeout) is a `Sleep` on this queue, so
 //! that under the virtual clock the scheduler can jump straight to the next
 //! deadline once nothing is ready, and so that timers with the same deadline
 //! fire in the order they were set (the key is `(deadline, sequence)`).

@@ -1,12 +1,12 @@
 //! Plugins: loading components, checking their world, and calling their
 //! slots under a fuel budget.
 //!
-//! A [`Loader`] holds the one `Engine` and `Linker` of a system and compiles
+//! A `Loader` holds the one `Engine` and `Linker` of a system and compiles
 //! each component once (keyed by content hash and engine settings, in memory
-//! and on disk). What it returns, [`PluginCode`], knows the plugin's kind
+//! and on disk). What it returns, `PluginCode`, knows the plugin's kind
 //! (event or response) and the WIT types of its signals and slots, read from
 //! the component's own type information, so that connections can be
-//! type-checked before anything runs. [`PluginInstance`] is one live
+//! type-checked before anything runs. `PluginInstance` is one live
 //! instance: its own `Store` (memory, fuel, limits), rebuilt from scratch by
 //! `reset` because a trap poisons a store for good.
 

@@ -245,3 +245,34 @@ fn an_unknown_plugin_or_port_is_refused_with_what_exists() {
         "{slot}"
     );
 }
+
+#[test]
+fn compiled_components_are_cached_by_content_and_engine_settings() {
+    let cache = tempfile::tempdir().expect("temp dir");
+    let build = || {
+        System::builder()
+            .cache_dir(Some(cache.path().to_path_buf()))
+            .plugin(test_event("E", 2))
+            .build()
+            .expect("builds")
+    };
+    drop(build());
+    let artifacts: Vec<_> = std::fs::read_dir(cache.path())
+        .expect("cache dir exists")
+        .filter_map(Result::ok)
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(artifacts.len(), 1, "{artifacts:?}");
+    assert!(artifacts[0].ends_with(".cwasm"));
+    // A second system loads the artifact, and it runs like a fresh compile.
+    let report = build()
+        .run_with(Some(Duration::from_secs(2)), |radar| {
+            radar.whenever_do("E", |_| {})?.keep();
+            Ok::<(), RadarError>(())
+        })
+        .expect("runs");
+    assert_eq!(
+        find(&records(&report), json!({"kind": "signal", "plugin": "E"})).len(),
+        1
+    );
+}

@@ -550,3 +550,30 @@ fn the_readme_hello_world_triggers_with_42_every_second() {
     });
     assert_eq!(rx.try_iter().collect::<Vec<_>>(), [Some(42); 3]);
 }
+
+#[test]
+fn a_check_that_never_sleeps_is_polled_once_a_period() {
+    let system = virtual_system().plugin(
+        radar::Plugin::file("Busy", radar::example::plugins::BENCH_EVENT)
+            .period(Duration::from_millis(10)),
+    );
+    let report = system
+        .build()
+        .expect("builds")
+        .run_with(Some(Duration::from_millis(45)), |radar| {
+            radar.whenever_do("Busy", |_| {})?.keep();
+            Ok::<(), RadarError>(())
+        })
+        .expect("runs");
+    let times: Vec<_> = find(
+        &records(&report),
+        json!({"kind": "signal", "plugin": "Busy"}),
+    )
+    .iter()
+    .map(|r| r["t"].clone())
+    .collect();
+    assert_eq!(
+        times,
+        [0.0, 0.01, 0.02, 0.03, 0.04].map(|t| json!(ns(t))).to_vec()
+    );
+}
