@@ -209,11 +209,10 @@ fn a_response_that_eats_memory_hits_its_limit_and_goes_to_error() {
         fault[0]
     );
     assert_eq!(
-        find(
+        count(
             &trace,
             json!({"kind": "slot-begin", "plugin": "R", "slot": "start"})
-        )
-        .len(),
+        ),
         2
     );
 }

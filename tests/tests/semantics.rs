@@ -31,16 +31,12 @@ fn once_is_removed_after_its_delivery_and_its_event_deactivates() {
             json!({"kind": "deactivate", "plugin": "E", "t": ns(2.0)}),
         ],
     );
+    assert_eq!(count(&trace, json!({"kind": "signal", "plugin": "E"})), 1);
     assert_eq!(
-        find(&trace, json!({"kind": "signal", "plugin": "E"})).len(),
-        1
-    );
-    assert_eq!(
-        find(
+        count(
             &trace,
             json!({"kind": "slot-begin", "plugin": "R", "slot": "start"})
-        )
-        .len(),
+        ),
         1
     );
 }
@@ -79,10 +75,7 @@ fn a_scoped_connection_ends_with_its_guard_and_the_last_one_deactivates_the_even
     let deactivations = find(&trace, json!({"kind": "deactivate", "plugin": "E"}));
     assert_eq!(deactivations.len(), 1);
     assert_eq!(deactivations[0]["t"], json!(ns(5.0)));
-    let triggers: Vec<_> = find(&trace, json!({"kind": "signal", "plugin": "E"}))
-        .iter()
-        .map(|r| r["t"].clone())
-        .collect();
+    let triggers: Vec<_> = times(&trace, json!({"kind": "signal", "plugin": "E"}));
     assert_eq!(
         triggers,
         vec![json!(ns(2.0)), json!(ns(4.0))],
@@ -222,10 +215,7 @@ fn start_times(trace: &[serde_json::Value]) -> Vec<serde_json::Value> {
 fn busy_drop_drops_a_start_while_running() {
     let trace = busy_run(Busy::Drop);
     assert_eq!(start_times(&trace), vec![json!(ns(2.0)), json!(ns(8.0))]);
-    let dropped: Vec<_> = find(&trace, json!({"kind": "dropped", "reason": "busy"}))
-        .iter()
-        .map(|r| r["t"].clone())
-        .collect();
+    let dropped: Vec<_> = times(&trace, json!({"kind": "dropped", "reason": "busy"}));
     assert_eq!(
         dropped,
         [4.0, 6.0, 10.0, 12.0].map(|t| json!(ns(t))).to_vec()
@@ -240,10 +230,7 @@ fn busy_queue_runs_a_start_after_the_current_activation() {
         start_times(&trace),
         vec![json!(ns(2.0)), json!(ns(6.5)), json!(ns(11.0))]
     );
-    let full: Vec<_> = find(&trace, json!({"kind": "dropped", "reason": "queue-full"}))
-        .iter()
-        .map(|r| r["t"].clone())
-        .collect();
+    let full: Vec<_> = times(&trace, json!({"kind": "dropped", "reason": "queue-full"}));
     assert_eq!(full, vec![json!(ns(6.0)), json!(ns(10.0))]);
 }
 
@@ -371,11 +358,10 @@ fn an_exit_signal_stops_start_and_skips_the_interrupt_slot() {
 fn an_interrupt_while_idle_is_ignored_and_recorded() {
     let trace = response_run(1, |radar| radar.inject("R.interrupt", json!(null)));
     assert_eq!(
-        find(
+        count(
             &trace,
             json!({"kind": "dropped", "to": "R.interrupt", "reason": "idle"})
-        )
-        .len(),
+        ),
         1
     );
     assert!(find(&trace, json!({"kind": "slot-begin"})).is_empty());
@@ -393,10 +379,7 @@ fn deactivation_interrupts_a_check_in_progress_and_reactivation_restarts_its_cad
         Ok(())
     });
     let trace = records(&report);
-    let triggers: Vec<_> = find(&trace, json!({"kind": "signal", "plugin": "T"}))
-        .iter()
-        .map(|r| r["t"].clone())
-        .collect();
+    let triggers: Vec<_> = times(&trace, json!({"kind": "signal", "plugin": "T"}));
     // The check begun at 0 s was interrupted at 1 s; the next begins at 2 s.
     assert_eq!(triggers, vec![json!(ns(5.0)), json!(ns(8.0))]);
     assert!(find(&trace, json!({"kind": "discarded"})).is_empty());
@@ -432,11 +415,10 @@ fn a_program_that_panics_is_reported_and_the_system_keeps_running() {
     assert_eq!(report.program, Some(Err("panicked".to_string())));
     let trace = records(&report);
     assert_eq!(
-        find(
+        count(
             &trace,
             json!({"kind": "slot-begin", "plugin": "R", "slot": "start"})
-        )
-        .len(),
+        ),
         3
     );
 }

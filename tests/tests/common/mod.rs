@@ -71,6 +71,20 @@ pub fn find(records: &[Json], pattern: Json) -> Vec<Json> {
         .collect()
 }
 
+/// How many records match `pattern`.
+pub fn count(records: &[Json], pattern: Json) -> usize {
+    records.iter().filter(|r| matches(r, &pattern)).count()
+}
+
+/// The times (`t`) of the records that match `pattern`.
+pub fn times(records: &[Json], pattern: Json) -> Vec<Json> {
+    records
+        .iter()
+        .filter(|r| matches(r, &pattern))
+        .map(|r| r["t"].clone())
+        .collect()
+}
+
 /// The index of the first record matching `pattern` at or after `from`.
 pub fn position(records: &[Json], from: usize, pattern: Json) -> Option<usize> {
     records[from..]
