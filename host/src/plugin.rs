@@ -290,15 +290,17 @@ impl PluginInstance {
     ) -> Result<Option<Val>, Fault> {
         let fault = |e: wasmtime::Error| Fault(describe_fault(&e));
         self.store.set_fuel(self.fuel_per_call).map_err(fault)?;
-        let mut results = if has_result {
-            vec![Val::Bool(false)]
+        let mut results = [Val::Bool(false)];
+        let slots = if has_result {
+            &mut results[..]
         } else {
-            Vec::new()
+            &mut results[..0]
         };
-        func.call_async(&mut self.store, params, &mut results)
+        func.call_async(&mut self.store, params, slots)
             .await
             .map_err(fault)?;
-        Ok(results.pop())
+        let [result] = results;
+        Ok(has_result.then_some(result))
     }
 
     /// Runs `check`: `Some(payload)` when the event triggered (`Val::Tuple`
@@ -323,16 +325,14 @@ impl PluginInstance {
         let Some(f) = self.start else {
             return Err(Fault("plugin has no `start` export".into()));
         };
-        let params: Vec<Val> = payload.into_iter().collect();
-        self.call(f, &params, has_result).await
+        self.call(f, payload.as_slice(), has_result).await
     }
 
     pub async fn interrupt(&mut self, payload: Option<Val>) -> Result<(), Fault> {
         let Some(f) = self.interrupt else {
             return Ok(());
         };
-        let params: Vec<Val> = payload.into_iter().collect();
-        self.call(f, &params, false).await.map(drop)
+        self.call(f, payload.as_slice(), false).await.map(drop)
     }
 
     pub async fn exit(&mut self) -> Result<(), Fault> {

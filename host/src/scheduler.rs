@@ -346,6 +346,7 @@ pub(crate) struct State {
     seed: u64,
     stop: bool,
     program_outcome: Option<String>,
+    route_buffer: Vec<u64>,
 }
 
 /// The scheduler's shared state, reached by every actor task.
@@ -681,15 +682,20 @@ impl State {
                 payload: json,
             });
         }
-        let ids: Vec<u64> = self
-            .connections
-            .iter()
-            .filter(|(_, c)| c.from == (pid, signal))
-            .map(|(id, _)| *id)
-            .collect();
-        for id in ids {
+        // Deliveries may remove connections, so the matching ids are taken
+        // first, into a buffer kept between signals (no allocation here).
+        let mut ids = std::mem::take(&mut self.route_buffer);
+        ids.extend(
+            self.connections
+                .iter()
+                .filter(|(_, c)| c.from == (pid, signal))
+                .map(|(id, _)| *id),
+        );
+        for &id in &ids {
             self.deliver(id, &payload);
         }
+        ids.clear();
+        self.route_buffer = ids;
     }
 
     fn deliver(&mut self, id: u64, payload: &Option<Val>) {
@@ -1313,6 +1319,7 @@ impl Scheduler {
             seed,
             stop: false,
             program_outcome: None,
+            route_buffer: Vec::new(),
         };
         Self {
             core: Rc::new(Core {

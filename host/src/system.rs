@@ -29,6 +29,14 @@
 //! run with native deliberative code is as deterministic as one without.
 //! Handles from [`System::handle`] are *external*: their commands are
 //! applied when they arrive, like a user typing at a console.
+//!
+//! Anonymous slots (closures given to [`Radar::whenever_do`] and friends) run
+//! one at a time on a thread of Radar's, never on the scheduler's: a slow one
+//! delays only the other anonymous slots. Under the virtual clock they run in
+//! lockstep too, so they are ordered and timed like everything else; a slot
+//! that needs the handle should capture a clone of the program's handle
+//! (blocking calls on an external handle inside a slot would wait forever,
+//! since virtual time cannot move while the slot runs).
 
 use std::collections::BTreeMap;
 use std::fmt::Display;
