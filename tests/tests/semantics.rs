@@ -559,3 +559,97 @@ fn a_check_that_never_sleeps_is_polled_once_a_period() {
         [0.0, 0.01, 0.02, 0.03, 0.04].map(|t| json!(ns(t))).to_vec()
     );
 }
+
+#[test]
+fn a_payload_returned_after_deactivation_is_discarded_and_recorded() {
+    let system = virtual_system().plugin(timer_event("T", 3.0).config("stubborn", true));
+    let report = run(system, 5, |radar| {
+        let c = radar.whenever_do("T", |_| panic!("nothing may be delivered"))?;
+        radar.sleep(Duration::from_secs(1))?;
+        drop(c);
+        Ok(())
+    });
+    let trace = records(&report);
+    assert_eq!(
+        times(&trace, json!({"kind": "discarded", "plugin": "T"})),
+        [json!(ns(1.0))]
+    );
+    assert_eq!(count(&trace, json!({"kind": "signal", "plugin": "T"})), 0);
+    assert_eq!(count(&trace, json!({"kind": "deliver"})), 0);
+}
+
+#[test]
+fn yield_and_interrupted_are_interruption_points_too() {
+    use radar::example::plugins;
+    let system = virtual_system()
+        .plugin(radar::Plugin::file("Free", plugins::YIELD_RESPONSE))
+        .plugin(radar::Plugin::file("Stopped", plugins::YIELD_RESPONSE));
+    let report = run(system, 1, |radar| {
+        radar.inject("Free.start", json!(null))?;
+        radar.inject("Stopped.start", json!(null))?;
+        // Same instant: the request is there before the slot's first host call.
+        radar.inject("Stopped.interrupt", json!(null))?;
+        Ok(())
+    });
+    let trace = records(&report);
+    assert_eq!(
+        count(
+            &trace,
+            json!({"kind": "signal", "plugin": "Free", "signal": "exited", "payload": {"ok": 3}})
+        ),
+        1
+    );
+    assert_sequence(
+        &trace,
+        &[
+            json!({"kind": "log", "plugin": "Stopped", "message": "interrupted() said interrupt before yield 0"}),
+            json!({"kind": "slot-end", "plugin": "Stopped", "slot": "start", "outcome": "interrupted"}),
+            json!({"kind": "signal", "plugin": "Stopped", "signal": "exited", "payload": {"err": "interrupt"}}),
+        ],
+    );
+}
+
+#[test]
+fn native_code_runs_in_lockstep_under_the_virtual_clock() {
+    let (tx, rx) = mpsc::channel();
+    let system = virtual_system().plugin(test_event("E", 1));
+    run(system, 5, move |radar| {
+        radar.whenever_do("E", |_| {})?.keep();
+        let before = radar.now()?;
+        std::thread::sleep(Duration::from_millis(300)); // real time passes...
+        let after = radar.now()?;
+        tx.send((before, after)).expect("alive");
+        Ok(())
+    });
+    let (before, after) = rx.recv().expect("sent");
+    assert_eq!(
+        before, after,
+        "...but virtual time does not move while native code computes"
+    );
+}
+
+#[test]
+fn an_external_handle_drives_a_system_from_another_thread() {
+    let system = radar::System::builder()
+        .clock(radar::ClockKind::Real)
+        .plugin(test_event("E", 1).config("interval_s", 0.05))
+        .build()
+        .expect("builds");
+    let handle = system.handle();
+    let driver = std::thread::spawn(move || -> Result<(), RadarError> {
+        handle.whenever_do("E", |_| {})?.keep();
+        std::thread::sleep(Duration::from_millis(300));
+        handle.stop();
+        Ok(())
+    });
+    let report = system.run(Some(Duration::from_secs(10))).expect("runs");
+    driver
+        .join()
+        .expect("driver thread")
+        .expect("driver calls succeed");
+    assert!(
+        report.ended_at < Duration::from_secs(10),
+        "stop ended the run"
+    );
+    assert!(count(&records(&report), json!({"kind": "signal", "plugin": "E"})) >= 2);
+}

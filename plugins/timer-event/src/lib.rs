@@ -19,7 +19,12 @@ struct TimerEvent;
 
 impl Guest for TimerEvent {
     fn check() -> Option<u64> {
-        sleep(config_secs("after_s", Duration::from_secs(3))).ok()?;
+        let slept = sleep(config_secs("after_s", Duration::from_secs(3)));
+        // `stubborn = true` (tests only) returns a payload even when
+        // deactivated mid-sleep; the host must discard it.
+        if slept.is_err() && !config_or("stubborn", false) {
+            return None;
+        }
         Some(now().as_millis() as u64)
     }
 }
