@@ -1,7 +1,7 @@
 //! `radar`: run a Radar system from the command line (DESIGN §3.1).
 
 use std::fs::File;
-use std::io::BufWriter;
+use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
@@ -63,6 +63,11 @@ fn main() -> ExitCode {
     }
 }
 
+/// Prints a line; a closed stdout (`radar run | head`) is not an error.
+fn say(line: std::fmt::Arguments<'_>) {
+    let _ = writeln!(std::io::stdout(), "{line}");
+}
+
 fn run(args: RunArgs) -> Result<()> {
     let mut builder = System::builder().clock(args.clock).keep_trace(false);
     if !args.quiet {
@@ -81,10 +86,10 @@ fn run(args: RunArgs) -> Result<()> {
         None => {
             let limit = args.run_for.unwrap_or(Duration::from_secs(20));
             if !args.quiet {
-                println!(
+                say(format_args!(
                     "Radar: the paper's Listing 2/3 example, {clock} clock, {:.1} s\n",
                     limit.as_secs_f64()
-                );
+                ));
             }
             let system = example::listing23(builder).build()?;
             system.run_with(Some(limit), example::listing23_program)?
@@ -93,7 +98,7 @@ fn run(args: RunArgs) -> Result<()> {
             let manifest = Manifest::load(path)?;
             let system = manifest.add_plugins(builder).build()?;
             if !args.quiet {
-                println!("Radar: {}, {clock} clock\n", path.display());
+                say(format_args!("Radar: {}, {clock} clock\n", path.display()));
             }
             let links = manifest.links();
             system.run_with(args.run_for, move |radar| {
@@ -108,10 +113,10 @@ fn run(args: RunArgs) -> Result<()> {
         anyhow::bail!("{e}");
     }
     if !args.quiet {
-        println!(
+        say(format_args!(
             "\nrun ended at {:.3} s ({clock} clock)",
             report.ended_at.as_secs_f64()
-        );
+        ));
     }
     Ok(())
 }

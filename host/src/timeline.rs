@@ -10,9 +10,15 @@ use std::sync::Arc;
 
 use crate::trace::{Entry, Record, TraceSink};
 
+/// The timeline's resolution: records within one millisecond are shown as
+/// one instant (under the real clock, steps of one instant differ by
+/// nanoseconds).
+const INSTANT: u64 = 1_000_000;
+
 /// Prints a run as it happens.
 pub struct Timeline<W: Write + Send> {
     out: W,
+    /// The instant being collected, in units of [`INSTANT`].
     instant: Option<u64>,
     lines: Vec<String>,
     connections: BTreeMap<u64, String>,
@@ -38,10 +44,18 @@ impl<W: Write + Send> Timeline<W> {
     fn flush_instant(&mut self) {
         let Some(t) = self.instant else { return };
         let summary = self.summary();
-        if self.lines.is_empty() && summary == self.last_summary {
-            return;
+        if self.lines.is_empty() {
+            if summary == self.last_summary {
+                return;
+            }
+            let what = if self.last_summary.is_empty() {
+                "ready"
+            } else {
+                "state changed"
+            };
+            self.lines.push(what.to_string());
         }
-        let stamp = format!("{:>9.3}s", t as f64 / 1e9);
+        let stamp = format!("{:>9.3}s", (t * INSTANT) as f64 / 1e9);
         let mut text = String::new();
         for (i, line) in self.lines.drain(..).enumerate() {
             let lead = if i == 0 { stamp.as_str() } else { "" };
@@ -166,9 +180,10 @@ impl<W: Write + Send> Timeline<W> {
 
 impl<W: Write + Send> TraceSink for Timeline<W> {
     fn record(&mut self, record: &Record) {
-        if self.instant != Some(record.t) {
+        let instant = record.t / INSTANT;
+        if self.instant != Some(instant) {
             self.flush_instant();
-            self.instant = Some(record.t);
+            self.instant = Some(instant);
         }
         if let Some(line) = self.apply(&record.entry) {
             self.lines.push(line);

@@ -21,7 +21,10 @@ impl Guest for YieldResponse {
         let count = config_or("count", 3u32);
         for i in 0..count {
             if let Some(why) = interrupted() {
-                info(&format!("interrupted() said {} before yield {i}", why.name()));
+                info(&format!(
+                    "interrupted() said {} before yield {i}",
+                    why.name()
+                ));
                 return Err(why);
             }
             yield_now()?;
