@@ -1024,10 +1024,12 @@ impl Core {
 
     /// Handles a pending `reset`: a fresh store and instance.
     async fn reset(&self, pid: usize) -> Option<PluginInstance> {
+        // Cleared first: a reset whose instantiation fails leaves the plugin
+        // in `error` until the next `reset`, rather than retrying forever.
+        self.with(|st| st.plugins[pid].reset_requested = false);
         let inst = self.instantiate(pid).await?;
         self.with(|st| {
             let entry = &mut st.plugins[pid];
-            entry.reset_requested = false;
             entry.lifecycle = Lifecycle::Inactive;
             let name = entry.name.clone();
             let listening = entry.listeners > 0;
