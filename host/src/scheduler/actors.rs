@@ -1,0 +1,251 @@
+//! The actors: one `async` loop per plugin that owns its instance and runs
+//! its slots, an event's checks at their cadence, a response's
+//! start → [interrupt] → exit for each accepted start.
+
+use super::*;
+
+impl Core {
+    pub(super) fn with<R>(&self, f: impl FnOnce(&mut State) -> R) -> R {
+        f(&mut self.st.borrow_mut())
+    }
+
+    /// Waits until `ready` holds for plugin `pid` (the actor is woken by
+    /// whatever may have changed it).
+    pub(super) async fn until_ready(&self, pid: usize, ready: fn(&PluginEntry) -> bool) {
+        poll_fn(|cx| {
+            let mut st = self.st.borrow_mut();
+            let entry = &mut st.plugins[pid];
+            if ready(entry) || self.stopped.get() {
+                Poll::Ready(())
+            } else {
+                entry.actor = Some(cx.waker().clone());
+                Poll::Pending
+            }
+        })
+        .await
+    }
+
+    /// Builds a fresh instance; a failure puts the plugin in `error`.
+    pub(super) async fn instantiate(&self, pid: usize) -> Option<PluginInstance> {
+        let (code, setup) = self.with(|st| st.setup(pid));
+        match code.instantiate(setup).await {
+            Ok(inst) => Some(inst),
+            Err(fault) => {
+                self.with(|st| st.fault(pid, fault));
+                None
+            }
+        }
+    }
+
+    /// Handles a pending `reset`: a fresh store and instance.
+    pub(super) async fn reset(&self, pid: usize) -> Option<PluginInstance> {
+        // Cleared first: a reset whose instantiation fails leaves the plugin
+        // in `error` until the next `reset`, rather than retrying forever.
+        self.with(|st| st.plugins[pid].reset_requested = false);
+        let inst = self.instantiate(pid).await?;
+        self.with(|st| {
+            let entry = &mut st.plugins[pid];
+            entry.lifecycle = Lifecycle::Inactive;
+            let name = entry.name.clone();
+            let listening = entry.listeners > 0;
+            let event = entry.is_event();
+            st.record(Entry::Reset {
+                plugin: name.clone(),
+            });
+            if event {
+                st.record(Entry::State {
+                    plugin: name,
+                    state: "inactive",
+                });
+                if listening {
+                    st.activate(pid);
+                }
+            } else {
+                st.plugins[pid].lifecycle = Lifecycle::Active;
+                st.record(Entry::State {
+                    plugin: name,
+                    state: "idle",
+                });
+            }
+        });
+        Some(inst)
+    }
+}
+
+pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
+    let mut instance = core.instantiate(pid).await;
+    let (stop, period) = core.with(|st| (st.plugins[pid].stop.clone(), st.plugins[pid].def.period));
+    loop {
+        core.until_ready(pid, |e| {
+            e.reset_requested || e.lifecycle == Lifecycle::Active
+        })
+        .await;
+        if core.stopped.get() {
+            return;
+        }
+        if core.with(|st| st.plugins[pid].reset_requested) {
+            instance = core.reset(pid).await;
+            continue;
+        }
+        let Some(inst) = instance.as_mut() else {
+            // Faulted while instantiating: wait for a reset.
+            core.until_ready(pid, |e| e.reset_requested).await;
+            continue;
+        };
+        let next = core.with(|st| st.plugins[pid].next_check);
+        if core.base.now() < next {
+            let _ = core.base.sleep_until(next, Some(stop.clone())).await;
+            continue;
+        }
+        let began = core.base.now();
+        let outcome = inst.check().await;
+        core.with(|st| {
+            st.plugins[pid].next_check = began.saturating_add(period).max(st.now());
+            match outcome {
+                Err(fault) => st.fault(pid, fault),
+                Ok(Some(payload)) if st.plugins[pid].lifecycle == Lifecycle::Active => {
+                    st.emit(pid, Signal::Triggered, payload)
+                }
+                Ok(Some(payload)) => {
+                    let plugin = st.plugins[pid].name.clone();
+                    st.record(Entry::Discarded {
+                        plugin,
+                        payload: Payload(payload).to_json(),
+                    });
+                }
+                Ok(None) => {}
+            }
+        });
+        if core.with(|st| st.plugins[pid].lifecycle == Lifecycle::Error) {
+            instance = None;
+        }
+    }
+}
+
+pub(super) fn slot_end(core: &Core, pid: usize, slot: Slot, outcome: &'static str) {
+    core.with(|st| {
+        if !st.tracing() {
+            return;
+        }
+        let plugin = st.plugins[pid].name.clone();
+        st.record(Entry::SlotEnd {
+            plugin,
+            slot: slot.as_str(),
+            outcome,
+        });
+    });
+}
+
+pub(super) fn slot_begin(st: &mut State, pid: usize, slot: Slot) {
+    if !st.tracing() {
+        return;
+    }
+    let plugin = st.plugins[pid].name.clone();
+    st.record(Entry::SlotBegin {
+        plugin,
+        slot: slot.as_str(),
+    });
+}
+
+pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
+    let mut instance = core.instantiate(pid).await;
+    let (stop, has_result) = core.with(|st| {
+        let e = &st.plugins[pid];
+        let has_result = matches!(
+            e.def.code.kind,
+            Kind::Response {
+                start_result: Some(_),
+                ..
+            }
+        );
+        (e.stop.clone(), has_result)
+    });
+    loop {
+        core.until_ready(pid, |e| {
+            e.reset_requested || (e.lifecycle != Lifecycle::Error && !e.pending.is_empty())
+        })
+        .await;
+        if core.stopped.get() {
+            return;
+        }
+        if core.with(|st| st.plugins[pid].reset_requested) {
+            instance = core.reset(pid).await;
+            continue;
+        }
+        let Some(inst) = instance.as_mut() else {
+            core.until_ready(pid, |e| e.reset_requested).await;
+            continue;
+        };
+        let Some(request) = core.with(|st| st.plugins[pid].pending.pop_front()) else {
+            continue;
+        };
+        // start
+        core.with(|st| {
+            st.set_phase(pid, Phase::Running);
+            st.plugins[pid].until = request.until;
+            slot_begin(st, pid, Slot::Start);
+            st.emit(pid, Signal::Started, request.payload.clone());
+        });
+        let result = inst.start(request.payload, has_result).await;
+        let result = match result {
+            Ok(value) => value,
+            Err(fault) => {
+                slot_end(&core, pid, Slot::Start, "trapped");
+                core.with(|st| st.fault(pid, fault));
+                instance = None;
+                continue;
+            }
+        };
+        let stop_request = core.with(|st| st.plugins[pid].stop_request.take());
+        slot_end(
+            &core,
+            pid,
+            Slot::Start,
+            if stop_request.is_some() {
+                "interrupted"
+            } else {
+                "completed"
+            },
+        );
+        stop.clear();
+        // interrupt
+        if let Some((StopReason::Interrupt, payload)) = stop_request {
+            core.with(|st| {
+                st.set_phase(pid, Phase::Interrupting);
+                slot_begin(st, pid, Slot::Interrupt);
+                st.emit(pid, Signal::Interrupted, payload.clone());
+            });
+            if let Err(fault) = inst.interrupt(payload).await {
+                slot_end(&core, pid, Slot::Interrupt, "trapped");
+                core.with(|st| st.fault(pid, fault));
+                instance = None;
+                continue;
+            }
+            slot_end(&core, pid, Slot::Interrupt, "completed");
+        }
+        // exit
+        core.with(|st| {
+            st.set_phase(pid, Phase::Exiting);
+            slot_begin(st, pid, Slot::Exit);
+        });
+        if let Err(fault) = inst.exit().await {
+            slot_end(&core, pid, Slot::Exit, "trapped");
+            core.with(|st| st.fault(pid, fault));
+            instance = None;
+            continue;
+        }
+        slot_end(&core, pid, Slot::Exit, "completed");
+        core.with(|st| {
+            st.emit(pid, Signal::Exited, result);
+            for u in std::mem::take(&mut st.plugins[pid].until) {
+                st.disconnect(u, "until");
+            }
+            let next = if st.plugins[pid].pending.is_empty() {
+                Phase::Idle
+            } else {
+                Phase::Running
+            };
+            st.set_phase(pid, next);
+        });
+    }
+}

@@ -1,0 +1,731 @@
+//! The scheduler: one thread that owns every store, routes every signal and
+//! decides what runs next (DESIGN §1.1, §1.3).
+//!
+//! Each plugin is driven by one *actor* task, an `async` loop that owns the
+//! plugin's instance: an event's actor calls `check` at its cadence while
+//! the event is active; a response's actor runs start → [interrupt] → exit
+//! for each accepted start signal. Actors never call each other: a signal
+//! is routed synchronously through the connection table (connections in the
+//! order they were made) and only changes state and wakes the target's
+//! actor, which then runs when its turn comes. Tasks run in the order they
+//! became ready; timers with one deadline fire in the order they were set.
+//!
+//! Deliberative code talks to the scheduler only through [`Command`]s on a
+//! crossbeam channel. Under the virtual clock, native code runs in
+//! *lockstep*: while a deliberative thread or an anonymous slot is running
+//! (not blocked in `sleep` or `waitfor`), the scheduler runs nothing else and
+//! time stands still, so that its effects land at a deterministic point.
+
+use std::cell::{Cell, RefCell};
+use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::future::poll_fn;
+use std::rc::Rc;
+use std::sync::Arc;
+use std::task::{Poll, Waker};
+use std::time::Duration;
+
+use crossbeam_channel::{Receiver, RecvTimeoutError, Sender};
+use serde_json::Value as Json;
+use wasmtime::component::Val;
+
+use crate::clock::{ClockKind, StopFlag, StopReason, TimeBase};
+use crate::error::RadarError;
+use crate::executor::{Executor, LocalTask, TaskId};
+use crate::payload::{json_to_val, val_to_json, Payload, PayloadType};
+use crate::plugin::{Fault, InstanceSetup, Kind, Limits, PluginCode, PluginInstance};
+use crate::trace::{Entry, Record, TraceSink};
+
+mod actors;
+mod routing;
+
+use actors::{event_actor, response_actor};
+
+/// A closure run for each delivery to an anonymous slot.
+pub type AnonymousSlot = Box<dyn FnMut(Payload) + Send + 'static>;
+
+/// How a connection behaves after its first delivery.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// Removed after its first delivery.
+    Once,
+    /// Kept until closed or its scope ends.
+    Whenever,
+}
+
+impl Mode {
+    fn as_str(self) -> &'static str {
+        match self {
+            Mode::Once => "once",
+            Mode::Whenever => "whenever",
+        }
+    }
+}
+
+/// What a start signal does when the target response is busy.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Busy {
+    /// Dropped, and recorded in the trace as dropped (the default).
+    #[default]
+    Drop,
+    /// Run after the current activation; at most this many wait.
+    Queue(usize),
+    /// The current activation is stopped (its interrupt slot skipped, its
+    /// exit slot run) and the response starts again with the new payload.
+    Restart,
+}
+
+impl Busy {
+    fn as_str(self) -> &'static str {
+        match self {
+            Busy::Drop => "drop",
+            Busy::Queue(_) => "queue",
+            Busy::Restart => "restart",
+        }
+    }
+}
+
+/// A connection as deliberative code asks for it.
+pub(crate) struct LinkSpec {
+    pub from: String,
+    pub to: LinkTarget,
+    pub mode: Mode,
+    pub busy: Busy,
+    pub min_interval: Option<Duration>,
+    pub until: Option<String>,
+}
+
+pub(crate) enum LinkTarget {
+    Slot(String),
+    Closure(AnonymousSlot),
+}
+
+/// What deliberative code (or the CLI) asks of a running system.
+pub(crate) enum Command {
+    Connect {
+        link: LinkSpec,
+        reply: Sender<Result<Vec<u64>, RadarError>>,
+    },
+    Disconnect {
+        ids: Vec<u64>,
+        reason: &'static str,
+    },
+    Inject {
+        to: String,
+        payload: Json,
+        reply: Sender<Result<(), RadarError>>,
+    },
+    WaitFor {
+        event: String,
+        timeout: Option<Duration>,
+        lockstep: bool,
+        reply: Sender<Result<Option<Payload>, RadarError>>,
+    },
+    Sleep {
+        duration: Duration,
+        lockstep: bool,
+        reply: Sender<()>,
+    },
+    Reset {
+        plugin: String,
+        reply: Sender<Result<(), RadarError>>,
+    },
+    Now {
+        reply: Sender<Duration>,
+    },
+    ProgramDone {
+        outcome: String,
+    },
+    AnonymousDone {
+        slot: u64,
+        closure: AnonymousSlot,
+        panicked: bool,
+    },
+    Stop,
+}
+
+/// A delivery to an anonymous slot, run on the slot-runner thread.
+pub(crate) struct AnonymousJob {
+    pub slot: u64,
+    pub closure: AnonymousSlot,
+    pub payload: Payload,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Signal {
+    Triggered,
+    Started,
+    Interrupted,
+    Exited,
+    Faulted,
+}
+
+impl Signal {
+    fn as_str(self) -> &'static str {
+        match self {
+            Signal::Triggered => "triggered",
+            Signal::Started => "started",
+            Signal::Interrupted => "interrupted",
+            Signal::Exited => "exited",
+            Signal::Faulted => "faulted",
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Slot {
+    Start,
+    Interrupt,
+    Exit,
+}
+
+impl Slot {
+    fn as_str(self) -> &'static str {
+        match self {
+            Slot::Start => "start",
+            Slot::Interrupt => "interrupt",
+            Slot::Exit => "exit",
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Lifecycle {
+    Inactive,
+    Active,
+    Error,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Phase {
+    Idle,
+    Running,
+    Interrupting,
+    Exiting,
+}
+
+impl Phase {
+    fn as_str(self) -> &'static str {
+        match self {
+            Phase::Idle => "idle",
+            Phase::Running => "running",
+            Phase::Interrupting => "interrupting",
+            Phase::Exiting => "exiting",
+        }
+    }
+}
+
+/// A start signal a response has accepted but not begun.
+struct StartRequest {
+    payload: Option<Val>,
+    /// `until` connections that live as long as this activation.
+    until: Vec<u64>,
+}
+
+/// A plugin as the scheduler sees it.
+pub(crate) struct PluginDef {
+    pub name: String,
+    pub code: Rc<PluginCode>,
+    pub config: Arc<BTreeMap<String, String>>,
+    pub limits: Limits,
+    /// An event's check period (DESIGN §1.1), in nanoseconds.
+    pub period: u64,
+}
+
+struct PluginEntry {
+    def: PluginDef,
+    name: Arc<str>,
+    stop: Arc<StopFlag>,
+    lifecycle: Lifecycle,
+    actor: Option<Waker>,
+    reset_requested: bool,
+    /// Events: connections listening to `triggered`.
+    listeners: usize,
+    /// Events: when the next check may start.
+    next_check: u64,
+    /// Responses.
+    phase: Phase,
+    pending: VecDeque<StartRequest>,
+    stop_request: Option<(StopReason, Option<Val>)>,
+    until: Vec<u64>,
+}
+
+impl PluginEntry {
+    fn is_event(&self) -> bool {
+        matches!(self.def.code.kind, Kind::Event { .. })
+    }
+
+    fn wake(&mut self) {
+        if let Some(w) = self.actor.take() {
+            w.wake();
+        }
+    }
+
+    fn signal_type(&self, signal: Signal) -> Option<Option<PayloadType>> {
+        match (&self.def.code.kind, signal) {
+            (_, Signal::Faulted) => Some(Some(PayloadType::String)),
+            (Kind::Event { payload, .. }, Signal::Triggered) => Some(payload.clone()),
+            (Kind::Response { start_param, .. }, Signal::Started) => Some(start_param.clone()),
+            (
+                Kind::Response {
+                    interrupt_param, ..
+                },
+                Signal::Interrupted,
+            ) => Some(interrupt_param.clone()),
+            (Kind::Response { start_result, .. }, Signal::Exited) => Some(start_result.clone()),
+            _ => None,
+        }
+    }
+
+    fn slot_type(&self, slot: Slot) -> Option<Option<PayloadType>> {
+        match (&self.def.code.kind, slot) {
+            (Kind::Response { start_param, .. }, Slot::Start) => Some(start_param.clone()),
+            (
+                Kind::Response {
+                    interrupt_param, ..
+                },
+                Slot::Interrupt,
+            ) => Some(interrupt_param.clone()),
+            (Kind::Response { .. }, Slot::Exit) => Some(None),
+            _ => None,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Target {
+    Slot(usize, Slot),
+    Anonymous(u64),
+    Waiter(u64),
+}
+
+struct Connection {
+    from: (usize, Signal),
+    target: Target,
+    mode: Mode,
+    busy: Busy,
+    min_interval: Option<u64>,
+    last_delivery: Option<u64>,
+    /// For `once E start R until F`: the `F → R.interrupt` connection(s)
+    /// that live as long as the activation this one starts.
+    until: Vec<u64>,
+    to_label: Arc<str>,
+    /// Whether the target takes the payload (a slot without parameter drops it).
+    pass_payload: bool,
+}
+
+struct Anonymous {
+    closure: Option<AnonymousSlot>,
+    queue: VecDeque<Payload>,
+    closed: bool,
+}
+
+struct Waiter {
+    reply: Sender<Result<Option<Payload>, RadarError>>,
+    lockstep: bool,
+    timeout_task: Option<TaskId>,
+    connection: u64,
+}
+
+/// Where trace records go.
+pub(crate) struct TraceOut {
+    pub sinks: Vec<Box<dyn TraceSink>>,
+    pub kept: Option<Vec<Record>>,
+}
+
+pub(crate) struct State {
+    base: TimeBase,
+    plugins: Vec<PluginEntry>,
+    by_name: BTreeMap<String, usize>,
+    connections: BTreeMap<u64, Connection>,
+    next_connection: u64,
+    anonymous: HashMap<u64, Anonymous>,
+    waiters: HashMap<u64, Waiter>,
+    next_waiter: u64,
+    trace: TraceOut,
+    /// Native contexts (deliberative threads, anonymous slots) running now.
+    lockstep: u32,
+    spawned: Vec<(TaskId, LocalTask)>,
+    cancelled: Vec<TaskId>,
+    next_task: TaskId,
+    anonymous_jobs: Sender<AnonymousJob>,
+    seed: u64,
+    stop: bool,
+    program_outcome: Option<String>,
+    route_buffer: Vec<u64>,
+}
+
+/// The scheduler's shared state, reached by every actor task.
+pub(crate) struct Core {
+    pub base: TimeBase,
+    st: RefCell<State>,
+    stopped: Cell<bool>,
+}
+
+struct ConnectionParts {
+    mode: Mode,
+    busy: Busy,
+    min_interval: Option<u64>,
+    to_label: String,
+    pass_payload: bool,
+}
+
+pub(crate) fn duration_nanos(d: Duration) -> u64 {
+    u64::try_from(d.as_nanos()).unwrap_or(u64::MAX)
+}
+
+/// How a run ended.
+pub(crate) struct RunEnd {
+    pub trace: Vec<Record>,
+    pub ended_at: u64,
+    /// `ok` or the error, if the deliberative program ended during the run.
+    pub program_outcome: Option<String>,
+}
+
+/// What a run is made of.
+pub(crate) struct RunSetup {
+    pub base: TimeBase,
+    pub plugins: Vec<PluginDef>,
+    pub trace: TraceOut,
+    pub commands: Receiver<Command>,
+    pub anonymous_jobs: Sender<AnonymousJob>,
+    pub limit: Option<Duration>,
+    pub seed: u64,
+    /// Native deliberative programs running when the run begins.
+    pub programs: u32,
+}
+
+/// Owns the executor and the command channel; [`Scheduler::run`] is the
+/// scheduler's thread.
+pub(crate) struct Scheduler {
+    core: Rc<Core>,
+    executor: Executor,
+    commands: Receiver<Command>,
+    limit: Option<u64>,
+}
+
+impl Scheduler {
+    pub fn new(setup: RunSetup) -> Self {
+        let RunSetup {
+            base,
+            plugins,
+            trace,
+            commands,
+            anonymous_jobs,
+            limit,
+            seed,
+            programs,
+        } = setup;
+        let mut by_name = BTreeMap::new();
+        let plugins: Vec<PluginEntry> = plugins
+            .into_iter()
+            .enumerate()
+            .map(|(i, def)| {
+                by_name.insert(def.name.clone(), i);
+                let lifecycle = match def.code.kind {
+                    Kind::Event { .. } => Lifecycle::Inactive,
+                    Kind::Response { .. } => Lifecycle::Active,
+                };
+                PluginEntry {
+                    name: Arc::from(def.name.as_str()),
+                    def,
+                    stop: Arc::new(StopFlag::default()),
+                    lifecycle,
+                    actor: None,
+                    reset_requested: false,
+                    listeners: 0,
+                    next_check: 0,
+                    phase: Phase::Idle,
+                    pending: VecDeque::new(),
+                    stop_request: None,
+                    until: Vec::new(),
+                }
+            })
+            .collect();
+        let state = State {
+            base: base.clone(),
+            plugins,
+            by_name,
+            connections: BTreeMap::new(),
+            next_connection: 0,
+            anonymous: HashMap::new(),
+            waiters: HashMap::new(),
+            next_waiter: 0,
+            trace,
+            lockstep: programs,
+            spawned: Vec::new(),
+            cancelled: Vec::new(),
+            next_task: 0,
+            anonymous_jobs,
+            seed,
+            stop: false,
+            program_outcome: None,
+            route_buffer: Vec::new(),
+        };
+        Self {
+            core: Rc::new(Core {
+                base,
+                st: RefCell::new(state),
+                stopped: Cell::new(false),
+            }),
+            executor: Executor::default(),
+            commands,
+            limit: limit.map(duration_nanos),
+        }
+    }
+
+    /// Runs until the time limit, a `Stop` command, or (virtual clock) until
+    /// nothing can ever happen again.
+    pub fn run(mut self) -> RunEnd {
+        let kind = self.core.base.kind();
+        let count = self.core.with(|st| st.plugins.len());
+        self.core.with(|st| {
+            for pid in 0..count {
+                let entry = &st.plugins[pid];
+                let state = if entry.is_event() { "inactive" } else { "idle" };
+                let plugin = entry.name.clone();
+                st.record(Entry::State { plugin, state });
+            }
+        });
+        for pid in 0..count {
+            let core = self.core.clone();
+            let task: LocalTask = if self.core.with(|st| st.plugins[pid].is_event()) {
+                Box::pin(event_actor(core, pid))
+            } else {
+                Box::pin(response_actor(core, pid))
+            };
+            self.core.with(|st| st.spawn(task));
+        }
+        self.absorb();
+        loop {
+            if self.core.with(|st| st.stop) {
+                break;
+            }
+            let lockstep = self.core.with(|st| st.lockstep) > 0;
+            if kind == ClockKind::Virtual && lockstep {
+                // Native code is running: nothing else may happen until it
+                // blocks or finishes.
+                match self.commands.recv() {
+                    Ok(cmd) => self.handle(cmd),
+                    Err(_) => self.core.with(|st| st.lockstep = 0),
+                }
+                continue;
+            }
+            if let Ok(cmd) = self.commands.try_recv() {
+                self.handle(cmd);
+                continue;
+            }
+            if kind == ClockKind::Real {
+                let now = self.core.base.now();
+                if self.limit.is_some_and(|l| now >= l) {
+                    break;
+                }
+                self.core.base.fire_due(now);
+            }
+            if self.executor.run_one() {
+                self.absorb();
+                continue;
+            }
+            let next = self.core.base.next_deadline();
+            match kind {
+                ClockKind::Virtual => match next {
+                    Some(d) if self.limit.is_none_or(|l| d <= l) => {
+                        self.core.base.advance_to(d);
+                        self.core.base.fire_due(d);
+                    }
+                    _ => {
+                        if let Some(l) = self.limit {
+                            self.core.base.advance_to(l);
+                        }
+                        break;
+                    }
+                },
+                ClockKind::Real => {
+                    let now = self.core.base.now();
+                    let until = match (next, self.limit) {
+                        (Some(d), Some(l)) => Some(d.min(l)),
+                        (d, l) => d.or(l),
+                    };
+                    let wait = until.map(|u| Duration::from_nanos(u.saturating_sub(now)));
+                    let received = match wait {
+                        Some(w) => self.commands.recv_timeout(w),
+                        None => self
+                            .commands
+                            .recv()
+                            .map_err(|_| RecvTimeoutError::Disconnected),
+                    };
+                    match received {
+                        Ok(cmd) => self.handle(cmd),
+                        Err(RecvTimeoutError::Timeout) => {}
+                        Err(RecvTimeoutError::Disconnected) => match wait {
+                            Some(w) => std::thread::sleep(w),
+                            None => break,
+                        },
+                    }
+                }
+            }
+        }
+        self.finish()
+    }
+
+    fn finish(self) -> RunEnd {
+        self.core.stopped.set(true);
+        let ended_at = self.core.base.now();
+        // End every wait so that blocked deliberative threads see the stop.
+        let (trace, program_outcome) = self.core.with(|st| {
+            st.record_logs();
+            st.waiters.clear();
+            for sink in &mut st.trace.sinks {
+                sink.finish();
+            }
+            (
+                st.trace.kept.take().unwrap_or_default(),
+                st.program_outcome.take(),
+            )
+        });
+        drop(self.executor);
+        RunEnd {
+            trace,
+            ended_at,
+            program_outcome,
+        }
+    }
+
+    /// Moves tasks spawned or cancelled during the last step into the
+    /// executor, and plugin log lines into the trace.
+    fn absorb(&mut self) {
+        let (spawned, cancelled) = self.core.with(|st| {
+            st.record_logs();
+            (
+                std::mem::take(&mut st.spawned),
+                std::mem::take(&mut st.cancelled),
+            )
+        });
+        for id in cancelled {
+            self.executor.cancel(id);
+        }
+        for (id, task) in spawned {
+            self.executor.insert(id, task);
+        }
+    }
+
+    fn handle(&mut self, cmd: Command) {
+        let core = self.core.clone();
+        match cmd {
+            Command::Connect { link, reply } => {
+                let result = core.with(|st| st.connect(link));
+                let _ = reply.send(result);
+            }
+            Command::Disconnect { ids, reason } => core.with(|st| {
+                for id in ids {
+                    st.disconnect(id, reason);
+                }
+            }),
+            Command::Inject { to, payload, reply } => {
+                let result = core.with(|st| st.inject(&to, &payload));
+                let _ = reply.send(result);
+            }
+            Command::WaitFor {
+                event,
+                timeout,
+                lockstep,
+                reply,
+            } => core.with(|st| {
+                let from = match st.resolve_signal(&event) {
+                    Ok(from) => from,
+                    Err(e) => {
+                        let _ = reply.send(Err(e));
+                        return;
+                    }
+                };
+                if lockstep {
+                    st.lockstep = st.lockstep.saturating_sub(1);
+                }
+                st.next_waiter += 1;
+                let w = st.next_waiter;
+                let parts = ConnectionParts {
+                    mode: Mode::Once,
+                    busy: Busy::Drop,
+                    min_interval: None,
+                    to_label: "(waitfor)".into(),
+                    pass_payload: true,
+                };
+                // Registered before the connection exists so that an
+                // immediate delivery finds it.
+                st.waiters.insert(
+                    w,
+                    Waiter {
+                        reply,
+                        lockstep,
+                        timeout_task: None,
+                        connection: 0,
+                    },
+                );
+                let connection = st.add_connection(from, Target::Waiter(w), parts);
+                let deadline = timeout.map(|t| st.now().saturating_add(duration_nanos(t)));
+                let timeout_task = deadline.map(|deadline| {
+                    let core = core.clone();
+                    st.spawn(Box::pin(async move {
+                        let _ = core.base.sleep_until(deadline, None).await;
+                        core.with(|st| st.finish_waiter(w, None));
+                    }))
+                });
+                if let Some(waiter) = st.waiters.get_mut(&w) {
+                    waiter.timeout_task = timeout_task;
+                    waiter.connection = connection;
+                }
+            }),
+            Command::Sleep {
+                duration,
+                lockstep,
+                reply,
+            } => core.with(|st| {
+                if lockstep {
+                    st.lockstep = st.lockstep.saturating_sub(1);
+                }
+                let deadline = st.now().saturating_add(duration_nanos(duration));
+                let core = core.clone();
+                st.spawn(Box::pin(async move {
+                    let _ = core.base.sleep_until(deadline, None).await;
+                    core.with(|st| {
+                        if lockstep {
+                            st.lockstep += 1;
+                        }
+                        if reply.send(()).is_err() && lockstep {
+                            st.lockstep -= 1;
+                        }
+                    });
+                }));
+            }),
+            Command::Reset { plugin, reply } => {
+                let result = core.with(|st| {
+                    let pid = st.plugin(&plugin)?;
+                    let entry = &mut st.plugins[pid];
+                    if entry.lifecycle != Lifecycle::Error {
+                        return Err(RadarError::NotFaulted(plugin));
+                    }
+                    entry.reset_requested = true;
+                    entry.wake();
+                    Ok(())
+                });
+                let _ = reply.send(result);
+            }
+            Command::Now { reply } => {
+                let _ = reply.send(Duration::from_nanos(core.base.now()));
+            }
+            Command::ProgramDone { outcome } => core.with(|st| {
+                st.lockstep = st.lockstep.saturating_sub(1);
+                st.record(Entry::ProgramEnd {
+                    outcome: outcome.clone(),
+                });
+                st.program_outcome = Some(outcome);
+            }),
+            Command::AnonymousDone {
+                slot,
+                closure,
+                panicked,
+            } => core.with(|st| st.anonymous_done(slot, closure, panicked)),
+            Command::Stop => core.with(|st| st.stop = true),
+        }
+        self.absorb();
+    }
+}

@@ -1,0 +1,627 @@
+//! The connection table and signal routing: what happens, synchronously,
+//! when a plugin emits a signal or deliberative code makes, ends or injects
+//! into a connection. Nothing here calls into wasm: a delivery only changes
+//! state and wakes the target's actor.
+
+use super::*;
+
+pub(super) fn split_port(spec: &str) -> (&str, Option<&str>) {
+    match spec.rsplit_once('.') {
+        Some((plugin, port)) => (plugin, Some(port)),
+        None => (spec, None),
+    }
+}
+
+impl State {
+    pub(super) fn now(&self) -> u64 {
+        self.base.now()
+    }
+
+    pub(super) fn tracing(&self) -> bool {
+        !self.trace.sinks.is_empty() || self.trace.kept.is_some()
+    }
+
+    pub(super) fn record(&mut self, entry: Entry) {
+        // Lines a guest logged during the step that led here come first.
+        self.record_logs();
+        if !self.tracing() {
+            return;
+        }
+        let t = self.now();
+        self.write(Record { t, entry });
+    }
+
+    pub(super) fn write(&mut self, record: Record) {
+        for sink in &mut self.trace.sinks {
+            sink.record(&record);
+        }
+        if let Some(kept) = &mut self.trace.kept {
+            kept.push(record);
+        }
+    }
+
+    pub(super) fn record_logs(&mut self) {
+        let lines = self.base.take_logs();
+        if !self.tracing() {
+            return;
+        }
+        for line in lines {
+            self.write(Record {
+                t: line.t,
+                entry: Entry::Log {
+                    plugin: line.plugin,
+                    level: line.level,
+                    message: line.message,
+                },
+            });
+        }
+    }
+
+    pub(super) fn spawn(&mut self, task: LocalTask) -> TaskId {
+        self.next_task += 1;
+        self.spawned.push((self.next_task, task));
+        self.next_task
+    }
+
+    pub(super) fn plugin(&self, name: &str) -> Result<usize, RadarError> {
+        self.by_name
+            .get(name)
+            .copied()
+            .ok_or_else(|| RadarError::UnknownPlugin(name.to_string()))
+    }
+
+    pub(super) fn resolve_signal(&self, spec: &str) -> Result<(usize, Signal), RadarError> {
+        let (name, port) = split_port(spec);
+        let pid = self.plugin(name)?;
+        let entry = &self.plugins[pid];
+        let default = if entry.is_event() {
+            "triggered"
+        } else {
+            "exited"
+        };
+        let signal = match port.unwrap_or(default) {
+            "triggered" => Signal::Triggered,
+            "started" => Signal::Started,
+            "interrupted" => Signal::Interrupted,
+            "exited" => Signal::Exited,
+            "faulted" => Signal::Faulted,
+            other => return Err(self.unknown_port(pid, "signal", other)),
+        };
+        if entry.signal_type(signal).is_none() {
+            return Err(self.unknown_port(pid, "signal", signal.as_str()));
+        }
+        Ok((pid, signal))
+    }
+
+    pub(super) fn resolve_slot(&self, spec: &str) -> Result<(usize, Slot), RadarError> {
+        let (name, port) = split_port(spec);
+        let pid = self.plugin(name)?;
+        let slot = match port.unwrap_or("start") {
+            "start" => Slot::Start,
+            "interrupt" | "until" => Slot::Interrupt,
+            "exit" => Slot::Exit,
+            other => return Err(self.unknown_port(pid, "slot", other)),
+        };
+        if self.plugins[pid].slot_type(slot).is_none() {
+            return Err(self.unknown_port(pid, "slot", slot.as_str()));
+        }
+        Ok((pid, slot))
+    }
+
+    pub(super) fn unknown_port(&self, pid: usize, what: &'static str, name: &str) -> RadarError {
+        let entry = &self.plugins[pid];
+        let known = if what == "signal" {
+            if entry.is_event() {
+                "triggered, faulted"
+            } else {
+                "started, interrupted, exited, faulted"
+            }
+        } else if entry.is_event() {
+            "none: an event has no slots"
+        } else {
+            "start, interrupt, exit"
+        };
+        RadarError::UnknownPort {
+            plugin: entry.def.name.clone(),
+            what,
+            name: name.to_string(),
+            known: known.to_string(),
+        }
+    }
+
+    pub(super) fn signal_label(&self, (pid, signal): (usize, Signal)) -> String {
+        format!("{}.{}", self.plugins[pid].def.name, signal.as_str())
+    }
+
+    pub(super) fn slot_label(&self, pid: usize, slot: Slot) -> String {
+        format!("{}.{}", self.plugins[pid].def.name, slot.as_str())
+    }
+
+    /// Checks that `from`'s payload fits `(pid, slot)`; returns whether the
+    /// slot takes the payload at all.
+    pub(super) fn check_types(
+        &self,
+        from: (usize, Signal),
+        pid: usize,
+        slot: Slot,
+    ) -> Result<bool, RadarError> {
+        let emits = self.plugins[from.0].signal_type(from.1).flatten();
+        let takes = self.plugins[pid].slot_type(slot).flatten();
+        match (emits, takes) {
+            (_, None) => Ok(false),
+            (Some(e), Some(t)) if e == t => Ok(true),
+            (e, Some(t)) => Err(RadarError::TypeMismatch {
+                from: self.signal_label(from),
+                from_type: e.map_or("no payload".to_string(), |e| e.to_string()),
+                to: self.slot_label(pid, slot),
+                to_type: t.to_string(),
+            }),
+        }
+    }
+
+    pub(super) fn add_connection(
+        &mut self,
+        from: (usize, Signal),
+        target: Target,
+        conn: ConnectionParts,
+    ) -> u64 {
+        self.next_connection += 1;
+        let id = self.next_connection;
+        let from_label = self.signal_label(from);
+        self.record(Entry::Connect {
+            id,
+            from: from_label,
+            to: conn.to_label.clone(),
+            mode: conn.mode.as_str(),
+            busy: conn.busy.as_str(),
+        });
+        self.connections.insert(
+            id,
+            Connection {
+                from,
+                target,
+                mode: conn.mode,
+                busy: conn.busy,
+                min_interval: conn.min_interval,
+                last_delivery: None,
+                until: Vec::new(),
+                to_label: conn.to_label.into(),
+                pass_payload: conn.pass_payload,
+            },
+        );
+        if from.1 == Signal::Triggered {
+            let entry = &mut self.plugins[from.0];
+            entry.listeners += 1;
+            if entry.listeners == 1 && entry.lifecycle == Lifecycle::Inactive {
+                self.activate(from.0);
+            }
+        }
+        id
+    }
+
+    pub(super) fn activate(&mut self, pid: usize) {
+        let entry = &mut self.plugins[pid];
+        entry.lifecycle = Lifecycle::Active;
+        entry.stop.clear();
+        entry.wake();
+        let plugin = entry.name.clone();
+        self.record(Entry::Activate { plugin });
+    }
+
+    pub(super) fn connect(&mut self, link: LinkSpec) -> Result<Vec<u64>, RadarError> {
+        let from = self.resolve_signal(&link.from)?;
+        let parts = |to_label: String, pass_payload: bool| ConnectionParts {
+            mode: link.mode,
+            busy: link.busy,
+            min_interval: link.min_interval.map(duration_nanos),
+            to_label,
+            pass_payload,
+        };
+        match link.to {
+            LinkTarget::Closure(closure) => {
+                if link.until.is_some() {
+                    return Err(RadarError::InvalidConnection {
+                        from: link.from,
+                        to: "an anonymous slot".into(),
+                        cause: "`until` interrupts a response; an anonymous slot has nothing to interrupt"
+                            .into(),
+                    });
+                }
+                let slot = self.next_connection + 1;
+                self.anonymous.insert(
+                    slot,
+                    Anonymous {
+                        closure: Some(closure),
+                        queue: VecDeque::new(),
+                        closed: false,
+                    },
+                );
+                let id = self.add_connection(
+                    from,
+                    Target::Anonymous(slot),
+                    parts("(anonymous)".into(), true),
+                );
+                Ok(vec![id])
+            }
+            LinkTarget::Slot(to) => {
+                let (pid, slot) = self.resolve_slot(&to)?;
+                let pass = self.check_types(from, pid, slot)?;
+                let until = match &link.until {
+                    None => None,
+                    Some(_) if slot != Slot::Start => {
+                        return Err(RadarError::InvalidConnection {
+                            from: link.from,
+                            to,
+                            cause: "`until` goes with a connection to a response's start slot"
+                                .into(),
+                        })
+                    }
+                    Some(spec) => {
+                        let f = self.resolve_signal(spec)?;
+                        let pass_until = self.check_types(f, pid, Slot::Interrupt)?;
+                        Some((f, pass_until))
+                    }
+                };
+                let label = self.slot_label(pid, slot);
+                let id = self.add_connection(from, Target::Slot(pid, slot), parts(label, pass));
+                let mut ids = vec![id];
+                if let Some((f, pass_until)) = until {
+                    let until_parts = ConnectionParts {
+                        mode: Mode::Whenever,
+                        busy: Busy::Drop,
+                        min_interval: None,
+                        to_label: self.slot_label(pid, Slot::Interrupt),
+                        pass_payload: pass_until,
+                    };
+                    let until_id =
+                        self.add_connection(f, Target::Slot(pid, Slot::Interrupt), until_parts);
+                    if let Some(c) = self.connections.get_mut(&id) {
+                        c.until.push(until_id);
+                    }
+                    ids.push(until_id);
+                }
+                Ok(ids)
+            }
+        }
+    }
+
+    pub(super) fn disconnect(&mut self, id: u64, reason: &'static str) {
+        let Some(conn) = self.connections.remove(&id) else {
+            return; // already gone (a once that fired, an until that ended)
+        };
+        self.record(Entry::Disconnect { id, reason });
+        match conn.target {
+            Target::Anonymous(slot) => {
+                if let Some(a) = self.anonymous.get_mut(&slot) {
+                    a.closed = true;
+                    if a.closure.is_some() && a.queue.is_empty() {
+                        self.anonymous.remove(&slot);
+                    }
+                }
+            }
+            Target::Waiter(w) => {
+                if reason != "fired" {
+                    self.finish_waiter(w, None);
+                }
+            }
+            Target::Slot(..) => {}
+        }
+        if conn.from.1 == Signal::Triggered {
+            let pid = conn.from.0;
+            let entry = &mut self.plugins[pid];
+            entry.listeners -= 1;
+            if entry.listeners == 0 && entry.lifecycle == Lifecycle::Active {
+                entry.lifecycle = Lifecycle::Inactive;
+                entry.stop.request(StopReason::Deactivate);
+                let plugin = entry.name.clone();
+                self.record(Entry::Deactivate { plugin });
+            }
+        }
+    }
+
+    /// Emits `signal` from `pid` and routes it to every connection, in the
+    /// order the connections were made.
+    pub(super) fn emit(&mut self, pid: usize, signal: Signal, payload: Option<Val>) {
+        if self.tracing() {
+            let plugin = self.plugins[pid].name.clone();
+            let json = payload.as_ref().map(val_to_json).unwrap_or(Json::Null);
+            self.record(Entry::Signal {
+                plugin,
+                signal: signal.as_str(),
+                payload: json,
+            });
+        }
+        // Deliveries may remove connections, so the matching ids are taken
+        // first, into a buffer kept between signals (no allocation here).
+        let mut ids = std::mem::take(&mut self.route_buffer);
+        ids.extend(
+            self.connections
+                .iter()
+                .filter(|(_, c)| c.from == (pid, signal))
+                .map(|(id, _)| *id),
+        );
+        for &id in &ids {
+            self.deliver(id, &payload);
+        }
+        ids.clear();
+        self.route_buffer = ids;
+    }
+
+    pub(super) fn deliver(&mut self, id: u64, payload: &Option<Val>) {
+        let now = self.now();
+        let Some(conn) = self.connections.get_mut(&id) else {
+            return; // removed by an earlier delivery of this same signal
+        };
+        if let (Some(min), Some(last)) = (conn.min_interval, conn.last_delivery) {
+            if now < last.saturating_add(min) {
+                let to = conn.to_label.clone();
+                self.record(Entry::Dropped {
+                    id,
+                    to,
+                    reason: "min-interval",
+                });
+                return;
+            }
+        }
+        conn.last_delivery = Some(now);
+        let (target, busy, mode, to) = (conn.target, conn.busy, conn.mode, conn.to_label.clone());
+        let until = conn.until.clone();
+        let payload = if conn.pass_payload {
+            payload.clone()
+        } else {
+            None
+        };
+        let accepted = match target {
+            Target::Slot(pid, slot) => {
+                self.deliver_to_slot(pid, slot, payload, busy, until.clone())
+            }
+            Target::Anonymous(slot) => {
+                if let Some(a) = self.anonymous.get_mut(&slot) {
+                    a.queue.push_back(Payload(payload));
+                }
+                self.dispatch_anonymous(slot);
+                Ok(())
+            }
+            Target::Waiter(w) => {
+                self.finish_waiter(w, Some(Payload(payload)));
+                Ok(())
+            }
+        };
+        match accepted {
+            Ok(()) => {
+                if self.tracing() {
+                    self.record(Entry::Deliver { id, to });
+                }
+            }
+            Err(reason) => {
+                self.record(Entry::Dropped { id, to, reason });
+                for u in until {
+                    self.disconnect(u, "until");
+                }
+            }
+        }
+        if mode == Mode::Once {
+            self.disconnect(id, "fired");
+        }
+    }
+
+    /// Hands a payload to a response's slot under the busy policy; the
+    /// error is the reason it was not taken.
+    pub(super) fn deliver_to_slot(
+        &mut self,
+        pid: usize,
+        slot: Slot,
+        payload: Option<Val>,
+        busy: Busy,
+        until: Vec<u64>,
+    ) -> Result<(), &'static str> {
+        let now_phase = self.plugins[pid].phase;
+        let entry = &mut self.plugins[pid];
+        if entry.lifecycle == Lifecycle::Error {
+            return Err("error");
+        }
+        match slot {
+            Slot::Start => {
+                let request = StartRequest { payload, until };
+                if now_phase == Phase::Idle {
+                    entry.pending.push_back(request);
+                    entry.wake();
+                    self.set_phase(pid, Phase::Running);
+                    return Ok(());
+                }
+                match busy {
+                    Busy::Drop => Err("busy"),
+                    Busy::Queue(limit) => {
+                        if entry.pending.len() >= limit {
+                            return Err("queue-full");
+                        }
+                        entry.pending.push_back(request);
+                        Ok(())
+                    }
+                    Busy::Restart => {
+                        let dropped: Vec<StartRequest> = entry.pending.drain(..).collect();
+                        entry.pending.push_back(request);
+                        if now_phase == Phase::Running && entry.stop_request.is_none() {
+                            entry.stop_request = Some((StopReason::Exit, None));
+                            entry.stop.request(StopReason::Exit);
+                        }
+                        for d in dropped {
+                            for u in d.until {
+                                self.disconnect(u, "until");
+                            }
+                        }
+                        Ok(())
+                    }
+                }
+            }
+            Slot::Interrupt | Slot::Exit => {
+                let reason = if slot == Slot::Interrupt {
+                    StopReason::Interrupt
+                } else {
+                    StopReason::Exit
+                };
+                match (now_phase, &entry.stop_request) {
+                    (Phase::Running, None) => {
+                        entry.stop_request = Some((reason, payload));
+                        entry.stop.request(reason);
+                        Ok(())
+                    }
+                    (Phase::Running, Some(_)) => Err("stopping"),
+                    (Phase::Idle, _) => Err("idle"),
+                    (Phase::Interrupting, _) => Err("interrupting"),
+                    (Phase::Exiting, _) => Err("exiting"),
+                }
+            }
+        }
+    }
+
+    pub(super) fn set_phase(&mut self, pid: usize, phase: Phase) {
+        let entry = &mut self.plugins[pid];
+        if entry.phase == phase {
+            return;
+        }
+        entry.phase = phase;
+        if self.tracing() {
+            let plugin = self.plugins[pid].name.clone();
+            self.record(Entry::State {
+                plugin,
+                state: phase.as_str(),
+            });
+        }
+    }
+
+    pub(super) fn dispatch_anonymous(&mut self, slot: u64) {
+        let Some(a) = self.anonymous.get_mut(&slot) else {
+            return;
+        };
+        if a.closure.is_none() {
+            return; // running now; the next delivery waits for it
+        }
+        let Some(payload) = a.queue.pop_front() else {
+            return;
+        };
+        let Some(closure) = a.closure.take() else {
+            return;
+        };
+        self.lockstep += 1;
+        let job = AnonymousJob {
+            slot,
+            closure,
+            payload,
+        };
+        if self.anonymous_jobs.send(job).is_err() {
+            self.lockstep -= 1; // the runner is gone: the run is ending
+        }
+    }
+
+    pub(super) fn anonymous_done(&mut self, slot: u64, closure: AnonymousSlot, panicked: bool) {
+        self.lockstep = self.lockstep.saturating_sub(1);
+        if panicked {
+            self.record(Entry::Log {
+                plugin: "(deliberative)".into(),
+                level: "error",
+                message: format!("anonymous slot of connection {slot} panicked"),
+            });
+        }
+        let Some(a) = self.anonymous.get_mut(&slot) else {
+            return;
+        };
+        a.closure = Some(closure);
+        if a.closed && a.queue.is_empty() {
+            self.anonymous.remove(&slot);
+        } else {
+            self.dispatch_anonymous(slot);
+        }
+    }
+
+    pub(super) fn finish_waiter(&mut self, w: u64, payload: Option<Payload>) {
+        let Some(waiter) = self.waiters.remove(&w) else {
+            return;
+        };
+        if let Some(task) = waiter.timeout_task {
+            self.cancelled.push(task);
+        }
+        if payload.is_none() {
+            // Timed out (or ended by the run stopping): end the wait's connection.
+            self.disconnect(waiter.connection, "timeout");
+        }
+        if waiter.lockstep {
+            self.lockstep += 1;
+        }
+        if waiter.reply.send(Ok(payload)).is_err() && waiter.lockstep {
+            self.lockstep -= 1;
+        }
+    }
+
+    pub(super) fn fault(&mut self, pid: usize, fault: Fault) {
+        let entry = &mut self.plugins[pid];
+        entry.lifecycle = Lifecycle::Error;
+        entry.stop.clear();
+        entry.stop_request = None;
+        let dropped: Vec<StartRequest> = entry.pending.drain(..).collect();
+        let current_until = std::mem::take(&mut entry.until);
+        let plugin = entry.name.clone();
+        let was_event = entry.is_event();
+        if !was_event {
+            entry.phase = Phase::Idle;
+        }
+        self.record(Entry::Fault {
+            plugin: plugin.clone(),
+            error: fault.0.clone(),
+        });
+        self.record(Entry::State {
+            plugin,
+            state: "error",
+        });
+        for u in current_until
+            .into_iter()
+            .chain(dropped.into_iter().flat_map(|d| d.until))
+        {
+            self.disconnect(u, "until");
+        }
+        self.emit(pid, Signal::Faulted, Some(Val::String(fault.0)));
+    }
+
+    pub(super) fn inject(&mut self, to: &str, payload: &Json) -> Result<(), RadarError> {
+        let (pid, slot) = self.resolve_slot(to)?;
+        let label = self.slot_label(pid, slot);
+        let value = match self.plugins[pid].slot_type(slot).flatten() {
+            Some(ty) => {
+                Some(
+                    json_to_val(payload, &ty).map_err(|cause| RadarError::BadPayload {
+                        to: label.clone(),
+                        cause,
+                    })?,
+                )
+            }
+            None => None,
+        };
+        self.record(Entry::Inject {
+            to: label.as_str().into(),
+            payload: payload.clone(),
+        });
+        if let Err(reason) = self.deliver_to_slot(pid, slot, value, Busy::Drop, Vec::new()) {
+            self.record(Entry::Dropped {
+                id: 0,
+                to: label.into(),
+                reason,
+            });
+        }
+        Ok(())
+    }
+
+    pub(super) fn setup(&self, pid: usize) -> (Rc<PluginCode>, InstanceSetup) {
+        let entry = &self.plugins[pid];
+        (
+            entry.def.code.clone(),
+            InstanceSetup {
+                name: entry.name.clone(),
+                base: self.base.clone(),
+                stop: entry.stop.clone(),
+                config: entry.def.config.clone(),
+                limits: entry.def.limits.clone(),
+                seed: self.seed,
+            },
+        )
+    }
+}
