@@ -95,6 +95,10 @@ fn run(args: RunArgs) -> Result<()> {
             system.run_with(Some(limit), example::listing23_program)?
         }
         Some(path) => {
+            if args.clock == ClockKind::Virtual && args.run_for.is_none() {
+                // Active events keep setting timers: virtual time never runs out.
+                anyhow::bail!("with the virtual clock, say how long to run (e.g. --for 30s)");
+            }
             let manifest = Manifest::load(path)?;
             let system = manifest.add_plugins(builder).build()?;
             if !args.quiet {

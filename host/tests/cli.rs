@@ -119,6 +119,10 @@ fn bad_input_exits_non_zero_with_a_one_line_cause() {
             "type mismatch: `T.triggered` emits string, but `R.start` takes u32",
         ),
     ];
+    let manifest = write_manifest(dir.path(), &cases[0].0);
+    let out = radar(&["run", &manifest]);
+    assert!(!out.status.success());
+    assert!(text(&out.stderr).contains("--for"), "{}", text(&out.stderr));
     for (body, expected) in cases {
         let manifest = write_manifest(dir.path(), &body);
         let out = radar(&["run", &manifest, "--for", "1s"]);
