@@ -211,7 +211,28 @@ pub(crate) struct InstanceSetup {
 
 /// How a call into a plugin ended badly.
 #[derive(Debug)]
-pub(crate) struct Fault(pub String);
+pub(crate) struct Fault {
+    /// What happened, for the trace and the `faulted` signal.
+    pub cause: String,
+    /// The call used up its fuel (rather than trapping on its own).
+    pub out_of_fuel: bool,
+}
+
+impl Fault {
+    fn from_error(err: &wasmtime::Error) -> Self {
+        Self {
+            cause: describe_fault(err),
+            out_of_fuel: matches!(err.downcast_ref::<Trap>(), Some(Trap::OutOfFuel)),
+        }
+    }
+
+    fn missing(export: &str) -> Self {
+        Self {
+            cause: format!("plugin has no `{export}` export"),
+            out_of_fuel: false,
+        }
+    }
+}
 
 /// One live instance of a plugin, in its own store.
 pub(crate) struct PluginInstance {
@@ -256,7 +277,7 @@ impl PluginCode {
         };
         let mut store = Store::new(self.pre.engine(), ctx);
         store.limiter(|ctx| &mut ctx.limits);
-        let fault = |e: wasmtime::Error| Fault(describe_fault(&e));
+        let fault = |e: wasmtime::Error| Fault::from_error(&e);
         store
             .fuel_async_yield_interval(Some(setup.limits.fuel_yield_interval))
             .map_err(fault)?;
@@ -288,7 +309,7 @@ impl PluginInstance {
         params: &[Val],
         has_result: bool,
     ) -> Result<Option<Val>, Fault> {
-        let fault = |e: wasmtime::Error| Fault(describe_fault(&e));
+        let fault = |e: wasmtime::Error| Fault::from_error(&e);
         self.store.set_fuel(self.fuel_per_call).map_err(fault)?;
         let mut results = [Val::Bool(false)];
         let slots = if has_result {
@@ -308,7 +329,7 @@ impl PluginInstance {
     /// means triggered without payload).
     pub async fn check(&mut self) -> Result<Option<Option<Val>>, Fault> {
         let Some(f) = self.check else {
-            return Err(Fault("plugin has no `check` export".into()));
+            return Err(Fault::missing("check"));
         };
         match self.call(f, &[], true).await? {
             Some(Val::Bool(true)) => Ok(Some(None)),
@@ -323,7 +344,7 @@ impl PluginInstance {
         has_result: bool,
     ) -> Result<Option<Val>, Fault> {
         let Some(f) = self.start else {
-            return Err(Fault("plugin has no `start` export".into()));
+            return Err(Fault::missing("start"));
         };
         self.call(f, payload.as_slice(), has_result).await
     }

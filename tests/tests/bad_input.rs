@@ -275,3 +275,38 @@ fn compiled_components_are_cached_by_content_and_engine_settings() {
         1
     );
 }
+
+#[test]
+fn a_start_slot_that_ignores_an_interrupt_is_stopped_by_its_fuel_and_still_exits() {
+    let limits = Limits {
+        fuel_per_call: 3_000_000,
+        ..Limits::default()
+    };
+    let system = virtual_system()
+        .plugin(Plugin::file("Stubborn", plugins::STUBBORN_RESPONSE).limits(limits));
+    let report = run(system, 5, |radar| {
+        radar.inject("Stubborn.start", json!(null))?;
+        radar.sleep(Duration::from_secs(2))?;
+        radar.inject("Stubborn.interrupt", json!(null))?;
+        radar.sleep(Duration::from_secs(1))?;
+        radar.inject("Stubborn.start", json!(null))?; // still usable
+        Ok(())
+    });
+    let trace = records(&report);
+    let at = ns(2.0);
+    assert_sequence(
+        &trace,
+        &[
+            json!({"kind": "inject", "to": "Stubborn.interrupt", "t": at}),
+            json!({"kind": "slot-end", "plugin": "Stubborn", "slot": "start", "outcome": "trapped", "t": at}),
+            json!({"kind": "log", "plugin": "Stubborn", "level": "warn", "t": at}),
+            json!({"kind": "reset", "plugin": "Stubborn", "t": at}),
+            json!({"kind": "slot-begin", "plugin": "Stubborn", "slot": "interrupt", "t": at}),
+            json!({"kind": "log", "plugin": "Stubborn", "message": "interrupt ran"}),
+            json!({"kind": "log", "plugin": "Stubborn", "message": "exit ran"}),
+            json!({"kind": "signal", "plugin": "Stubborn", "signal": "exited", "t": at}),
+            json!({"kind": "slot-begin", "plugin": "Stubborn", "slot": "start", "t": ns(3.0)}),
+        ],
+    );
+    assert_eq!(count(&trace, json!({"kind": "fault"})), 0, "never in error");
+}

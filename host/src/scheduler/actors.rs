@@ -37,6 +37,17 @@ impl Core {
         }
     }
 
+    /// A fresh store and instance for a plugin whose store died while it
+    /// was being stopped (recorded as a `reset`).
+    pub(super) async fn fresh_instance(&self, pid: usize) -> Option<PluginInstance> {
+        let inst = self.instantiate(pid).await?;
+        self.with(|st| {
+            let plugin = st.plugins[pid].name.clone();
+            st.record(Entry::Reset { plugin });
+        });
+        Some(inst)
+    }
+
     /// Handles a pending `reset`: a fresh store and instance.
     pub(super) async fn reset(&self, pid: usize) -> Option<PluginInstance> {
         // Cleared first: a reset whose instantiation fails leaves the plugin
@@ -172,7 +183,7 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
             instance = core.reset(pid).await;
             continue;
         }
-        let Some(inst) = instance.as_mut() else {
+        let Some(mut inst) = instance.as_mut() else {
             core.until_ready(pid, |e| e.reset_requested).await;
             continue;
         };
@@ -187,13 +198,44 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
             st.emit(pid, Signal::Started, request.payload.clone());
         });
         let result = inst.start(request.payload, has_result).await;
-        let result = match result {
-            Ok(value) => value,
+        let stubborn = match result {
+            Ok(value) => Ok(value),
+            // Asked to stop, the slot ignored it until its fuel ran out: the
+            // store is dead, but the activation still ends the way the
+            // request said, on a fresh instance (DESIGN §2.1).
+            Err(fault)
+                if fault.out_of_fuel && core.with(|st| st.plugins[pid].stop_request.is_some()) =>
+            {
+                Err(fault)
+            }
             Err(fault) => {
                 slot_end(&core, pid, Slot::Start, "trapped");
                 core.with(|st| st.fault(pid, fault));
                 instance = None;
                 continue;
+            }
+        };
+        let result = match stubborn {
+            Ok(value) => value,
+            Err(fault) => {
+                slot_end(&core, pid, Slot::Start, "trapped");
+                core.with(|st| {
+                    let plugin = st.plugins[pid].name.clone();
+                    st.record(Entry::Log {
+                        plugin,
+                        level: "warn",
+                        message: format!(
+                            "start ignored the request to stop ({}); re-instantiated",
+                            fault.cause
+                        ),
+                    });
+                });
+                instance = core.fresh_instance(pid).await;
+                let Some(fresh) = instance.as_mut() else {
+                    continue; // instantiation failed: the plugin is in error
+                };
+                inst = fresh;
+                None
             }
         };
         let stop_request = core.with(|st| st.plugins[pid].stop_request.take());

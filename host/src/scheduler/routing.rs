@@ -567,7 +567,7 @@ impl State {
         }
         self.record(Entry::Fault {
             plugin: plugin.clone(),
-            error: fault.0.clone(),
+            error: fault.cause.clone(),
         });
         self.record(Entry::State {
             plugin,
@@ -579,7 +579,7 @@ impl State {
         {
             self.disconnect(u, "until");
         }
-        self.emit(pid, Signal::Faulted, Some(Val::String(fault.0)));
+        self.emit(pid, Signal::Faulted, Some(Val::String(fault.cause)));
     }
 
     pub(super) fn inject(&mut self, to: &str, payload: &Json) -> Result<(), RadarError> {
