@@ -46,6 +46,44 @@ struct RunArgs {
     /// Do not print the timeline.
     #[arg(long, short)]
     quiet: bool,
+    /// Send a payload straight into a slot at a given time, like OpenRTM's
+    /// rtinject: `AT:Plugin.slot=JSON`, e.g. `2s:TestResponse.start=7` or
+    /// `4.5s:TestResponse.interrupt` (repeatable).
+    #[arg(long = "inject", value_parser = parse_injection)]
+    injections: Vec<Injection>,
+}
+
+/// One `--inject`.
+#[derive(Clone)]
+struct Injection {
+    at: Duration,
+    slot: String,
+    payload: serde_json::Value,
+}
+
+fn parse_injection(text: &str) -> Result<Injection, String> {
+    let (at, rest) = text
+        .split_once(':')
+        .ok_or_else(|| format!("`{text}`: expected AT:Plugin.slot=JSON"))?;
+    let (slot, payload) = rest.split_once('=').unwrap_or((rest, "null"));
+    Ok(Injection {
+        at: parse_duration(at)?,
+        slot: slot.to_string(),
+        payload: serde_json::from_str(payload)
+            .map_err(|e| format!("`{payload}` is not JSON: {e}"))?,
+    })
+}
+
+/// Schedules the `--inject` payloads through the program's handle; a bad
+/// one ends the run at once (its error is the run's).
+fn schedule(radar: &radar::Radar, injections: &[Injection]) -> Result<(), radar::RadarError> {
+    for i in injections {
+        if let Err(e) = radar.inject_at(i.at, &i.slot, i.payload.clone()) {
+            radar.stop();
+            return Err(e);
+        }
+    }
+    Ok(())
 }
 
 fn main() -> ExitCode {
@@ -92,7 +130,11 @@ fn run(args: RunArgs) -> Result<()> {
                 ));
             }
             let system = example::listing23(builder).build()?;
-            system.run_with(Some(limit), example::listing23_program)?
+            let injections = args.injections.clone();
+            system.run_with(Some(limit), move |radar| {
+                schedule(&radar, &injections)?;
+                example::listing23_program(radar)
+            })?
         }
         Some(path) => {
             if args.clock == ClockKind::Virtual && args.run_for.is_none() {
@@ -105,10 +147,12 @@ fn run(args: RunArgs) -> Result<()> {
                 say(format_args!("Radar: {}, {clock} clock\n", path.display()));
             }
             let links = manifest.links();
+            let injections = args.injections.clone();
             system.run_with(args.run_for, move |radar| {
                 for link in links {
                     radar.connect(link)?.keep();
                 }
+                schedule(&radar, &injections)?;
                 Ok::<(), radar::RadarError>(())
             })?
         }

@@ -590,6 +590,18 @@ impl Radar {
         self.ask(|reply| Command::Inject {
             to: slot.to_string(),
             payload,
+            at: None,
+            reply,
+        })?
+    }
+
+    /// Schedules an injection at `at` (time since the run began; at once if
+    /// that has passed). The slot and the payload are checked now.
+    pub fn inject_at(&self, at: Duration, slot: &str, payload: Json) -> Result<(), RadarError> {
+        self.ask(|reply| Command::Inject {
+            to: slot.to_string(),
+            payload,
+            at: Some(at),
             reply,
         })?
     }

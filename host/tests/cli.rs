@@ -132,3 +132,36 @@ fn bad_input_exits_non_zero_with_a_one_line_cause() {
         assert!(stderr.contains(expected), "{expected:?} not in {stderr:?}");
     }
 }
+
+#[test]
+fn inject_sends_payloads_into_slots_at_given_times() {
+    let out = radar(&[
+        "run",
+        "--for",
+        "4s",
+        "--inject",
+        "1s:TestResponse.start=7",
+        "--inject",
+        "2.5s:TestResponse.interrupt",
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    for expected in [
+        "1.000s  inject 7 → TestResponse.start",
+        "TestResponse.started(7)",
+        "2.500s  inject null → TestResponse.interrupt",
+        "TestResponse.exited({\"err\":\"interrupt\"})",
+    ] {
+        assert!(
+            stdout.contains(expected),
+            "missing {expected:?} in:\n{stdout}"
+        );
+    }
+    let bad = radar(&["run", "--inject", "1s:TestResponse.start=\"x\""]);
+    assert!(!bad.status.success());
+    assert!(
+        text(&bad.stderr).contains("expected u32"),
+        "{}",
+        text(&bad.stderr)
+    );
+}

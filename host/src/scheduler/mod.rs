@@ -112,6 +112,8 @@ pub(crate) enum Command {
     Inject {
         to: String,
         payload: Json,
+        /// When to inject (time since the run began); now if `None`.
+        at: Option<Duration>,
         reply: Sender<Result<(), RadarError>>,
     },
     WaitFor {
@@ -141,6 +143,15 @@ pub(crate) enum Command {
         panicked: bool,
     },
     Stop,
+}
+
+/// A payload for a slot, checked against the slot's type.
+pub(crate) struct Injection {
+    pid: usize,
+    slot: Slot,
+    label: Arc<str>,
+    json: Json,
+    value: Option<Val>,
 }
 
 /// A delivery to an anonymous slot, run on the slot-runner thread.
@@ -620,8 +631,26 @@ impl Scheduler {
                     st.disconnect(id, reason);
                 }
             }),
-            Command::Inject { to, payload, reply } => {
-                let result = core.with(|st| st.inject(&to, &payload));
+            Command::Inject {
+                to,
+                payload,
+                at,
+                reply,
+            } => {
+                let result = core.with(|st| {
+                    let injection = st.prepare_inject(&to, payload)?;
+                    match at.map(duration_nanos) {
+                        Some(at) if at > st.now() => {
+                            let core = core.clone();
+                            st.spawn(Box::pin(async move {
+                                let _ = core.base.sleep_until(at, None).await;
+                                core.with(|st| st.inject(injection));
+                            }));
+                        }
+                        _ => st.inject(injection),
+                    }
+                    Ok(())
+                });
                 let _ = reply.send(result);
             }
             Command::WaitFor {

@@ -582,13 +582,15 @@ impl State {
         self.emit(pid, Signal::Faulted, Some(Val::String(fault.cause)));
     }
 
-    pub(super) fn inject(&mut self, to: &str, payload: &Json) -> Result<(), RadarError> {
+    /// Resolves and parses an injection: the slot and the payload as the
+    /// slot's type.
+    pub(super) fn prepare_inject(&self, to: &str, payload: Json) -> Result<Injection, RadarError> {
         let (pid, slot) = self.resolve_slot(to)?;
         let label = self.slot_label(pid, slot);
         let value = match self.plugins[pid].slot_type(slot).flatten() {
             Some(ty) => {
                 Some(
-                    json_to_val(payload, &ty).map_err(|cause| RadarError::BadPayload {
+                    json_to_val(&payload, &ty).map_err(|cause| RadarError::BadPayload {
                         to: label.clone(),
                         cause,
                     })?,
@@ -596,18 +598,35 @@ impl State {
             }
             None => None,
         };
+        Ok(Injection {
+            pid,
+            slot,
+            label: label.into(),
+            json: payload,
+            value,
+        })
+    }
+
+    /// Sends a prepared payload straight into its slot.
+    pub(super) fn inject(&mut self, injection: Injection) {
+        let Injection {
+            pid,
+            slot,
+            label,
+            json,
+            value,
+        } = injection;
         self.record(Entry::Inject {
-            to: label.as_str().into(),
-            payload: payload.clone(),
+            to: label.clone(),
+            payload: json,
         });
         if let Err(reason) = self.deliver_to_slot(pid, slot, value, Busy::Drop, Vec::new()) {
             self.record(Entry::Dropped {
                 id: 0,
-                to: label.into(),
+                to: label,
                 reason,
             });
         }
-        Ok(())
     }
 
     pub(super) fn setup(&self, pid: usize) -> (Rc<PluginCode>, InstanceSetup) {
