@@ -4,6 +4,7 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::mpsc;
 use std::time::Duration;
 
 use anyhow::{Context, Result};
@@ -74,11 +75,17 @@ fn parse_injection(text: &str) -> Result<Injection, String> {
     })
 }
 
-/// Schedules the `--inject` payloads through the program's handle; a bad
-/// one ends the run at once (its error is the run's).
-fn schedule(radar: &radar::Radar, injections: &[Injection]) -> Result<(), radar::RadarError> {
+/// Schedules the `--inject` payloads through the program's handle. A bad
+/// one ends the run at once; its error goes to `failed`, for `main` to report
+/// (the run may end before the program's own result is in).
+fn schedule(
+    radar: &radar::Radar,
+    injections: &[Injection],
+    failed: &mpsc::Sender<String>,
+) -> Result<(), radar::RadarError> {
     for i in injections {
         if let Err(e) = radar.inject_at(i.at, &i.slot, i.payload.clone()) {
+            let _ = failed.send(e.to_string());
             radar.stop();
             return Err(e);
         }
@@ -116,6 +123,7 @@ fn run(args: RunArgs) -> Result<()> {
             .with_context(|| format!("cannot create trace file {}", path.display()))?;
         builder = builder.trace_to(JsonLines(BufWriter::new(file)));
     }
+    let (failed, failure) = mpsc::channel();
     let clock = match args.clock {
         ClockKind::Virtual => "virtual",
         ClockKind::Real => "real",
@@ -132,7 +140,7 @@ fn run(args: RunArgs) -> Result<()> {
             let system = example::listing23(builder).build()?;
             let injections = args.injections.clone();
             system.run_with(Some(limit), move |radar| {
-                schedule(&radar, &injections)?;
+                schedule(&radar, &injections, &failed)?;
                 example::listing23_program(radar)
             })?
         }
@@ -152,11 +160,14 @@ fn run(args: RunArgs) -> Result<()> {
                 for link in links {
                     radar.connect(link)?.keep();
                 }
-                schedule(&radar, &injections)?;
+                schedule(&radar, &injections, &failed)?;
                 Ok::<(), radar::RadarError>(())
             })?
         }
     };
+    if let Ok(e) = failure.try_recv() {
+        anyhow::bail!("{e}");
+    }
     if let Some(Err(e)) = &report.program {
         anyhow::bail!("{e}");
     }
