@@ -34,6 +34,9 @@ pub enum RadarError {
         /// What is missing or unexpected.
         cause: String,
     },
+    /// A plugin name that cannot be used in `Plugin.port` references.
+    #[error("plugin name `{0}` is not usable: names are non-empty and have no `.` or spaces")]
+    BadName(String),
     /// Two plugins with the same name.
     #[error("plugin `{0}` is defined twice")]
     DuplicatePlugin(String),

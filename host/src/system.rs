@@ -197,6 +197,9 @@ impl SystemBuilder {
         let mut loader = Loader::new(self.cache_dir)?;
         let mut defs: Vec<PluginDef> = Vec::new();
         for p in self.plugins {
+            if p.name.is_empty() || p.name.contains(|c: char| c == '.' || c.is_whitespace()) {
+                return Err(RadarError::BadName(p.name));
+            }
             if defs.iter().any(|d| d.name == p.name) {
                 return Err(RadarError::DuplicatePlugin(p.name));
             }

@@ -310,3 +310,18 @@ fn a_start_slot_that_ignores_an_interrupt_is_stopped_by_its_fuel_and_still_exits
     );
     assert_eq!(count(&trace, json!({"kind": "fault"})), 0, "never in error");
 }
+
+#[test]
+fn plugin_names_must_be_unique_and_usable_in_references() {
+    let twice = System::builder()
+        .plugin(test_event("E", 2))
+        .plugin(test_event("E", 3))
+        .build()
+        .err()
+        .expect("refused");
+    assert_eq!(twice.to_string(), "plugin `E` is defined twice");
+    for name in ["", "Arm.Left", "left arm"] {
+        let err = build_error(test_event(name, 2));
+        assert!(matches!(err, RadarError::BadName(_)), "{name:?}: {err:?}");
+    }
+}
