@@ -309,6 +309,14 @@ fn a_start_slot_that_ignores_an_interrupt_is_stopped_by_its_fuel_and_still_exits
         ],
     );
     assert_eq!(count(&trace, json!({"kind": "fault"})), 0, "never in error");
+    assert_eq!(
+        count(
+            &trace,
+            json!({"kind": "slot-end", "plugin": "Stubborn", "slot": "start"})
+        ),
+        1,
+        "the stopped start ends once"
+    );
 }
 
 #[test]

@@ -147,6 +147,12 @@ pub(super) fn slot_end(core: &Core, pid: usize, slot: Slot, outcome: &'static st
     });
 }
 
+/// A slot's call trapped: the slot ends `trapped` and the plugin faults.
+fn trapped(core: &Core, pid: usize, slot: Slot, fault: Fault) {
+    slot_end(core, pid, slot, "trapped");
+    core.with(|st| st.fault(pid, fault));
+}
+
 pub(super) fn slot_begin(st: &mut State, pid: usize, slot: Slot) {
     if !st.tracing() {
         return;
@@ -197,27 +203,22 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
             slot_begin(st, pid, Slot::Start);
             st.emit(pid, Signal::Started, request.payload.clone());
         });
-        let result = inst.start(request.payload, has_result).await;
-        let stubborn = match result {
-            Ok(value) => Ok(value),
+        let outcome = inst.start(request.payload, has_result).await;
+        let stop_request = core.with(|st| st.plugins[pid].stop_request.take());
+        let result = match outcome {
+            Ok(value) => {
+                let how = if stop_request.is_some() {
+                    "interrupted"
+                } else {
+                    "completed"
+                };
+                slot_end(&core, pid, Slot::Start, how);
+                value
+            }
             // Asked to stop, the slot ignored it until its fuel ran out: the
             // store is dead, but the activation still ends the way the
             // request said, on a fresh instance (DESIGN §2.1).
-            Err(fault)
-                if fault.out_of_fuel && core.with(|st| st.plugins[pid].stop_request.is_some()) =>
-            {
-                Err(fault)
-            }
-            Err(fault) => {
-                slot_end(&core, pid, Slot::Start, "trapped");
-                core.with(|st| st.fault(pid, fault));
-                instance = None;
-                continue;
-            }
-        };
-        let result = match stubborn {
-            Ok(value) => value,
-            Err(fault) => {
+            Err(fault) if fault.out_of_fuel && stop_request.is_some() => {
                 slot_end(&core, pid, Slot::Start, "trapped");
                 core.with(|st| {
                     let plugin = st.plugins[pid].name.clone();
@@ -237,18 +238,12 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
                 inst = fresh;
                 None
             }
+            Err(fault) => {
+                trapped(&core, pid, Slot::Start, fault);
+                instance = None;
+                continue;
+            }
         };
-        let stop_request = core.with(|st| st.plugins[pid].stop_request.take());
-        slot_end(
-            &core,
-            pid,
-            Slot::Start,
-            if stop_request.is_some() {
-                "interrupted"
-            } else {
-                "completed"
-            },
-        );
         stop.clear();
         // interrupt
         if let Some((StopReason::Interrupt, payload)) = stop_request {
@@ -258,8 +253,7 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
                 st.emit(pid, Signal::Interrupted, payload.clone());
             });
             if let Err(fault) = inst.interrupt(payload).await {
-                slot_end(&core, pid, Slot::Interrupt, "trapped");
-                core.with(|st| st.fault(pid, fault));
+                trapped(&core, pid, Slot::Interrupt, fault);
                 instance = None;
                 continue;
             }
@@ -271,8 +265,7 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
             slot_begin(st, pid, Slot::Exit);
         });
         if let Err(fault) = inst.exit().await {
-            slot_end(&core, pid, Slot::Exit, "trapped");
-            core.with(|st| st.fault(pid, fault));
+            trapped(&core, pid, Slot::Exit, fault);
             instance = None;
             continue;
         }
