@@ -15,7 +15,7 @@ impl Core {
         poll_fn(|cx| {
             let mut st = self.st.borrow_mut();
             let entry = &mut st.plugins[pid];
-            if ready(entry) || self.stopped.get() {
+            if ready(entry) {
                 Poll::Ready(())
             } else {
                 entry.actor = Some(cx.waker().clone());
@@ -91,9 +91,6 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
             e.reset_requested || e.lifecycle == Lifecycle::Active
         })
         .await;
-        if core.stopped.get() {
-            return;
-        }
         if core.with(|st| st.plugins[pid].reset_requested) {
             instance = core.reset(pid).await;
             continue;
@@ -182,9 +179,6 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
             e.reset_requested || (e.lifecycle != Lifecycle::Error && !e.pending.is_empty())
         })
         .await;
-        if core.stopped.get() {
-            return;
-        }
         if core.with(|st| st.plugins[pid].reset_requested) {
             instance = core.reset(pid).await;
             continue;

@@ -16,7 +16,7 @@
 //! (not blocked in `sleep` or `waitfor`), the scheduler runs nothing else and
 //! time stands still, so that its effects land at a deterministic point.
 
-use std::cell::{Cell, RefCell};
+use std::cell::RefCell;
 use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::future::poll_fn;
 use std::rc::Rc;
@@ -369,7 +369,6 @@ pub(crate) struct State {
 pub(crate) struct Core {
     pub base: TimeBase,
     st: RefCell<State>,
-    stopped: Cell<bool>,
 }
 
 struct ConnectionParts {
@@ -476,7 +475,6 @@ impl Scheduler {
             core: Rc::new(Core {
                 base,
                 st: RefCell::new(state),
-                stopped: Cell::new(false),
             }),
             executor: Executor::default(),
             commands,
@@ -579,7 +577,6 @@ impl Scheduler {
     }
 
     fn finish(self) -> RunEnd {
-        self.core.stopped.set(true);
         let ended_at = self.core.base.now();
         // End every wait so that blocked deliberative threads see the stop.
         let (trace, program_outcome) = self.core.with(|st| {
