@@ -281,7 +281,7 @@ impl System {
     /// `limit` of scheduler time has passed, a handle calls
     /// [`Radar::stop`], or, under the virtual clock, nothing is left to run.
     pub fn run(self, limit: Option<Duration>) -> Result<RunReport, RadarError> {
-        self.run_inner(limit, None)
+        self.run_inner(limit, 0)
     }
 
     /// Runs the system with native deliberative code `program`, on a thread
@@ -313,14 +313,10 @@ impl System {
                 };
             })
             .map_err(|e| RadarError::Program(format!("cannot start its thread: {e}")))?;
-        self.run_inner(limit, Some(()))
+        self.run_inner(limit, 1)
     }
 
-    fn run_inner(
-        self,
-        limit: Option<Duration>,
-        program: Option<()>,
-    ) -> Result<RunReport, RadarError> {
+    fn run_inner(self, limit: Option<Duration>, programs: u32) -> Result<RunReport, RadarError> {
         let base = TimeBase::new(self.clock);
         let (job_tx, job_rx) = unbounded::<AnonymousJob>();
         let runner_tx = self.tx.clone();
@@ -342,7 +338,7 @@ impl System {
             anonymous_jobs: job_tx,
             limit,
             seed: self.seed,
-            programs: u32::from(program.is_some()),
+            programs,
         });
         let end = scheduler.run();
         // The scheduler dropped the job sender: the runner ends after its
