@@ -1,8 +1,9 @@
 //! A readable timeline of a run: the paper's Fig. 3 as text.
 //!
-//! The timeline is a [`TraceSink`]: it prints what happened at each instant
-//! and then, whenever it changed, the state of the system: which
-//! connections exist, which events are active, and each response's state.
+//! The timeline is a [`TraceSink`]: it prints what happens as it happens
+//! (so a real-clock run can be watched live) and, when an instant is over and
+//! the state of the system changed during it, that state: which connections
+//! exist, which events are active, and each response's state.
 
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -18,9 +19,10 @@ const INSTANT: u64 = 1_000_000;
 /// Prints a run as it happens.
 pub struct Timeline<W: Write + Send> {
     out: W,
-    /// The instant being collected, in units of [`INSTANT`].
+    /// The instant being printed, in units of [`INSTANT`].
     instant: Option<u64>,
-    lines: Vec<String>,
+    /// Whether the current instant's time stamp has been printed.
+    stamped: bool,
     connections: BTreeMap<u64, String>,
     events: BTreeMap<Arc<str>, &'static str>,
     responses: BTreeMap<Arc<str>, &'static str>,
@@ -33,7 +35,7 @@ impl<W: Write + Send> Timeline<W> {
         Self {
             out,
             instant: None,
-            lines: Vec::new(),
+            stamped: false,
             connections: BTreeMap::new(),
             events: BTreeMap::new(),
             responses: BTreeMap::new(),
@@ -41,32 +43,39 @@ impl<W: Write + Send> Timeline<W> {
         }
     }
 
-    fn flush_instant(&mut self) {
+    fn print(&mut self, line: &str) {
         let Some(t) = self.instant else { return };
+        let stamp = if self.stamped {
+            String::new()
+        } else {
+            self.stamped = true;
+            format!("{:>9.3}s", (t * INSTANT) as f64 / 1e9)
+        };
+        // A closed stdout must not stop the robot.
+        let _ = writeln!(self.out, "{stamp:>10}  {line}");
+        let _ = self.out.flush();
+    }
+
+    /// Ends the current instant: prints the system's state if it changed.
+    fn end_instant(&mut self) {
+        if self.instant.is_none() {
+            return;
+        }
         let summary = self.summary();
-        if self.lines.is_empty() {
-            if summary == self.last_summary {
-                return;
-            }
+        if summary == self.last_summary {
+            return;
+        }
+        if !self.stamped {
             let what = if self.last_summary.is_empty() {
                 "ready"
             } else {
                 "state changed"
             };
-            self.lines.push(what.to_string());
+            self.print(what);
         }
-        let stamp = format!("{:>9.3}s", (t * INSTANT) as f64 / 1e9);
-        let mut text = String::new();
-        for (i, line) in self.lines.drain(..).enumerate() {
-            let lead = if i == 0 { stamp.as_str() } else { "" };
-            text.push_str(&format!("{lead:>10}  {line}\n"));
-        }
-        if summary != self.last_summary {
-            text.push_str(&summary);
-            self.last_summary = summary;
-        }
-        // A closed stdout must not stop the robot.
-        let _ = self.out.write_all(text.as_bytes());
+        let _ = self.out.write_all(summary.as_bytes());
+        let _ = self.out.flush();
+        self.last_summary = summary;
     }
 
     fn summary(&self) -> String {
@@ -182,16 +191,100 @@ impl<W: Write + Send> TraceSink for Timeline<W> {
     fn record(&mut self, record: &Record) {
         let instant = record.t / INSTANT;
         if self.instant != Some(instant) {
-            self.flush_instant();
+            self.end_instant();
             self.instant = Some(instant);
+            self.stamped = false;
         }
         if let Some(line) = self.apply(&record.entry) {
-            self.lines.push(line);
+            self.print(&line);
         }
     }
 
     fn finish(&mut self) {
-        self.flush_instant();
-        let _ = self.out.flush();
+        self.end_instant();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn at(ms: u64, entry: Entry) -> Record {
+        Record {
+            t: ms * 1_000_000,
+            entry,
+        }
+    }
+
+    #[test]
+    fn prints_each_step_and_the_state_after_each_instant_that_changed_it() {
+        let mut timeline = Timeline::new(Vec::new());
+        let records = [
+            at(
+                0,
+                Entry::State {
+                    plugin: "R".into(),
+                    state: "idle",
+                },
+            ),
+            at(
+                0,
+                Entry::State {
+                    plugin: "E".into(),
+                    state: "inactive",
+                },
+            ),
+            at(
+                0,
+                Entry::Connect {
+                    id: 1,
+                    from: "E.triggered".into(),
+                    to: "R.start".into(),
+                    mode: "whenever",
+                    busy: "drop",
+                },
+            ),
+            at(0, Entry::Activate { plugin: "E".into() }),
+            at(
+                1500,
+                Entry::Signal {
+                    plugin: "E".into(),
+                    signal: "triggered",
+                    payload: serde_json::json!(5),
+                },
+            ),
+            at(
+                1500,
+                Entry::State {
+                    plugin: "R".into(),
+                    state: "running",
+                },
+            ),
+            at(
+                2000,
+                Entry::Log {
+                    plugin: "R".into(),
+                    level: "info",
+                    message: "count 1".into(),
+                },
+            ),
+        ];
+        for r in &records {
+            timeline.record(r);
+        }
+        timeline.finish();
+        let text = String::from_utf8(timeline.out).expect("utf-8");
+        let expected = "    0.000s  connect #1: whenever E.triggered → R.start
+            E activated
+            ┆ connections: #1 E.triggered → R.start (whenever)
+            ┆ active events: E
+            ┆ responses: R idle
+    1.500s  E.triggered(5)
+            ┆ connections: #1 E.triggered → R.start (whenever)
+            ┆ active events: E
+            ┆ responses: R running
+    2.000s    R [info] count 1
+";
+        assert_eq!(text, expected);
     }
 }
