@@ -31,6 +31,7 @@ fn main() {
         .or_else(|| env::var_os("CARGO_TARGET_DIR").map(|d| PathBuf::from(d).join("plugins")))
         .unwrap_or_else(|| root.join("target").join("plugins"));
 
+    ensure_wasm_target();
     let cargo = env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let mut build = Command::new(cargo);
     build
@@ -96,4 +97,23 @@ fn plugin_crates(plugins: &Path) -> Vec<String> {
         .collect();
     names.sort();
     names
+}
+
+/// `rust-toolchain.toml` lists the wasm target, but rustup adds listed
+/// targets only when it installs the toolchain; add it if this one lacks it.
+fn ensure_wasm_target() {
+    let rustc = env::var_os("RUSTC").unwrap_or_else(|| "rustc".into());
+    let sysroot = Command::new(rustc)
+        .args(["--print", "sysroot"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| PathBuf::from(String::from_utf8_lossy(&o.stdout).trim()));
+    let installed = sysroot.is_some_and(|root| root.join("lib/rustlib").join(WASM_TARGET).exists());
+    if !installed {
+        // Best effort: if this fails, the plugin build below says what to do.
+        let _ = Command::new("rustup")
+            .args(["target", "add", WASM_TARGET])
+            .status();
+    }
 }
