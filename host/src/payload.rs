@@ -163,8 +163,14 @@ impl fmt::Display for PayloadType {
 /// response's start slot was given, and so on. Signals without a payload
 /// (an event whose `check` returns `bool`, `exited` of a start slot that
 /// returns nothing) carry an empty payload, rendered as JSON `null`.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, PartialEq)]
 pub struct Payload(pub(crate) Option<Val>);
+
+impl fmt::Debug for Payload {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "Payload({})", self.to_json())
+    }
+}
 
 impl Payload {
     /// The value as wasmtime sees it, if the signal carries one.
