@@ -100,10 +100,14 @@ impl Executor {
             let Some(slot) = self.tasks.get_mut(&id) else {
                 continue; // finished or cancelled since it was woken
             };
-            slot.state.queued.store(false, Ordering::Release);
-            let waker = slot.waker.clone();
-            let mut cx = Context::from_waker(&waker);
-            if let Poll::Ready(()) = slot.future.as_mut().poll(&mut cx) {
+            let Slot {
+                future,
+                state,
+                waker,
+            } = slot;
+            state.queued.store(false, Ordering::Release);
+            let mut cx = Context::from_waker(waker);
+            if let Poll::Ready(()) = future.as_mut().poll(&mut cx) {
                 self.tasks.remove(&id);
             }
             return true;

@@ -18,7 +18,10 @@ impl Core {
             if ready(entry) {
                 Poll::Ready(())
             } else {
-                entry.actor = Some(cx.waker().clone());
+                match &entry.actor {
+                    Some(w) if w.will_wake(cx.waker()) => {}
+                    _ => entry.actor = Some(cx.waker().clone()),
+                }
                 Poll::Pending
             }
         })

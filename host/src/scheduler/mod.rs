@@ -506,10 +506,10 @@ impl Scheduler {
         }
         self.absorb();
         loop {
-            if self.core.with(|st| st.stop) {
+            let (stop, lockstep) = self.core.with(|st| (st.stop, st.lockstep > 0));
+            if stop {
                 break;
             }
-            let lockstep = self.core.with(|st| st.lockstep) > 0;
             if kind == ClockKind::Virtual && lockstep {
                 // Native code is running: nothing else may happen until it
                 // blocks or finishes.
