@@ -72,9 +72,22 @@ pub fn listing1(builder: SystemBuilder) -> SystemBuilder {
         .plugin(Plugin::file("EndEvent", plugins::TIMER_EVENT).config("after_s", 4))
 }
 
-/// The deliberative part of Listing 1: `once start_event start countUp until
-/// end_event`, then wait until CountUp has exited.
+/// The deliberative part of Listing 1, with CountUp's `on exit: restart`:
+///
+/// ```text
+/// response CountUp:
+///     ... (count to 10, one count every 0.5 s)
+///     on exit: restart
+/// def main:
+///     once start_event start countUp until end_event
+/// ```
+///
+/// `on exit: restart` belongs to the response, so it lives for the whole run:
+/// `whenever CountUp.exited start CountUp`. The program then waits until the
+/// activation that StartEvent started (and EndEvent interrupts) has exited;
+/// CountUp goes on restarting itself after that.
 pub fn listing1_program(radar: Radar) -> Result<(), RadarError> {
+    radar.whenever("CountUp.exited", "CountUp.start")?.keep();
     let _c = radar.once_until(
         "StartEvent.triggered",
         "CountUp.start",

@@ -4,7 +4,6 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::mpsc;
 use std::time::Duration;
 
 use anyhow::{Context, Result};
@@ -75,24 +74,6 @@ fn parse_injection(text: &str) -> Result<Injection, String> {
     })
 }
 
-/// Schedules the `--inject` payloads through the program's handle. A bad
-/// one ends the run at once; its error goes to `failed`, for `main` to report
-/// (the run may end before the program's own result is in).
-fn schedule(
-    radar: &radar::Radar,
-    injections: &[Injection],
-    failed: &mpsc::Sender<String>,
-) -> Result<(), radar::RadarError> {
-    for i in injections {
-        if let Err(e) = radar.inject_at(i.at, &i.slot, i.payload.clone()) {
-            let _ = failed.send(e.to_string());
-            radar.stop();
-            return Err(e);
-        }
-    }
-    Ok(())
-}
-
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let args = match cli.command {
@@ -121,9 +102,11 @@ fn run(args: RunArgs) -> Result<()> {
     if let Some(path) = &args.trace {
         let file = File::create(path)
             .with_context(|| format!("cannot create trace file {}", path.display()))?;
-        builder = builder.trace_to(JsonLines(BufWriter::new(file)));
+        builder = builder.trace_to(JsonLines::new(BufWriter::new(file)));
     }
-    let (failed, failure) = mpsc::channel();
+    for i in &args.injections {
+        builder = builder.inject_at(i.at, &i.slot, i.payload.clone());
+    }
     let clock = match args.clock {
         ClockKind::Virtual => "virtual",
         ClockKind::Real => "real",
@@ -138,11 +121,7 @@ fn run(args: RunArgs) -> Result<()> {
                 ));
             }
             let system = example::listing23(builder).build()?;
-            let injections = args.injections.clone();
-            system.run_with(Some(limit), move |radar| {
-                schedule(&radar, &injections, &failed)?;
-                example::listing23_program(radar)
-            })?
+            system.run_with(Some(limit), example::listing23_program)?
         }
         Some(path) => {
             if args.clock == ClockKind::Virtual && args.run_for.is_none() {
@@ -150,26 +129,21 @@ fn run(args: RunArgs) -> Result<()> {
                 anyhow::bail!("with the virtual clock, say how long to run (e.g. --for 30s)");
             }
             let manifest = Manifest::load(path)?;
+            for link in manifest.links() {
+                builder = builder.connect(link);
+            }
             let system = manifest.add_plugins(builder).build()?;
             if !args.quiet {
                 say(format_args!("Radar: {}, {clock} clock\n", path.display()));
             }
-            let links = manifest.links();
-            let injections = args.injections.clone();
-            system.run_with(args.run_for, move |radar| {
-                for link in links {
-                    radar.connect(link)?.keep();
-                }
-                schedule(&radar, &injections, &failed)?;
-                Ok::<(), radar::RadarError>(())
-            })?
+            system.run(args.run_for)?
         }
     };
-    if let Ok(e) = failure.try_recv() {
-        anyhow::bail!("{e}");
-    }
     if let Some(Err(e)) = &report.program {
-        anyhow::bail!("{e}");
+        anyhow::bail!("deliberative program: {e}");
+    }
+    if let (Some(path), Some(e)) = (&args.trace, report.trace_errors.first()) {
+        anyhow::bail!("trace file {} is incomplete: {e}", path.display());
     }
     if !args.quiet {
         say(format_args!(

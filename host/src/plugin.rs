@@ -17,7 +17,7 @@ use std::sync::Arc;
 
 use sha2::{Digest, Sha256};
 use wasmtime::component::{types, Component, Func, InstancePre, Linker, ResourceTable, Val};
-use wasmtime::{Config, Engine, Store, StoreLimits, StoreLimitsBuilder, Trap};
+use wasmtime::{Config, Engine, Store, StoreLimits, StoreLimitsBuilder, Trap, WasmBacktrace};
 use wasmtime_wasi::{WasiCtx, WasiCtxView, WasiView};
 
 use crate::clock::{ClockKind, StopFlag, StopReason, TimeBase, YieldNow};
@@ -212,8 +212,10 @@ pub(crate) struct InstanceSetup {
 /// How a call into a plugin ended badly.
 #[derive(Debug)]
 pub(crate) struct Fault {
-    /// What happened, for the trace and the `faulted` signal.
+    /// What happened, in one line, for the trace and the `faulted` signal.
     pub cause: String,
+    /// The wasm backtrace, when the engine captured one.
+    pub backtrace: Option<String>,
     /// The call used up its fuel (rather than trapping on its own).
     pub out_of_fuel: bool,
 }
@@ -222,6 +224,9 @@ impl Fault {
     fn from_error(err: &wasmtime::Error) -> Self {
         Self {
             cause: describe_fault(err),
+            backtrace: err
+                .downcast_ref::<WasmBacktrace>()
+                .map(|b| b.to_string().trim_end().to_string()),
             out_of_fuel: matches!(err.downcast_ref::<Trap>(), Some(Trap::OutOfFuel)),
         }
     }
@@ -229,6 +234,7 @@ impl Fault {
     fn missing(export: &str) -> Self {
         Self {
             cause: format!("plugin has no `{export}` export"),
+            backtrace: None,
             out_of_fuel: false,
         }
     }
@@ -244,11 +250,27 @@ pub(crate) struct PluginInstance {
     exit: Option<Func>,
 }
 
+/// One line: the trap or the error chain, without the wasm backtrace
+/// (which the engine attaches as context and [`Fault`] keeps apart).
 fn describe_fault(err: &wasmtime::Error) -> String {
+    if let Some(Trap::OutOfFuel) = err.downcast_ref::<Trap>() {
+        return "fuel exhausted (the call ran too long without returning)".into();
+    }
+    let chain: Vec<String> = err
+        .chain()
+        .map(|e| e.to_string())
+        .filter(|m| !m.starts_with("error while executing at wasm backtrace"))
+        .filter_map(|m| m.lines().next().map(|l| l.trim().to_string()))
+        .filter(|l| !l.is_empty())
+        .collect();
+    let text = if chain.is_empty() {
+        "the call failed".to_string()
+    } else {
+        chain.join(": ")
+    };
     match err.downcast_ref::<Trap>() {
-        Some(Trap::OutOfFuel) => "fuel exhausted (the call ran too long without returning)".into(),
-        Some(trap) => format!("trapped: {trap} ({err:#})"),
-        None => format!("{err:#}"),
+        Some(_) => format!("trapped: {text}"),
+        None => text,
     }
 }
 

@@ -24,24 +24,33 @@
 //!
 //! The handle is cheap to clone and `Send`: every call is a command on a
 //! crossbeam channel to the scheduler's thread, which owns every store.
-//! Under the virtual clock the thread given to [`System::run_with`] runs in
-//! lockstep with the scheduler (time stands still while it computes), so a
-//! run with native deliberative code is as deterministic as one without.
-//! Handles from [`System::handle`] are *external*: their commands are
-//! applied when they arrive, like a user typing at a console.
 //!
-//! Anonymous slots (closures given to [`Radar::whenever_do`] and friends) run
-//! one at a time on a thread of Radar's, never on the scheduler's: a slow one
-//! delays only the other anonymous slots. Under the virtual clock they run in
-//! lockstep too, so they are ordered and timed like everything else; a slot
-//! that needs the handle should capture a clone of the program's handle
-//! (blocking calls on an external handle inside a slot would wait forever,
-//! since virtual time cannot move while the slot runs).
+//! ## Lockstep under the virtual clock
+//! The run's *native contexts* are the program's thread (the closure given
+//! to [`System::run_with`]) and the anonymous slots (closures given to
+//! [`Radar::whenever_do`] and friends, run one at a time on a thread of
+//! Radar's, never on the scheduler's: a slow one delays only the other
+//! anonymous slots). Under the virtual clock they run in lockstep: one at a
+//! time, while time stands still, each until it blocks in `sleep` or
+//! `waitfor` or ends, then the next in the order they became ready. So a run
+//! with native code is as deterministic as one without.
+//!
+//! What counts is the thread a call is made on, not the handle: any handle
+//! of the system (a clone of the program's, or one from [`System::handle`])
+//! takes part in lockstep when it is used on a native context's thread. On
+//! any other thread (one you spawn, with a clone moved into it) a handle is
+//! *external*: its commands are applied when they arrive, like a user typing
+//! at a console; that never hangs a run, but where they land in virtual
+//! time depends on the operating system's thread timing, so keep the
+//! deliberative code that must be deterministic on the program's thread
+//! and in anonymous slots.
 
+use std::cell::Cell;
 use std::collections::BTreeMap;
 use std::fmt::Display;
 use std::path::PathBuf;
 use std::rc::Rc;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -54,8 +63,17 @@ use crate::payload::Payload;
 use crate::plugin::{default_cache_dir, Limits, Loader};
 use crate::scheduler::{
     duration_nanos, AnonymousJob, AnonymousSlot, Busy, Command, LinkSpec, LinkTarget, Mode,
-    PluginDef, RunSetup, Scheduler, TraceOut,
+    PluginDef, ProgramFailure, RunSetup, Scheduler, StaticInjection, TraceOut,
 };
+
+/// Distinguishes the systems of one process, for [`NATIVE_CONTEXT`].
+static NEXT_SYSTEM: AtomicU64 = AtomicU64::new(1);
+
+thread_local! {
+    /// The system whose native context this thread is (0: none): calls made
+    /// here take part in that system's lockstep (see the module docs).
+    static NATIVE_CONTEXT: Cell<u64> = const { Cell::new(0) };
+}
 use crate::trace::{Record, TraceSink};
 
 /// Where a plugin's component comes from.
@@ -125,6 +143,8 @@ impl Plugin {
 pub struct SystemBuilder {
     clock: ClockKind,
     plugins: Vec<Plugin>,
+    links: Vec<Link>,
+    injections: Vec<StaticInjection>,
     sinks: Vec<Box<dyn TraceSink>>,
     keep_trace: bool,
     cache_dir: Option<PathBuf>,
@@ -138,6 +158,8 @@ impl Default for SystemBuilder {
         Self {
             clock: ClockKind::Virtual,
             plugins: Vec::new(),
+            links: Vec::new(),
+            injections: Vec::new(),
             sinks: Vec::new(),
             keep_trace: true,
             cache_dir: default_cache_dir(),
@@ -158,6 +180,25 @@ impl SystemBuilder {
     /// Adds a plugin.
     pub fn plugin(mut self, plugin: Plugin) -> Self {
         self.plugins.push(plugin);
+        self
+    }
+
+    /// A static connection, made when the run begins and kept until it ends
+    /// (a manifest's `[[connect]]`). An error in it fails the run at once.
+    pub fn connect(mut self, link: Link) -> Self {
+        self.links.push(link);
+        self
+    }
+
+    /// Sends `payload` (JSON, parsed by the slot's WIT type) into `slot` at
+    /// `at` of the run's time, like `radar run --inject`. A slot or payload
+    /// that does not fit fails the run at once.
+    pub fn inject_at(mut self, at: Duration, slot: impl Into<String>, payload: Json) -> Self {
+        self.injections.push(StaticInjection {
+            at,
+            to: slot.into(),
+            payload,
+        });
         self
     }
 
@@ -217,8 +258,11 @@ impl SystemBuilder {
         }
         let (tx, rx) = unbounded();
         Ok(System {
+            id: NEXT_SYSTEM.fetch_add(1, Ordering::Relaxed),
             clock: self.clock,
             plugins: defs,
+            links: self.links.into_iter().map(|l| l.spec).collect(),
+            injections: self.injections,
             sinks: self.sinks,
             keep_trace: self.keep_trace,
             seed: self.seed,
@@ -230,8 +274,11 @@ impl SystemBuilder {
 
 /// A set of plugins ready to run. See the module docs.
 pub struct System {
+    id: u64,
     clock: ClockKind,
     plugins: Vec<PluginDef>,
+    links: Vec<LinkSpec>,
+    injections: Vec<StaticInjection>,
     sinks: Vec<Box<dyn TraceSink>>,
     keep_trace: bool,
     seed: u64,
@@ -246,9 +293,12 @@ pub struct RunReport {
     pub trace: Vec<Record>,
     /// Scheduler time when the run ended.
     pub ended_at: Duration,
-    /// The deliberative program's result (`Err` holds its error or
-    /// `panicked`), if it finished before the run ended.
-    pub program: Option<Result<(), String>>,
+    /// The deliberative program's result, if it finished before the run
+    /// ended.
+    pub program: Option<Result<(), ProgramFailure>>,
+    /// Trace sinks that lost records (a trace file on a full disk, a closed
+    /// pipe): the trace they wrote is incomplete.
+    pub trace_errors: Vec<String>,
 }
 
 impl RunReport {
@@ -273,7 +323,7 @@ impl System {
     pub fn handle(&self) -> Radar {
         Radar {
             tx: self.tx.clone(),
-            lockstep: false,
+            system: self.id,
         }
     }
 
@@ -296,21 +346,21 @@ impl System {
         F: FnOnce(Radar) -> Result<(), E> + Send + 'static,
         E: Display,
     {
-        let handle = Radar {
-            tx: self.tx.clone(),
-            lockstep: true,
-        };
+        let handle = self.handle();
+        let system = self.id;
         std::thread::Builder::new()
             .name("radar-deliberative".into())
             .spawn(move || {
-                let mut notice = ProgramNotice {
-                    tx: handle.tx.clone(),
-                    outcome: "panicked".into(),
+                NATIVE_CONTEXT.with(|c| c.set(system));
+                let tx = handle.tx.clone();
+                let outcome = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    program(handle)
+                })) {
+                    Ok(Ok(())) => Ok(()),
+                    Ok(Err(e)) => Err(ProgramFailure::Error(e.to_string())),
+                    Err(panic) => Err(ProgramFailure::Panicked(panic_message(&*panic))),
                 };
-                notice.outcome = match program(handle) {
-                    Ok(()) => "ok".into(),
-                    Err(e) => e.to_string(),
-                };
+                let _ = tx.send(Command::ProgramDone { outcome });
             })
             .map_err(|e| RadarError::Program(format!("cannot start its thread: {e}")))?;
         self.run_inner(limit, 1)
@@ -320,9 +370,13 @@ impl System {
         let base = TimeBase::new(self.clock);
         let (job_tx, job_rx) = unbounded::<AnonymousJob>();
         let runner_tx = self.tx.clone();
+        let system = self.id;
         let runner = std::thread::Builder::new()
             .name("radar-anonymous-slots".into())
-            .spawn(move || run_anonymous_slots(job_rx, runner_tx))
+            .spawn(move || {
+                NATIVE_CONTEXT.with(|c| c.set(system));
+                run_anonymous_slots(job_rx, runner_tx)
+            })
             .map_err(|e| {
                 RadarError::Program(format!("cannot start the anonymous-slot thread: {e}"))
             })?;
@@ -339,32 +393,28 @@ impl System {
             limit,
             seed: self.seed,
             programs,
+            links: self.links,
+            injections: self.injections,
         });
-        let end = scheduler.run();
+        let end = scheduler.run()?;
         // The scheduler dropped the job sender: the runner ends after its
         // current closure.
         drop(runner);
         Ok(RunReport {
             trace: end.trace,
             ended_at: Duration::from_nanos(end.ended_at),
-            program: end
-                .program_outcome
-                .map(|o| if o == "ok" { Ok(()) } else { Err(o) }),
+            program: end.program_outcome,
+            trace_errors: end.trace_errors,
         })
     }
 }
 
-/// Tells the scheduler the program ended, even if it panicked.
-struct ProgramNotice {
-    tx: Sender<Command>,
-    outcome: String,
-}
-
-impl Drop for ProgramNotice {
-    fn drop(&mut self) {
-        let outcome = std::mem::take(&mut self.outcome);
-        let _ = self.tx.send(Command::ProgramDone { outcome });
-    }
+fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
+    panic
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "(no message)".into())
 }
 
 fn run_anonymous_slots(jobs: Receiver<AnonymousJob>, tx: Sender<Command>) {
@@ -455,8 +505,10 @@ impl Link {
         self
     }
 
-    /// `... until signal`: `signal` interrupts the activation this
-    /// connection starts, and that connection ends when the activation exits.
+    /// `... until signal` (a link to a response's `start`): `signal`
+    /// interrupts the activations this connection starts, and no others.
+    /// With `once`, the `until` connection ends when that activation exits;
+    /// with `whenever`, it lives as long as the whenever connection.
     pub fn until(mut self, signal: &str) -> Self {
         self.spec.until = Some(signal.to_string());
         self
@@ -511,10 +563,16 @@ impl Drop for Connection {
 #[derive(Clone)]
 pub struct Radar {
     tx: Sender<Command>,
-    lockstep: bool,
+    /// The system this handle drives (see [`NATIVE_CONTEXT`]).
+    system: u64,
 }
 
 impl Radar {
+    /// Whether this call is made on one of the run's native contexts.
+    fn lockstep(&self) -> bool {
+        NATIVE_CONTEXT.with(|c| c.get() == self.system)
+    }
+
     fn ask<T>(&self, make: impl FnOnce(Sender<T>) -> Command) -> Result<T, RadarError> {
         let (reply, answer) = bounded(1);
         self.tx.send(make(reply)).map_err(|_| RadarError::Stopped)?;
@@ -549,6 +607,17 @@ impl Radar {
         self.connect(Link::once(from, to).until(until))
     }
 
+    /// `whenever from start to until until_signal`: `until_signal`
+    /// interrupts every activation this connection starts.
+    pub fn whenever_until(
+        &self,
+        from: &str,
+        to: &str,
+        until: &str,
+    ) -> Result<Connection, RadarError> {
+        self.connect(Link::whenever(from, to).until(until))
+    }
+
     /// `whenever from { slot }`: an anonymous slot.
     pub fn whenever_do(
         &self,
@@ -578,7 +647,7 @@ impl Radar {
         self.ask(|reply| Command::WaitFor {
             event: signal.to_string(),
             timeout,
-            lockstep: self.lockstep,
+            lockstep: self.lockstep(),
             reply,
         })?
     }
@@ -609,7 +678,7 @@ impl Radar {
     pub fn sleep(&self, duration: Duration) -> Result<(), RadarError> {
         self.ask(|reply| Command::Sleep {
             duration,
-            lockstep: self.lockstep,
+            lockstep: self.lockstep(),
             reply,
         })
     }

@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 use std::io::Write;
 use std::sync::Arc;
 
-use crate::trace::{Entry, Record, TraceSink};
+use crate::trace::{Entry, Name, Record, TraceSink};
 
 /// The timeline's resolution: records within one millisecond are shown as
 /// one instant (under the real clock, steps of one instant differ by
@@ -24,8 +24,8 @@ pub struct Timeline<W: Write + Send> {
     /// Whether the current instant's time stamp has been printed.
     stamped: bool,
     connections: BTreeMap<u64, String>,
-    events: BTreeMap<Arc<str>, &'static str>,
-    responses: BTreeMap<Arc<str>, &'static str>,
+    events: BTreeMap<Arc<str>, Name>,
+    responses: BTreeMap<Arc<str>, Name>,
     last_summary: String,
 }
 
@@ -91,7 +91,7 @@ impl<W: Write + Send> Timeline<W> {
         let active: Vec<&str> = self
             .events
             .iter()
-            .filter(|(_, s)| **s == "active")
+            .filter(|(_, s)| *s == "active")
             .map(|(n, _)| n.as_ref())
             .collect();
         let active = if active.is_empty() {
@@ -102,7 +102,7 @@ impl<W: Write + Send> Timeline<W> {
         let errors: Vec<&str> = self
             .events
             .iter()
-            .filter(|(_, s)| **s == "error")
+            .filter(|(_, s)| *s == "error")
             .map(|(n, _)| n.as_ref())
             .collect();
         let responses = self
@@ -142,11 +142,11 @@ impl<W: Write + Send> Timeline<W> {
                 format!("disconnect #{id} ({reason})")
             }
             Entry::Activate { plugin } => {
-                self.events.insert(plugin.clone(), "active");
+                self.events.insert(plugin.clone(), "active".into());
                 format!("{plugin} activated")
             }
             Entry::Deactivate { plugin } => {
-                self.events.insert(plugin.clone(), "inactive");
+                self.events.insert(plugin.clone(), "inactive".into());
                 format!("{plugin} deactivated")
             }
             Entry::Signal {
@@ -167,13 +167,13 @@ impl<W: Write + Send> Timeline<W> {
             Entry::State { plugin, state } => {
                 let is_event = self.events.contains_key(plugin.as_ref()) || *state == "inactive";
                 if is_event {
-                    self.events.insert(plugin.clone(), state);
+                    self.events.insert(plugin.clone(), state.clone());
                 } else {
-                    self.responses.insert(plugin.clone(), state);
+                    self.responses.insert(plugin.clone(), state.clone());
                 }
                 return None;
             }
-            Entry::Fault { plugin, error } => format!("FAULT {plugin}: {error}"),
+            Entry::Fault { plugin, error, .. } => format!("FAULT {plugin}: {error}"),
             Entry::Reset { plugin } => format!("{plugin} reset (fresh instance)"),
             Entry::Log {
                 plugin,
@@ -181,7 +181,10 @@ impl<W: Write + Send> Timeline<W> {
                 message,
             } => format!("  {plugin} [{level}] {message}"),
             Entry::Inject { to, payload } => format!("inject {payload} → {to}"),
-            Entry::ProgramEnd { outcome } => format!("deliberative program ended: {outcome}"),
+            Entry::ProgramEnd { outcome, error } => match error {
+                Some(error) => format!("deliberative program ended: {outcome}: {error}"),
+                None => format!("deliberative program ended: {outcome}"),
+            },
             Entry::Deliver { .. } | Entry::SlotBegin { .. } | Entry::SlotEnd { .. } => return None,
         })
     }
@@ -200,8 +203,10 @@ impl<W: Write + Send> TraceSink for Timeline<W> {
         }
     }
 
-    fn finish(&mut self) {
+    fn finish(&mut self) -> Result<(), String> {
+        // A closed stdout (`radar run | head`) is not the run's failure.
         self.end_instant();
+        Ok(())
     }
 }
 
@@ -224,14 +229,14 @@ mod tests {
                 0,
                 Entry::State {
                     plugin: "R".into(),
-                    state: "idle",
+                    state: "idle".into(),
                 },
             ),
             at(
                 0,
                 Entry::State {
                     plugin: "E".into(),
-                    state: "inactive",
+                    state: "inactive".into(),
                 },
             ),
             at(
@@ -240,8 +245,8 @@ mod tests {
                     id: 1,
                     from: "E.triggered".into(),
                     to: "R.start".into(),
-                    mode: "whenever",
-                    busy: "drop",
+                    mode: "whenever".into(),
+                    busy: "drop".into(),
                 },
             ),
             at(0, Entry::Activate { plugin: "E".into() }),
@@ -249,7 +254,7 @@ mod tests {
                 1500,
                 Entry::Signal {
                     plugin: "E".into(),
-                    signal: "triggered",
+                    signal: "triggered".into(),
                     payload: serde_json::json!(5),
                 },
             ),
@@ -257,14 +262,14 @@ mod tests {
                 1500,
                 Entry::State {
                     plugin: "R".into(),
-                    state: "running",
+                    state: "running".into(),
                 },
             ),
             at(
                 2000,
                 Entry::Log {
                     plugin: "R".into(),
-                    level: "info",
+                    level: "info".into(),
                     message: "count 1".into(),
                 },
             ),
@@ -272,7 +277,7 @@ mod tests {
         for r in &records {
             timeline.record(r);
         }
-        timeline.finish();
+        timeline.finish().expect("a timeline reports no error");
         let text = String::from_utf8(timeline.out).expect("utf-8");
         let expected = "    0.000s  connect #1: whenever E.triggered → R.start
             E activated

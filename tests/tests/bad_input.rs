@@ -264,12 +264,14 @@ fn compiled_components_are_cached_by_content_and_engine_settings() {
     assert_eq!(artifacts.len(), 1, "{artifacts:?}");
     assert!(artifacts[0].ends_with(".cwasm"));
     // A second system loads the artifact, and it runs like a fresh compile.
-    let report = build()
-        .run_with(Some(Duration::from_secs(2)), |radar| {
-            radar.whenever_do("E", |_| {})?.keep();
-            Ok::<(), RadarError>(())
-        })
-        .expect("runs");
+    let report = checked(
+        build()
+            .run_with(Some(Duration::from_secs(2)), |radar| {
+                radar.whenever_do("E", |_| {})?.keep();
+                Ok::<(), RadarError>(())
+            })
+            .expect("runs"),
+    );
     assert_eq!(
         find(&records(&report), json!({"kind": "signal", "plugin": "E"})).len(),
         1

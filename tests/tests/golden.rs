@@ -53,7 +53,7 @@ fn listing23_trace() -> String {
         .expect("builds")
         .run_with(Some(Duration::from_secs(30)), example::listing23_program)
         .expect("runs");
-    report.trace_json_lines()
+    common::checked(report).trace_json_lines()
 }
 
 #[test]
@@ -63,11 +63,13 @@ fn listing_2_3_matches_its_expected_trace() {
 
 #[test]
 fn listing_1_matches_its_expected_trace() {
-    let report = example::listing1(common::virtual_system())
-        .build()
-        .expect("builds")
-        .run_with(Some(Duration::from_secs(10)), example::listing1_program)
-        .expect("runs");
+    let report = common::checked(
+        example::listing1(common::virtual_system())
+            .build()
+            .expect("builds")
+            .run_with(Some(Duration::from_secs(10)), example::listing1_program)
+            .expect("runs"),
+    );
     assert_eq!(
         report.program,
         Some(Ok(())),

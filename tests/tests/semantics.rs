@@ -7,7 +7,7 @@ use std::sync::mpsc;
 use std::time::Duration;
 
 use common::*;
-use radar::{Busy, Link, RadarError};
+use radar::{Busy, Link, ProgramFailure, RadarError};
 use serde_json::json;
 
 #[test]
@@ -85,31 +85,49 @@ fn a_scoped_connection_ends_with_its_guard_and_the_last_one_deactivates_the_even
 
 #[test]
 fn until_interrupts_the_activation_and_ends_when_it_exits() {
-    let report = radar::example::listing1(virtual_system())
-        .build()
-        .expect("builds")
-        .run_with(
-            Some(Duration::from_secs(10)),
-            radar::example::listing1_program,
-        )
-        .expect("runs");
+    let report = checked(
+        radar::example::listing1(virtual_system())
+            .build()
+            .expect("builds")
+            .run_with(
+                Some(Duration::from_secs(10)),
+                radar::example::listing1_program,
+            )
+            .expect("runs"),
+    );
     let trace = records(&report);
     assert_sequence(
         &trace,
         &[
-            json!({"kind": "connect", "id": 1, "from": "StartEvent.triggered", "to": "CountUp.start", "mode": "once"}),
-            json!({"kind": "connect", "id": 2, "from": "EndEvent.triggered", "to": "CountUp.interrupt"}),
-            json!({"kind": "disconnect", "id": 1, "reason": "fired", "t": ns(2.0)}),
-            json!({"kind": "slot-begin", "plugin": "CountUp", "slot": "start", "t": ns(2.0)}),
+            json!({"kind": "connect", "id": 1, "from": "CountUp.exited", "to": "CountUp.start", "mode": "whenever"}),
+            json!({"kind": "connect", "id": 2, "from": "StartEvent.triggered", "to": "CountUp.start", "mode": "once"}),
+            json!({"kind": "connect", "id": 3, "from": "EndEvent.triggered", "to": "CountUp.interrupt"}),
+            json!({"kind": "disconnect", "id": 2, "reason": "fired", "t": ns(2.0)}),
+            json!({"kind": "slot-begin", "plugin": "CountUp", "slot": "start", "connection": 2, "t": ns(2.0)}),
             json!({"kind": "signal", "plugin": "EndEvent", "signal": "triggered", "t": ns(4.0)}),
-            json!({"kind": "deliver", "id": 2, "to": "CountUp.interrupt"}),
+            json!({"kind": "deliver", "id": 3, "to": "CountUp.interrupt"}),
             json!({"kind": "slot-end", "plugin": "CountUp", "slot": "start", "outcome": "interrupted", "t": ns(4.0)}),
             json!({"kind": "slot-begin", "plugin": "CountUp", "slot": "interrupt"}),
             json!({"kind": "slot-end", "plugin": "CountUp", "slot": "exit"}),
-            json!({"kind": "signal", "plugin": "CountUp", "signal": "exited", "payload": {"err": "interrupt"}}),
-            json!({"kind": "disconnect", "id": 2, "reason": "until", "t": ns(4.0)}),
+            json!({"kind": "state", "plugin": "CountUp", "state": "idle", "t": ns(4.0)}),
+            json!({"kind": "disconnect", "id": 3, "reason": "until", "t": ns(4.0)}),
             json!({"kind": "deactivate", "plugin": "EndEvent", "t": ns(4.0)}),
+            json!({"kind": "signal", "plugin": "CountUp", "signal": "exited", "payload": {"err": "interrupt"}}),
+            // `on exit: restart`: the exited signal starts CountUp again.
+            json!({"kind": "deliver", "id": 1, "to": "CountUp.start", "t": ns(4.0)}),
+            json!({"kind": "slot-begin", "plugin": "CountUp", "slot": "start", "connection": 1, "t": ns(4.0)}),
+            json!({"kind": "signal", "plugin": "CountUp", "signal": "exited", "payload": {"ok": 10}, "t": ns(9.0)}),
+            json!({"kind": "slot-begin", "plugin": "CountUp", "slot": "start", "connection": 1, "t": ns(9.0)}),
         ],
+    );
+    assert!(
+        find(
+            &trace,
+            json!({"kind": "deliver", "to": "CountUp.interrupt"})
+        )
+        .len()
+            == 1,
+        "EndEvent interrupts only the activation StartEvent started"
     );
 }
 
@@ -314,8 +332,9 @@ fn interrupt_stops_start_at_its_next_interruption_point_then_runs_interrupt_and_
             json!({"kind": "state", "plugin": "R", "state": "exiting", "t": at}),
             json!({"kind": "slot-begin", "plugin": "R", "slot": "exit", "t": at}),
             json!({"kind": "slot-end", "plugin": "R", "slot": "exit", "outcome": "completed", "t": at}),
-            json!({"kind": "signal", "plugin": "R", "signal": "exited", "payload": {"err": "interrupt"}, "t": at}),
+            // Idle already when `exited` is emitted (DESIGN §1.1).
             json!({"kind": "state", "plugin": "R", "state": "idle", "t": at}),
+            json!({"kind": "signal", "plugin": "R", "signal": "exited", "payload": {"err": "interrupt"}, "t": at}),
         ],
     );
     assert!(find(&trace, json!({"kind": "log", "message": "count 3"})).is_empty());
@@ -412,7 +431,17 @@ fn a_program_that_panics_is_reported_and_the_system_keeps_running() {
         radar.sleep(Duration::from_secs(1))?;
         panic!("deliberative bug");
     });
-    assert_eq!(report.program, Some(Err("panicked".to_string())));
+    assert_eq!(
+        report.program,
+        Some(Err(ProgramFailure::Panicked("deliberative bug".into())))
+    );
+    assert_eq!(
+        count(
+            &records(&report),
+            json!({"kind": "program-end", "outcome": "panicked", "error": "deliberative bug"})
+        ),
+        1
+    );
     let trace = records(&report);
     assert_eq!(
         count(
@@ -539,14 +568,16 @@ fn a_check_that_never_sleeps_is_polled_once_a_period() {
         radar::Plugin::file("Busy", radar::example::plugins::BENCH_EVENT)
             .period(Duration::from_millis(10)),
     );
-    let report = system
-        .build()
-        .expect("builds")
-        .run_with(Some(Duration::from_millis(45)), |radar| {
-            radar.whenever_do("Busy", |_| {})?.keep();
-            Ok::<(), RadarError>(())
-        })
-        .expect("runs");
+    let report = checked(
+        system
+            .build()
+            .expect("builds")
+            .run_with(Some(Duration::from_millis(45)), |radar| {
+                radar.whenever_do("Busy", |_| {})?.keep();
+                Ok::<(), RadarError>(())
+            })
+            .expect("runs"),
+    );
     let times: Vec<_> = find(
         &records(&report),
         json!({"kind": "signal", "plugin": "Busy"}),
@@ -642,7 +673,7 @@ fn an_external_handle_drives_a_system_from_another_thread() {
         handle.stop();
         Ok(())
     });
-    let report = system.run(Some(Duration::from_secs(10))).expect("runs");
+    let report = checked(system.run(Some(Duration::from_secs(10))).expect("runs"));
     driver
         .join()
         .expect("driver thread")

@@ -69,7 +69,7 @@ impl Core {
             if event {
                 st.record(Entry::State {
                     plugin: name,
-                    state: "inactive",
+                    state: "inactive".into(),
                 });
                 if listening {
                     st.activate(pid);
@@ -78,7 +78,7 @@ impl Core {
                 st.plugins[pid].lifecycle = Lifecycle::Active;
                 st.record(Entry::State {
                     plugin: name,
-                    state: "idle",
+                    state: "idle".into(),
                 });
             }
         });
@@ -141,8 +141,8 @@ pub(super) fn slot_end(core: &Core, pid: usize, slot: Slot, outcome: &'static st
         let plugin = st.plugins[pid].name.clone();
         st.record(Entry::SlotEnd {
             plugin,
-            slot: slot.as_str(),
-            outcome,
+            slot: slot.as_str().into(),
+            outcome: outcome.into(),
         });
     });
 }
@@ -153,14 +153,16 @@ fn trapped(core: &Core, pid: usize, slot: Slot, fault: Fault) {
     core.with(|st| st.fault(pid, fault));
 }
 
-pub(super) fn slot_begin(st: &mut State, pid: usize, slot: Slot) {
+/// `connection`: for `start`, the connection whose start began it.
+pub(super) fn slot_begin(st: &mut State, pid: usize, slot: Slot, connection: Option<u64>) {
     if !st.tracing() {
         return;
     }
     let plugin = st.plugins[pid].name.clone();
     st.record(Entry::SlotBegin {
         plugin,
-        slot: slot.as_str(),
+        slot: slot.as_str().into(),
+        connection,
     });
 }
 
@@ -179,7 +181,7 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
     });
     loop {
         core.until_ready(pid, |e| {
-            e.reset_requested || (e.lifecycle != Lifecycle::Error && !e.pending.is_empty())
+            e.reset_requested || (e.lifecycle != Lifecycle::Error && e.has_start_waiting())
         })
         .await;
         if core.with(|st| st.plugins[pid].reset_requested) {
@@ -190,14 +192,20 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
             core.until_ready(pid, |e| e.reset_requested).await;
             continue;
         };
-        let Some(request) = core.with(|st| st.plugins[pid].pending.pop_front()) else {
+        let Some(request) = core.with(|st| {
+            let entry = &mut st.plugins[pid];
+            entry.next.take().or_else(|| entry.queue.pop_front())
+        }) else {
             continue;
         };
         // start
         core.with(|st| {
             st.set_phase(pid, Phase::Running);
-            st.plugins[pid].until = request.until;
-            slot_begin(st, pid, Slot::Start);
+            st.plugins[pid].activation = Some(Activation {
+                via: request.via,
+                until: request.until,
+            });
+            slot_begin(st, pid, Slot::Start, Some(request.via));
             st.emit(pid, Signal::Started, request.payload.clone());
         });
         let outcome = inst.start(request.payload, has_result).await;
@@ -221,7 +229,7 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
                     let plugin = st.plugins[pid].name.clone();
                     st.record(Entry::Log {
                         plugin,
-                        level: "warn",
+                        level: "warn".into(),
                         message: format!(
                             "start ignored the request to stop ({}); re-instantiated",
                             fault.cause
@@ -246,7 +254,7 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
         if let Some((StopReason::Interrupt, payload)) = stop_request {
             core.with(|st| {
                 st.set_phase(pid, Phase::Interrupting);
-                slot_begin(st, pid, Slot::Interrupt);
+                slot_begin(st, pid, Slot::Interrupt, None);
                 st.emit(pid, Signal::Interrupted, payload.clone());
             });
             if let Err(fault) = inst.interrupt(payload).await {
@@ -259,7 +267,7 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
         // exit
         core.with(|st| {
             st.set_phase(pid, Phase::Exiting);
-            slot_begin(st, pid, Slot::Exit);
+            slot_begin(st, pid, Slot::Exit, None);
         });
         if let Err(fault) = inst.exit().await {
             trapped(&core, pid, Slot::Exit, fault);
@@ -267,17 +275,21 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
             continue;
         }
         slot_end(&core, pid, Slot::Exit, "completed");
+        // The activation is over before `exited` is emitted: the response is
+        // idle (or taking its next start), so `exited → start` restarts it.
         core.with(|st| {
-            st.emit(pid, Signal::Exited, result);
-            for u in std::mem::take(&mut st.plugins[pid].until) {
-                st.disconnect(u, "until");
-            }
-            let next = if st.plugins[pid].pending.is_empty() {
-                Phase::Idle
-            } else {
+            let entry = &mut st.plugins[pid];
+            let activation = entry.activation.take();
+            let next = if entry.has_start_waiting() {
                 Phase::Running
+            } else {
+                Phase::Idle
             };
             st.set_phase(pid, next);
+            if let Some(u) = activation.and_then(|a| a.until) {
+                st.disconnect(u, "until");
+            }
+            st.emit(pid, Signal::Exited, result);
         });
     }
 }

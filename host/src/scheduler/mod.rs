@@ -12,9 +12,10 @@
 //!
 //! Deliberative code talks to the scheduler only through [`Command`]s on a
 //! crossbeam channel. Under the virtual clock, native code runs in
-//! *lockstep*: while a deliberative thread or an anonymous slot is running
-//! (not blocked in `sleep` or `waitfor`), the scheduler runs nothing else and
-//! time stands still, so that its effects land at a deterministic point.
+//! *lockstep* (see `turns`): while a deliberative thread or an anonymous slot
+//! is running (not blocked in `sleep` or `waitfor`), the scheduler runs
+//! nothing else and time stands still, so that its effects land at a
+//! deterministic point.
 
 use std::cell::RefCell;
 use std::collections::{BTreeMap, HashMap, VecDeque};
@@ -37,6 +38,9 @@ use crate::trace::{Entry, Record, TraceSink};
 
 mod actors;
 mod routing;
+mod turns;
+
+use turns::Turns;
 
 use actors::{event_actor, response_actor};
 
@@ -135,7 +139,7 @@ pub(crate) enum Command {
         reply: Sender<Duration>,
     },
     ProgramDone {
-        outcome: String,
+        outcome: Result<(), ProgramFailure>,
     },
     AnonymousDone {
         slot: u64,
@@ -143,6 +147,31 @@ pub(crate) enum Command {
         panicked: bool,
     },
     Stop,
+}
+
+/// How a deliberative program ended badly.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum ProgramFailure {
+    /// It returned an error (the error's text).
+    Error(String),
+    /// It panicked (the panic's message).
+    Panicked(String),
+}
+
+impl std::fmt::Display for ProgramFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Error(e) => f.write_str(e),
+            Self::Panicked(m) => write!(f, "panicked: {m}"),
+        }
+    }
+}
+
+/// An injection given when the system was built (`radar run --inject`).
+pub(crate) struct StaticInjection {
+    pub at: Duration,
+    pub to: String,
+    pub payload: Json,
 }
 
 /// A payload for a slot, checked against the slot's type.
@@ -228,8 +257,31 @@ impl Phase {
 /// A start signal a response has accepted but not begun.
 struct StartRequest {
     payload: Option<Val>,
-    /// `until` connections that live as long as this activation.
-    until: Vec<u64>,
+    /// The connection that delivered it (0: an injection).
+    via: u64,
+    /// The `F → R.interrupt` connection of `once E start R until F`, which
+    /// lives as long as the activation this start begins.
+    until: Option<u64>,
+}
+
+/// A payload on its way into a response's slot.
+struct Delivery {
+    /// The connection it came through (0: an injection).
+    via: u64,
+    payload: Option<Val>,
+    busy: Busy,
+    /// See [`StartRequest::until`].
+    until: Option<u64>,
+    /// For an `until` connection: the start connection it serves.
+    serves: Option<u64>,
+}
+
+/// The activation a response is running: its start slot has begun.
+struct Activation {
+    /// The connection whose start began it (0: an injection).
+    via: u64,
+    /// See [`StartRequest::until`].
+    until: Option<u64>,
 }
 
 /// A plugin as the scheduler sees it.
@@ -255,14 +307,34 @@ struct PluginEntry {
     next_check: u64,
     /// Responses.
     phase: Phase,
-    pending: VecDeque<StartRequest>,
+    /// The start that begins next: accepted while the response was idle, or
+    /// put ahead of the queue by a `restart` connection.
+    next: Option<StartRequest>,
+    /// Starts waiting behind the running activation (`busy = queue`).
+    queue: VecDeque<StartRequest>,
+    activation: Option<Activation>,
     stop_request: Option<(StopReason, Option<Val>)>,
-    until: Vec<u64>,
+    /// `Plugin.start`, the label of dropped records for accepted starts.
+    start_label: Arc<str>,
 }
 
 impl PluginEntry {
     fn is_event(&self) -> bool {
         matches!(self.def.code.kind, Kind::Event { .. })
+    }
+
+    fn has_start_waiting(&self) -> bool {
+        self.next.is_some() || !self.queue.is_empty()
+    }
+
+    /// The connection whose start the running (or about to begin)
+    /// activation came through.
+    fn activation_via(&self) -> Option<u64> {
+        match (&self.activation, &self.next) {
+            (Some(a), _) => Some(a.via),
+            (None, Some(n)) if self.phase == Phase::Running => Some(n.via),
+            _ => None,
+        }
     }
 
     fn wake(&mut self) {
@@ -316,9 +388,13 @@ struct Connection {
     busy: Busy,
     min_interval: Option<u64>,
     last_delivery: Option<u64>,
-    /// For `once E start R until F`: the `F → R.interrupt` connection(s)
-    /// that live as long as the activation this one starts.
-    until: Vec<u64>,
+    /// For `E start R until F`: the `F → R.interrupt` connection. It lives
+    /// as long as a `whenever` connection, or as long as the activation a
+    /// `once` connection starts.
+    until: Option<u64>,
+    /// For that `F → R.interrupt` connection: the start connection whose
+    /// activations it interrupts (and no others).
+    serves: Option<u64>,
     to_label: Arc<str>,
     /// Whether the target takes the payload (a slot without parameter drops it).
     pass_payload: bool,
@@ -353,15 +429,19 @@ pub(crate) struct State {
     waiters: HashMap<u64, Waiter>,
     next_waiter: u64,
     trace: TraceOut,
-    /// Native contexts (deliberative threads, anonymous slots) running now.
-    lockstep: u32,
+    /// Native contexts (deliberative threads, anonymous slots) in lockstep.
+    turns: Turns,
+    /// The anonymous-slot thread is running (or about to run) a slot.
+    runner_busy: bool,
+    /// Anonymous slots with deliveries waiting for the thread, in order.
+    runner_waiting: VecDeque<u64>,
     spawned: Vec<(TaskId, LocalTask)>,
     cancelled: Vec<TaskId>,
     next_task: TaskId,
     anonymous_jobs: Sender<AnonymousJob>,
     seed: u64,
     stop: bool,
-    program_outcome: Option<String>,
+    program_outcome: Option<Result<(), ProgramFailure>>,
     route_buffer: Vec<u64>,
 }
 
@@ -377,6 +457,8 @@ struct ConnectionParts {
     min_interval: Option<u64>,
     to_label: String,
     pass_payload: bool,
+    /// For an `until` connection: the start connection it serves.
+    serves: Option<u64>,
 }
 
 pub(crate) fn duration_nanos(d: Duration) -> u64 {
@@ -387,8 +469,10 @@ pub(crate) fn duration_nanos(d: Duration) -> u64 {
 pub(crate) struct RunEnd {
     pub trace: Vec<Record>,
     pub ended_at: u64,
-    /// `ok` or the error, if the deliberative program ended during the run.
-    pub program_outcome: Option<String>,
+    /// How the deliberative program ended, if it did during the run.
+    pub program_outcome: Option<Result<(), ProgramFailure>>,
+    /// Trace sinks that lost records (a full disk, a closed pipe).
+    pub trace_errors: Vec<String>,
 }
 
 /// What a run is made of.
@@ -402,6 +486,9 @@ pub(crate) struct RunSetup {
     pub seed: u64,
     /// Native deliberative programs running when the run begins.
     pub programs: u32,
+    /// Static connections, made when the run begins.
+    pub links: Vec<LinkSpec>,
+    pub injections: Vec<StaticInjection>,
 }
 
 /// Owns the executor and the command channel; [`Scheduler::run`] is the
@@ -411,6 +498,8 @@ pub(crate) struct Scheduler {
     executor: Executor,
     commands: Receiver<Command>,
     limit: Option<u64>,
+    links: Vec<LinkSpec>,
+    injections: Vec<StaticInjection>,
 }
 
 impl Scheduler {
@@ -424,6 +513,8 @@ impl Scheduler {
             limit,
             seed,
             programs,
+            links,
+            injections,
         } = setup;
         let mut by_name = BTreeMap::new();
         let plugins: Vec<PluginEntry> = plugins
@@ -436,6 +527,7 @@ impl Scheduler {
                     Kind::Response { .. } => Lifecycle::Active,
                 };
                 PluginEntry {
+                    start_label: Arc::from(format!("{}.start", def.name)),
                     name: Arc::from(def.name.as_str()),
                     def,
                     stop: Arc::new(StopFlag::default()),
@@ -445,9 +537,10 @@ impl Scheduler {
                     listeners: 0,
                     next_check: 0,
                     phase: Phase::Idle,
-                    pending: VecDeque::new(),
+                    next: None,
+                    queue: VecDeque::new(),
+                    activation: None,
                     stop_request: None,
-                    until: Vec::new(),
                 }
             })
             .collect();
@@ -461,7 +554,9 @@ impl Scheduler {
             waiters: HashMap::new(),
             next_waiter: 0,
             trace,
-            lockstep: programs,
+            turns: Turns::new(base.kind() == ClockKind::Virtual, programs > 0),
+            runner_busy: false,
+            runner_waiting: VecDeque::new(),
             spawned: Vec::new(),
             cancelled: Vec::new(),
             next_task: 0,
@@ -479,12 +574,15 @@ impl Scheduler {
             executor: Executor::default(),
             commands,
             limit: limit.map(duration_nanos),
+            links,
+            injections,
         }
     }
 
     /// Runs until the time limit, a `Stop` command, or (virtual clock) until
-    /// nothing can ever happen again.
-    pub fn run(mut self) -> RunEnd {
+    /// nothing can ever happen again. A static connection or injection that
+    /// does not fit the system fails the run before anything runs.
+    pub fn run(mut self) -> Result<RunEnd, RadarError> {
         let kind = self.core.base.kind();
         let count = self.core.with(|st| st.plugins.len());
         self.core.with(|st| {
@@ -492,7 +590,10 @@ impl Scheduler {
                 let entry = &st.plugins[pid];
                 let state = if entry.is_event() { "inactive" } else { "idle" };
                 let plugin = entry.name.clone();
-                st.record(Entry::State { plugin, state });
+                st.record(Entry::State {
+                    plugin,
+                    state: state.into(),
+                });
             }
         });
         for pid in 0..count {
@@ -504,9 +605,20 @@ impl Scheduler {
             };
             self.core.with(|st| st.spawn(task));
         }
+        let core = self.core.clone();
+        core.with(|st| -> Result<(), RadarError> {
+            for link in std::mem::take(&mut self.links) {
+                st.connect(link)?;
+            }
+            for i in std::mem::take(&mut self.injections) {
+                let injection = st.prepare_inject(&i.to, i.payload)?;
+                st.inject_at(&core, injection, Some(i.at));
+            }
+            Ok(())
+        })?;
         self.absorb();
         loop {
-            let (stop, lockstep) = self.core.with(|st| (st.stop, st.lockstep > 0));
+            let (stop, lockstep) = self.core.with(|st| (st.stop, st.turns.running()));
             if stop {
                 break;
             }
@@ -515,7 +627,7 @@ impl Scheduler {
                 // blocks or finishes.
                 match self.commands.recv() {
                     Ok(cmd) => self.handle(cmd),
-                    Err(_) => self.core.with(|st| st.lockstep = 0),
+                    Err(_) => self.core.with(|st| st.turns.abandon()),
                 }
                 continue;
             }
@@ -573,21 +685,26 @@ impl Scheduler {
                 }
             }
         }
-        self.finish()
+        Ok(self.finish())
     }
 
     fn finish(self) -> RunEnd {
         let ended_at = self.core.base.now();
         // End every wait so that blocked deliberative threads see the stop.
-        let (trace, program_outcome) = self.core.with(|st| {
+        let (trace, program_outcome, trace_errors) = self.core.with(|st| {
             st.record_logs();
             st.waiters.clear();
-            for sink in &mut st.trace.sinks {
-                sink.finish();
-            }
+            st.turns.abandon();
+            let errors = st
+                .trace
+                .sinks
+                .iter_mut()
+                .filter_map(|sink| sink.finish().err())
+                .collect();
             (
                 st.trace.kept.take().unwrap_or_default(),
                 st.program_outcome.take(),
+                errors,
             )
         });
         drop(self.executor);
@@ -595,6 +712,7 @@ impl Scheduler {
             trace,
             ended_at,
             program_outcome,
+            trace_errors,
         }
     }
 
@@ -636,16 +754,7 @@ impl Scheduler {
             } => {
                 let result = core.with(|st| {
                     let injection = st.prepare_inject(&to, payload)?;
-                    match at.map(duration_nanos) {
-                        Some(at) if at > st.now() => {
-                            let core = core.clone();
-                            st.spawn(Box::pin(async move {
-                                let _ = core.base.sleep_until(at, None).await;
-                                core.with(|st| st.inject(injection));
-                            }));
-                        }
-                        _ => st.inject(injection),
-                    }
+                    st.inject_at(&core, injection, at);
                     Ok(())
                 });
                 let _ = reply.send(result);
@@ -664,7 +773,7 @@ impl Scheduler {
                     }
                 };
                 if lockstep {
-                    st.lockstep = st.lockstep.saturating_sub(1);
+                    st.turns.block();
                 }
                 st.next_waiter += 1;
                 let w = st.next_waiter;
@@ -674,6 +783,7 @@ impl Scheduler {
                     min_interval: None,
                     to_label: "(waitfor)".into(),
                     pass_payload: true,
+                    serves: None,
                 };
                 // Registered before the connection exists so that an
                 // immediate delivery finds it.
@@ -706,20 +816,13 @@ impl Scheduler {
                 reply,
             } => core.with(|st| {
                 if lockstep {
-                    st.lockstep = st.lockstep.saturating_sub(1);
+                    st.turns.block();
                 }
                 let deadline = st.now().saturating_add(duration_nanos(duration));
                 let core = core.clone();
                 st.spawn(Box::pin(async move {
                     let _ = core.base.sleep_until(deadline, None).await;
-                    core.with(|st| {
-                        if lockstep {
-                            st.lockstep += 1;
-                        }
-                        if reply.send(()).is_err() && lockstep {
-                            st.lockstep -= 1;
-                        }
-                    });
+                    core.with(|st| st.resume(lockstep, Box::new(move || reply.send(()).is_ok())));
                 }));
             }),
             Command::Reset { plugin, reply } => {
@@ -739,9 +842,15 @@ impl Scheduler {
                 let _ = reply.send(Duration::from_nanos(core.base.now()));
             }
             Command::ProgramDone { outcome } => core.with(|st| {
-                st.lockstep = st.lockstep.saturating_sub(1);
+                st.turns.block();
+                let (outcome_name, error) = match &outcome {
+                    Ok(()) => ("ok", None),
+                    Err(ProgramFailure::Error(e)) => ("error", Some(e.clone())),
+                    Err(ProgramFailure::Panicked(m)) => ("panicked", Some(m.clone())),
+                };
                 st.record(Entry::ProgramEnd {
-                    outcome: outcome.clone(),
+                    outcome: outcome_name.into(),
+                    error,
                 });
                 st.program_outcome = Some(outcome);
             }),

@@ -50,7 +50,7 @@ impl State {
                 t: line.t,
                 entry: Entry::Log {
                     plugin: line.plugin,
-                    level: line.level,
+                    level: line.level.into(),
                     message: line.message,
                 },
             });
@@ -172,8 +172,8 @@ impl State {
             id,
             from: from_label,
             to: conn.to_label.clone(),
-            mode: conn.mode.as_str(),
-            busy: conn.busy.as_str(),
+            mode: conn.mode.as_str().into(),
+            busy: conn.busy.as_str().into(),
         });
         self.connections.insert(
             id,
@@ -184,7 +184,8 @@ impl State {
                 busy: conn.busy,
                 min_interval: conn.min_interval,
                 last_delivery: None,
-                until: Vec::new(),
+                until: None,
+                serves: conn.serves,
                 to_label: conn.to_label.into(),
                 pass_payload: conn.pass_payload,
             },
@@ -216,6 +217,7 @@ impl State {
             min_interval: link.min_interval.map(duration_nanos),
             to_label,
             pass_payload,
+            serves: None,
         };
         match link.to {
             LinkTarget::Closure(closure) => {
@@ -272,11 +274,12 @@ impl State {
                         min_interval: None,
                         to_label: self.slot_label(pid, Slot::Interrupt),
                         pass_payload: pass_until,
+                        serves: Some(id),
                     };
                     let until_id =
                         self.add_connection(f, Target::Slot(pid, Slot::Interrupt), until_parts);
                     if let Some(c) = self.connections.get_mut(&id) {
-                        c.until.push(until_id);
+                        c.until = Some(until_id);
                     }
                     ids.push(until_id);
                 }
@@ -289,7 +292,10 @@ impl State {
         let Some(conn) = self.connections.remove(&id) else {
             return; // already gone (a once that fired, an until that ended)
         };
-        self.record(Entry::Disconnect { id, reason });
+        self.record(Entry::Disconnect {
+            id,
+            reason: reason.into(),
+        });
         match conn.target {
             Target::Anonymous(slot) => {
                 if let Some(a) = self.anonymous.get_mut(&slot) {
@@ -305,6 +311,11 @@ impl State {
                 }
             }
             Target::Slot(..) => {}
+        }
+        if let (Mode::Whenever, Some(until)) = (conn.mode, conn.until) {
+            // `whenever E start R until F`: F listens as long as E does. (A
+            // `once`'s F lives with the activation it started instead.)
+            self.disconnect(until, reason);
         }
         if conn.from.1 == Signal::Triggered {
             let pid = conn.from.0;
@@ -327,7 +338,7 @@ impl State {
             let json = payload.as_ref().map(val_to_json).unwrap_or(Json::Null);
             self.record(Entry::Signal {
                 plugin,
-                signal: signal.as_str(),
+                signal: signal.as_str().into(),
                 payload: json,
             });
         }
@@ -358,14 +369,17 @@ impl State {
                 self.record(Entry::Dropped {
                     id,
                     to,
-                    reason: "min-interval",
+                    reason: "min-interval".into(),
                 });
                 return;
             }
         }
         conn.last_delivery = Some(now);
         let (target, busy, mode, to) = (conn.target, conn.busy, conn.mode, conn.to_label.clone());
-        let until = conn.until.clone();
+        let (serves, until) = (conn.serves, conn.until);
+        // A `once`'s until connection lives as long as the activation it
+        // starts; a `whenever`'s lives as long as the whenever itself.
+        let until = until.filter(|_| mode == Mode::Once);
         let payload = if conn.pass_payload {
             payload.clone()
         } else {
@@ -373,7 +387,14 @@ impl State {
         };
         let accepted = match target {
             Target::Slot(pid, slot) => {
-                self.deliver_to_slot(pid, slot, payload, busy, until.clone())
+                let delivery = Delivery {
+                    via: id,
+                    payload,
+                    busy,
+                    until,
+                    serves,
+                };
+                self.deliver_to_slot(pid, slot, delivery)
             }
             Target::Anonymous(slot) => {
                 if let Some(a) = self.anonymous.get_mut(&slot) {
@@ -394,8 +415,12 @@ impl State {
                 }
             }
             Err(reason) => {
-                self.record(Entry::Dropped { id, to, reason });
-                for u in until {
+                self.record(Entry::Dropped {
+                    id,
+                    to,
+                    reason: reason.into(),
+                });
+                if let Some(u) = until {
                     self.disconnect(u, "until");
                 }
             }
@@ -411,20 +436,28 @@ impl State {
         &mut self,
         pid: usize,
         slot: Slot,
-        payload: Option<Val>,
-        busy: Busy,
-        until: Vec<u64>,
+        delivery: Delivery,
     ) -> Result<(), &'static str> {
-        let now_phase = self.plugins[pid].phase;
         let entry = &mut self.plugins[pid];
         if entry.lifecycle == Lifecycle::Error {
             return Err("error");
         }
+        let Delivery {
+            via,
+            payload,
+            busy,
+            until,
+            serves,
+        } = delivery;
         match slot {
             Slot::Start => {
-                let request = StartRequest { payload, until };
-                if now_phase == Phase::Idle {
-                    entry.pending.push_back(request);
+                let request = StartRequest {
+                    payload,
+                    via,
+                    until,
+                };
+                if entry.phase == Phase::Idle {
+                    entry.next = Some(request);
                     entry.wake();
                     self.set_phase(pid, Phase::Running);
                     return Ok(());
@@ -432,23 +465,24 @@ impl State {
                 match busy {
                     Busy::Drop => Err("busy"),
                     Busy::Queue(limit) => {
-                        if entry.pending.len() >= limit {
+                        if entry.queue.len() >= limit {
                             return Err("queue-full");
                         }
-                        entry.pending.push_back(request);
+                        entry.queue.push_back(request);
                         Ok(())
                     }
                     Busy::Restart => {
-                        let dropped: Vec<StartRequest> = entry.pending.drain(..).collect();
-                        entry.pending.push_back(request);
-                        if now_phase == Phase::Running && entry.stop_request.is_none() {
+                        // The running activation stops as by an exit signal;
+                        // this start runs next, ahead of the queue, replacing
+                        // one accepted before it that has not begun.
+                        let replaced = entry.next.replace(request);
+                        let running = entry.activation.is_some() && entry.phase == Phase::Running;
+                        if running && entry.stop_request.is_none() {
                             entry.stop_request = Some((StopReason::Exit, None));
                             entry.stop.request(StopReason::Exit);
                         }
-                        for d in dropped {
-                            for u in d.until {
-                                self.disconnect(u, "until");
-                            }
+                        if let Some(old) = replaced {
+                            self.withdraw_start(pid, old, "restarted");
                         }
                         Ok(())
                     }
@@ -460,7 +494,15 @@ impl State {
                 } else {
                     StopReason::Exit
                 };
-                match (now_phase, &entry.stop_request) {
+                if let Some(serves) = serves {
+                    // `until`: only the activations its own connection started.
+                    match entry.activation_via() {
+                        None => return Err("idle"),
+                        Some(via) if via != serves => return Err("other-activation"),
+                        Some(_) => {}
+                    }
+                }
+                match (entry.phase, &entry.stop_request) {
                     (Phase::Running, None) => {
                         entry.stop_request = Some((reason, payload));
                         entry.stop.request(reason);
@@ -475,6 +517,26 @@ impl State {
         }
     }
 
+    /// An accepted start leaves without beginning: recorded as dropped with
+    /// `reason` (the conservation law, DESIGN §1.1), and a `once ... until`
+    /// connection that would have lived with its activation ends.
+    pub(super) fn withdraw_start(
+        &mut self,
+        pid: usize,
+        request: StartRequest,
+        reason: &'static str,
+    ) {
+        let to = self.plugins[pid].start_label.clone();
+        self.record(Entry::Dropped {
+            id: request.via,
+            to,
+            reason: reason.into(),
+        });
+        if let Some(u) = request.until {
+            self.disconnect(u, "until");
+        }
+    }
+
     pub(super) fn set_phase(&mut self, pid: usize, phase: Phase) {
         let entry = &mut self.plugins[pid];
         if entry.phase == phase {
@@ -485,52 +547,74 @@ impl State {
             let plugin = self.plugins[pid].name.clone();
             self.record(Entry::State {
                 plugin,
-                state: phase.as_str(),
+                state: phase.as_str().into(),
             });
         }
     }
 
+    /// Resumes a native context that was blocked: in turn under the
+    /// virtual clock if it is one of the run's (`lockstep`), else at once.
+    pub(super) fn resume(&mut self, lockstep: bool, resume: turns::Resume) {
+        if lockstep {
+            self.turns.wake(resume);
+        } else {
+            resume();
+        }
+    }
+
+    /// Hands the next delivery of anonymous slot `slot` to Radar's
+    /// anonymous-slot thread, which runs one slot at a time (a slot that
+    /// blocks in `sleep` holds the thread, not the scheduler).
     pub(super) fn dispatch_anonymous(&mut self, slot: u64) {
         let Some(a) = self.anonymous.get_mut(&slot) else {
             return;
         };
-        if a.closure.is_none() {
-            return; // running now; the next delivery waits for it
+        if a.closure.is_none() || a.queue.is_empty() {
+            return; // running now (the next delivery waits for it), or nothing to do
         }
-        let Some(payload) = a.queue.pop_front() else {
+        if self.runner_busy {
+            if !self.runner_waiting.contains(&slot) {
+                self.runner_waiting.push_back(slot);
+            }
+            return;
+        }
+        let (Some(payload), Some(closure)) = (a.queue.pop_front(), a.closure.take()) else {
             return;
         };
-        let Some(closure) = a.closure.take() else {
-            return;
-        };
-        self.lockstep += 1;
+        self.runner_busy = true;
         let job = AnonymousJob {
             slot,
             closure,
             payload,
         };
-        if self.anonymous_jobs.send(job).is_err() {
-            self.lockstep -= 1; // the runner is gone: the run is ending
-        }
+        let jobs = self.anonymous_jobs.clone();
+        // A runner that is gone (the run is ending) takes no turn.
+        self.turns.wake(Box::new(move || jobs.send(job).is_ok()));
     }
 
     pub(super) fn anonymous_done(&mut self, slot: u64, closure: AnonymousSlot, panicked: bool) {
-        self.lockstep = self.lockstep.saturating_sub(1);
+        self.turns.block();
+        self.runner_busy = false;
         if panicked {
             self.record(Entry::Log {
                 plugin: "(deliberative)".into(),
-                level: "error",
+                level: "error".into(),
                 message: format!("anonymous slot of connection {slot} panicked"),
             });
         }
-        let Some(a) = self.anonymous.get_mut(&slot) else {
-            return;
-        };
-        a.closure = Some(closure);
-        if a.closed && a.queue.is_empty() {
-            self.anonymous.remove(&slot);
-        } else {
-            self.dispatch_anonymous(slot);
+        if let Some(a) = self.anonymous.get_mut(&slot) {
+            a.closure = Some(closure);
+            if a.closed && a.queue.is_empty() {
+                self.anonymous.remove(&slot);
+            } else if !a.queue.is_empty() && !self.runner_waiting.contains(&slot) {
+                self.runner_waiting.push_back(slot);
+            }
+        }
+        while !self.runner_busy {
+            let Some(next) = self.runner_waiting.pop_front() else {
+                break;
+            };
+            self.dispatch_anonymous(next);
         }
     }
 
@@ -545,12 +629,11 @@ impl State {
             // Timed out (or ended by the run stopping): end the wait's connection.
             self.disconnect(waiter.connection, "timeout");
         }
-        if waiter.lockstep {
-            self.lockstep += 1;
-        }
-        if waiter.reply.send(Ok(payload)).is_err() && waiter.lockstep {
-            self.lockstep -= 1;
-        }
+        let reply = waiter.reply;
+        self.resume(
+            waiter.lockstep,
+            Box::new(move || reply.send(Ok(payload)).is_ok()),
+        );
     }
 
     pub(super) fn fault(&mut self, pid: usize, fault: Fault) {
@@ -558,26 +641,31 @@ impl State {
         entry.lifecycle = Lifecycle::Error;
         entry.stop.clear();
         entry.stop_request = None;
-        let dropped: Vec<StartRequest> = entry.pending.drain(..).collect();
-        let current_until = std::mem::take(&mut entry.until);
+        let withdrawn: Vec<StartRequest> = entry
+            .next
+            .take()
+            .into_iter()
+            .chain(entry.queue.drain(..))
+            .collect();
+        let activation = entry.activation.take();
         let plugin = entry.name.clone();
-        let was_event = entry.is_event();
-        if !was_event {
+        if !entry.is_event() {
             entry.phase = Phase::Idle;
         }
         self.record(Entry::Fault {
             plugin: plugin.clone(),
             error: fault.cause.clone(),
+            backtrace: fault.backtrace,
         });
         self.record(Entry::State {
             plugin,
-            state: "error",
+            state: "error".into(),
         });
-        for u in current_until
-            .into_iter()
-            .chain(dropped.into_iter().flat_map(|d| d.until))
-        {
+        if let Some(u) = activation.and_then(|a| a.until) {
             self.disconnect(u, "until");
+        }
+        for request in withdrawn {
+            self.withdraw_start(pid, request, "fault");
         }
         self.emit(pid, Signal::Faulted, Some(Val::String(fault.cause)));
     }
@@ -607,6 +695,26 @@ impl State {
         })
     }
 
+    /// Sends a prepared payload into its slot at `at` (now if `None` or
+    /// past).
+    pub(super) fn inject_at(
+        &mut self,
+        core: &Rc<Core>,
+        injection: Injection,
+        at: Option<Duration>,
+    ) {
+        match at.map(duration_nanos) {
+            Some(at) if at > self.now() => {
+                let core = core.clone();
+                self.spawn(Box::pin(async move {
+                    let _ = core.base.sleep_until(at, None).await;
+                    core.with(|st| st.inject(injection));
+                }));
+            }
+            _ => self.inject(injection),
+        }
+    }
+
     /// Sends a prepared payload straight into its slot.
     pub(super) fn inject(&mut self, injection: Injection) {
         let Injection {
@@ -620,12 +728,22 @@ impl State {
             to: label.clone(),
             payload: json,
         });
-        if let Err(reason) = self.deliver_to_slot(pid, slot, value, Busy::Drop, Vec::new()) {
-            self.record(Entry::Dropped {
+        let delivery = Delivery {
+            via: 0,
+            payload: value,
+            busy: Busy::Drop,
+            until: None,
+            serves: None,
+        };
+        // Like a connection's delivery, an injection is recorded as
+        // delivered or dropped, with id 0.
+        match self.deliver_to_slot(pid, slot, delivery) {
+            Ok(()) => self.record(Entry::Deliver { id: 0, to: label }),
+            Err(reason) => self.record(Entry::Dropped {
                 id: 0,
                 to: label,
-                reason,
-            });
+                reason: reason.into(),
+            }),
         }
     }
 

@@ -32,16 +32,36 @@ pub fn timer_event(name: &str, after_s: f64) -> Plugin {
     Plugin::file(name, plugins::TIMER_EVENT).config("after_s", after_s)
 }
 
-/// Runs `builder` for `secs` of virtual time with `program`.
+/// Runs `builder` for `secs` of virtual time with `program`; the trace is
+/// checked against the laws of DESIGN §1.1.
 pub fn run<F>(builder: SystemBuilder, secs: u64, program: F) -> RunReport
 where
     F: FnOnce(Radar) -> Result<(), RadarError> + Send + 'static,
 {
-    builder
-        .build()
-        .expect("the system builds")
-        .run_with(Some(Duration::from_secs(secs)), program)
-        .expect("the system runs")
+    checked(
+        builder
+            .build()
+            .expect("the system builds")
+            .run_with(Some(Duration::from_secs(secs)), program)
+            .expect("the system runs"),
+    )
+}
+
+/// Panics, showing the records around each, if the run's trace breaks a
+/// law of DESIGN §1.1 (conservation, once, activations, faults).
+pub fn checked(report: RunReport) -> RunReport {
+    assert_lawful(&report.trace);
+    report
+}
+
+/// See [`checked`].
+pub fn assert_lawful(trace: &[radar::trace::Record]) {
+    let violations = radar::trace::check(trace);
+    assert!(
+        violations.is_empty(),
+        "the trace breaks the laws of DESIGN §1.1:\n{}",
+        radar::trace::explain(trace, &violations, 5)
+    );
 }
 
 /// The trace as JSON objects.

@@ -1,0 +1,132 @@
+//! Native code in lockstep: under the virtual clock, deliberative threads
+//! and anonymous slots take turns, one at a time, while time stands still.
+//!
+//! A *native context* is a thread of native code taking part in a run: the
+//! deliberative program's thread, or Radar's anonymous-slot thread while it
+//! runs a slot. While one is running the scheduler only serves its commands;
+//! when it blocks (`sleep`, `waitfor`) or ends, the next context that became
+//! ready resumes, in the order they became ready (the executor's rule,
+//! DESIGN §1.3). So two contexts woken by the same step (a `waitfor` and an
+//! anonymous slot on the same signal) never race, and a run stays a pure
+//! function of its inputs. Under the real clock contexts resume at once.
+
+use std::collections::VecDeque;
+
+/// Resumes a blocked context (sends it its reply); `false` if it is gone.
+pub(crate) type Resume = Box<dyn FnOnce() -> bool>;
+
+pub(crate) struct Turns {
+    /// Whether contexts take turns (virtual clock) or run freely (real).
+    lockstep: bool,
+    /// A context is running: nothing else may happen until it blocks.
+    running: bool,
+    ready: VecDeque<Resume>,
+}
+
+impl Turns {
+    /// `running`: a context (the deliberative program) runs from the start.
+    pub fn new(lockstep: bool, running: bool) -> Self {
+        Self {
+            lockstep,
+            running: lockstep && running,
+            ready: VecDeque::new(),
+        }
+    }
+
+    /// Whether native code is running, so the scheduler must wait for it.
+    pub fn running(&self) -> bool {
+        self.running
+    }
+
+    /// A context may go on: now if no other runs, else after those ready
+    /// before it.
+    pub fn wake(&mut self, resume: Resume) {
+        if !self.lockstep {
+            resume();
+        } else if self.running {
+            self.ready.push_back(resume);
+        } else {
+            self.running = resume();
+            if !self.running {
+                self.next();
+            }
+        }
+    }
+
+    /// The running context blocked or ended: the next ready one goes on.
+    pub fn block(&mut self) {
+        self.running = false;
+        self.next();
+    }
+
+    fn next(&mut self) {
+        while let Some(resume) = self.ready.pop_front() {
+            if resume() {
+                self.running = true;
+                return;
+            }
+        }
+    }
+
+    /// Every context is gone (their channel closed): nothing can run again.
+    pub fn abandon(&mut self) {
+        self.running = false;
+        self.ready.clear();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::cell::RefCell;
+    use std::rc::Rc;
+
+    fn resume(log: &Rc<RefCell<Vec<&'static str>>>, name: &'static str, alive: bool) -> Resume {
+        let log = log.clone();
+        Box::new(move || {
+            log.borrow_mut().push(name);
+            alive
+        })
+    }
+
+    #[test]
+    fn contexts_resume_one_at_a_time_in_the_order_they_became_ready() {
+        let log = Rc::new(RefCell::new(Vec::new()));
+        let mut turns = Turns::new(true, true);
+        turns.wake(resume(&log, "slot", true));
+        turns.wake(resume(&log, "waiter", true));
+        assert!(log.borrow().is_empty(), "the program still runs");
+        turns.block();
+        assert_eq!(*log.borrow(), ["slot"]);
+        assert!(turns.running());
+        turns.block();
+        assert_eq!(*log.borrow(), ["slot", "waiter"]);
+        turns.block();
+        assert!(!turns.running());
+    }
+
+    #[test]
+    fn a_context_that_is_gone_passes_its_turn_on() {
+        let log = Rc::new(RefCell::new(Vec::new()));
+        let mut turns = Turns::new(true, false);
+        turns.wake(resume(&log, "gone", false));
+        assert!(!turns.running());
+        let mut turns = Turns::new(true, true);
+        turns.wake(resume(&log, "gone too", false));
+        turns.wake(resume(&log, "alive", true));
+        turns.block();
+        assert_eq!(*log.borrow(), ["gone", "gone too", "alive"]);
+        assert!(turns.running());
+    }
+
+    #[test]
+    fn under_the_real_clock_contexts_resume_at_once() {
+        let log = Rc::new(RefCell::new(Vec::new()));
+        let mut turns = Turns::new(false, true);
+        assert!(!turns.running());
+        turns.wake(resume(&log, "a", true));
+        turns.wake(resume(&log, "b", true));
+        assert_eq!(*log.borrow(), ["a", "b"]);
+        assert!(!turns.running());
+    }
+}

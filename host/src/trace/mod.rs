@@ -1,0 +1,208 @@
+//! The trace: every observable step of a run, in order (DESIGN §3.3).
+//!
+//! Under the virtual clock a run is a pure function of its inputs, so the
+//! trace is the artefact tests compare against expected files. Records are
+//! written as JSON Lines, one object a line, each with `t` (nanoseconds since
+//! the run began) and `kind`.
+//!
+//! ```
+//! # use radar::trace::{Record, Entry};
+//! let r = Record { t: 5, entry: Entry::Activate { plugin: "TestEvent".into() } };
+//! assert_eq!(r.to_json_line(), r#"{"t":5,"kind":"activate","plugin":"TestEvent"}"#);
+//! ```
+
+use std::borrow::Cow;
+use std::io::Write;
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value as Json;
+
+mod check;
+
+pub use check::{check, explain, Violation, WITHDRAWN};
+
+/// A name from a fixed vocabulary (a kind of signal, slot, reason, ...):
+/// borrowed when the host writes a record, owned when a trace is parsed.
+pub type Name = Cow<'static, str>;
+
+/// One step of a run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Record {
+    /// Nanoseconds since the run began (virtual or real).
+    pub t: u64,
+    /// What happened.
+    #[serde(flatten)]
+    pub entry: Entry,
+}
+
+impl Record {
+    /// The record as one line of JSON, without the newline.
+    pub fn to_json_line(&self) -> String {
+        // A record holds only strings, numbers and JSON values: it always serializes.
+        serde_json::to_string(self).unwrap_or_default()
+    }
+}
+
+/// What a trace record says happened. Field names follow DESIGN §3.3.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+#[allow(missing_docs)]
+pub enum Entry {
+    /// A connection was made.
+    Connect {
+        id: u64,
+        from: String,
+        to: String,
+        mode: Name,
+        /// What happens to a start signal while the target is busy.
+        busy: Name,
+    },
+    /// A connection ended: `fired` (once), `scope` (its guard was dropped),
+    /// `closed` (its guard was closed), `until` (the activation it lived with
+    /// exited, or its start was never taken), `timeout` (waitfor).
+    Disconnect { id: u64, reason: Name },
+    /// An event gained its first connection.
+    Activate { plugin: Arc<str> },
+    /// An event lost its last connection.
+    Deactivate { plugin: Arc<str> },
+    /// A plugin emitted a signal.
+    Signal {
+        plugin: Arc<str>,
+        signal: Name,
+        payload: Json,
+    },
+    /// A signal was handed to a connection's target.
+    Deliver { id: u64, to: Arc<str> },
+    /// A signal reached a connection but its target did not take it
+    /// (`busy`, `queue-full`, `min-interval`, `error`, `idle`, `stopping`,
+    /// `interrupting`, `exiting`, `other-activation`), or a start that was
+    /// accepted left the queue without beginning (`restarted`, `fault`).
+    Dropped { id: u64, to: Arc<str>, reason: Name },
+    /// A payload an event returned after it lost its last connection.
+    Discarded { plugin: Arc<str>, payload: Json },
+    /// A slot began to run.
+    SlotBegin {
+        plugin: Arc<str>,
+        slot: Name,
+        /// For `start`: the connection whose delivery began this
+        /// activation (0: an injection).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        connection: Option<u64>,
+    },
+    /// A slot finished: `completed`, `interrupted` or `trapped`.
+    SlotEnd {
+        plugin: Arc<str>,
+        slot: Name,
+        outcome: Name,
+    },
+    /// A response changed state (`idle`, `running`, `interrupting`,
+    /// `exiting`) or a plugin's lifecycle changed (`error`).
+    State { plugin: Arc<str>, state: Name },
+    /// A plugin trapped, ran out of fuel or memory, and is now in `error`.
+    Fault {
+        plugin: Arc<str>,
+        /// The cause, in one line.
+        error: String,
+        /// The wasm backtrace, when there is one.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        backtrace: Option<String>,
+    },
+    /// A plugin was re-instantiated after `reset`.
+    Reset { plugin: Arc<str> },
+    /// A plugin wrote a log line.
+    Log {
+        plugin: Arc<str>,
+        level: Name,
+        message: String,
+    },
+    /// A payload was sent straight into a slot.
+    Inject { to: Arc<str>, payload: Json },
+    /// Deliberative code finished: `outcome` is `ok`, `error` (with the
+    /// error) or `panicked`.
+    ProgramEnd {
+        outcome: Name,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        error: Option<String>,
+    },
+}
+
+/// Where trace records go as they are made.
+pub trait TraceSink: Send {
+    /// Takes one record, in order.
+    fn record(&mut self, record: &Record);
+    /// Called once when the run ends; an error says the sink lost records
+    /// (a full disk, a closed pipe), and the run's report carries it.
+    fn finish(&mut self) -> Result<(), String> {
+        Ok(())
+    }
+}
+
+/// Writes each record as one line of JSON.
+///
+/// A write that fails must not stop the robot: the sink stops writing, keeps
+/// the first error and reports it from [`TraceSink::finish`].
+pub struct JsonLines<W: Write + Send> {
+    out: W,
+    error: Option<std::io::Error>,
+}
+
+impl<W: Write + Send> JsonLines<W> {
+    /// Records written to `out`.
+    pub fn new(out: W) -> Self {
+        Self { out, error: None }
+    }
+}
+
+impl<W: Write + Send> TraceSink for JsonLines<W> {
+    fn record(&mut self, record: &Record) {
+        if self.error.is_some() {
+            return;
+        }
+        if let Err(e) = writeln!(self.out, "{}", record.to_json_line()) {
+            self.error = Some(e);
+        }
+    }
+
+    fn finish(&mut self) -> Result<(), String> {
+        let flushed = self.out.flush();
+        match self.error.take().map_or(flushed, Err) {
+            Ok(()) => Ok(()),
+            Err(e) => Err(e.to_string()),
+        }
+    }
+}
+
+/// A trace file line that is not a record.
+#[derive(Debug, thiserror::Error)]
+#[error("trace line {line}: {cause}")]
+pub struct ParseError {
+    /// The line, counting from 1.
+    pub line: usize,
+    /// What is wrong with it.
+    pub cause: String,
+}
+
+/// Parses a trace written as JSON Lines (blank lines are skipped).
+pub fn parse_json_lines(text: &str) -> Result<Vec<Record>, ParseError> {
+    text.lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty())
+        .map(|(i, l)| {
+            serde_json::from_str(l).map_err(|e| ParseError {
+                line: i + 1,
+                cause: e.to_string(),
+            })
+        })
+        .collect()
+}
+
+/// Renders a whole trace as JSON Lines.
+pub fn to_json_lines(records: &[Record]) -> String {
+    let mut out = String::new();
+    for r in records {
+        out.push_str(&r.to_json_line());
+        out.push('\n');
+    }
+    out
+}
