@@ -29,4 +29,4 @@ pub use error::RadarError;
 pub use payload::{Payload, PayloadType};
 pub use plugin::Limits;
 pub use scheduler::{AnonymousSlot, Busy, Mode, ProgramFailure};
-pub use system::{Connection, Link, Plugin, Radar, RunReport, System, SystemBuilder};
+pub use system::{Connection, Link, Plugin, Radar, RunReport, System, SystemBuilder, Task};

@@ -346,23 +346,14 @@ impl System {
         F: FnOnce(Radar) -> Result<(), E> + Send + 'static,
         E: Display,
     {
-        let handle = self.handle();
-        let system = self.id;
-        std::thread::Builder::new()
-            .name("radar-deliberative".into())
-            .spawn(move || {
-                NATIVE_CONTEXT.with(|c| c.set(system));
-                let tx = handle.tx.clone();
-                let outcome = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                    program(handle)
-                })) {
-                    Ok(Ok(())) => Ok(()),
-                    Ok(Err(e)) => Err(ProgramFailure::Error(e.to_string())),
-                    Err(panic) => Err(ProgramFailure::Panicked(panic_message(&*panic))),
-                };
-                let _ = tx.send(Command::ProgramDone { outcome });
-            })
-            .map_err(|e| RadarError::Program(format!("cannot start its thread: {e}")))?;
+        native_thread(
+            "radar-deliberative",
+            self.handle(),
+            None,
+            program,
+            |outcome| Command::ProgramDone { outcome },
+        )
+        .map_err(|e| RadarError::Program(format!("cannot start its thread: {e}")))?;
         self.run_inner(limit, 1)
     }
 
@@ -407,6 +398,41 @@ impl System {
             trace_errors: end.trace_errors,
         })
     }
+}
+
+/// Runs `body` on a new thread that is a native context of `handle`'s
+/// system; it waits for `go` (its first turn) if given, and reports how it
+/// ended with the command `done` makes.
+fn native_thread<F, E>(
+    name: &str,
+    handle: Radar,
+    go: Option<Receiver<()>>,
+    body: F,
+    done: impl FnOnce(Result<(), ProgramFailure>) -> Command + Send + 'static,
+) -> std::io::Result<()>
+where
+    F: FnOnce(Radar) -> Result<(), E> + Send + 'static,
+    E: Display,
+{
+    std::thread::Builder::new()
+        .name(name.into())
+        .spawn(move || {
+            NATIVE_CONTEXT.with(|c| c.set(handle.system));
+            if let Some(go) = go {
+                if go.recv().is_err() {
+                    return; // the run ended before its first turn
+                }
+            }
+            let tx = handle.tx.clone();
+            let outcome =
+                match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| body(handle))) {
+                    Ok(Ok(())) => Ok(()),
+                    Ok(Err(e)) => Err(ProgramFailure::Error(e.to_string())),
+                    Err(panic) => Err(ProgramFailure::Panicked(panic_message(&*panic))),
+                };
+            let _ = tx.send(done(outcome));
+        })
+        .map(drop)
 }
 
 fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
@@ -696,8 +722,54 @@ impl Radar {
         })?
     }
 
+    /// Runs `task` on a new thread as a native context of the run: under the
+    /// virtual clock it takes turns with the program and the anonymous
+    /// slots (it first runs when the caller blocks), so deliberative code on
+    /// several threads stays deterministic. [`Task::join`] waits for it the
+    /// way `sleep` waits, letting the run go on meanwhile.
+    pub fn spawn<F, E>(&self, task: F) -> Result<Task, RadarError>
+    where
+        F: FnOnce(Radar) -> Result<(), E> + Send + 'static,
+        E: Display,
+    {
+        let (go, go_rx) = bounded(1);
+        let id = self.ask(|reply| Command::Spawn { go, reply })?;
+        native_thread(
+            "radar-task",
+            self.clone(),
+            Some(go_rx),
+            task,
+            move |outcome| Command::TaskDone { task: id, outcome },
+        )
+        .map_err(|e| RadarError::Program(format!("cannot start a task's thread: {e}")))?;
+        Ok(Task {
+            id,
+            radar: self.clone(),
+        })
+    }
+
     /// Ends the run.
     pub fn stop(&self) {
         let _ = self.tx.send(Command::Stop);
+    }
+}
+
+/// Deliberative code started with [`Radar::spawn`]. Dropping it detaches
+/// the task (it runs on until it ends or the run does).
+pub struct Task {
+    id: u64,
+    radar: Radar,
+}
+
+impl Task {
+    /// Waits until the task has ended and returns how it ended; under the
+    /// virtual clock the run goes on while the caller waits.
+    pub fn join(self) -> Result<Result<(), ProgramFailure>, RadarError> {
+        let lockstep = self.radar.lockstep();
+        self.radar.ask(|reply| Command::Join {
+            task: self.id,
+            lockstep,
+            reply,
+        })
     }
 }

@@ -38,8 +38,21 @@ fn with_no_arguments_it_prints_the_paper_example_timeline() {
     }
 }
 
+/// Reads a trace file and checks it against the laws of DESIGN §1.1.
+fn lawful_trace(path: &Path) -> (String, Vec<radar::trace::Record>) {
+    let text = std::fs::read_to_string(path).expect("trace written");
+    let records = radar::trace::parse_json_lines(&text).expect("every line is a record");
+    let violations = radar::trace::check(&records);
+    assert!(
+        violations.is_empty(),
+        "{}",
+        radar::trace::explain(&records, &violations, 5)
+    );
+    (text, records)
+}
+
 #[test]
-fn run_writes_the_trace_as_json_lines() {
+fn run_writes_the_trace_of_the_built_in_example_as_its_golden_file() {
     let dir = tempfile::tempdir().expect("temp dir");
     let trace = dir.path().join("t.jsonl");
     let trace_arg = trace.to_str().expect("utf-8 path");
@@ -47,19 +60,63 @@ fn run_writes_the_trace_as_json_lines() {
         "run", "--clock", "virtual", "--for", "30s", "--trace", trace_arg,
     ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    let lines = std::fs::read_to_string(&trace).expect("trace written");
-    let records: Vec<serde_json::Value> = lines
-        .lines()
-        .map(|l| serde_json::from_str(l).expect("each line is JSON"))
+    let (written, _) = lawful_trace(&trace);
+    let golden = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/golden/listing23.jsonl");
+    let golden = std::fs::read_to_string(golden).expect("golden file");
+    assert!(
+        written == golden,
+        "radar run --trace differs from tests/golden/listing23.jsonl:\n{written}"
+    );
+}
+
+#[test]
+fn a_trace_file_that_cannot_be_written_fails_the_run_with_one_line() {
+    let out = radar(&["run", "--for", "5s", "-q", "--trace", "/dev/full"]);
+    assert!(!out.status.success());
+    let stderr = text(&out.stderr);
+    assert_eq!(stderr.lines().count(), 1, "one line: {stderr}");
+    assert!(
+        stderr.contains("trace file /dev/full is incomplete"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn a_response_whose_exited_starts_it_restarts_on_each_exit() {
+    // DESIGN §1.1: `exited` is emitted once the response is idle.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let manifest = write_manifest(
+        dir.path(),
+        &format!(
+            "[plugins.R]\nwasm = \"{}\"\n\n[[connect]]\nmode = \"whenever\"\nfrom = \"R.exited\"\nto = \"R.start\"\n",
+            plugins::COUNT_UP
+        ),
+    );
+    let trace = dir.path().join("t.jsonl");
+    let out = radar(&[
+        "run",
+        &manifest,
+        "--for",
+        "12s",
+        "--inject",
+        "0s:R.start",
+        "--trace",
+        trace.to_str().expect("utf-8 path"),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let (_, records) = lawful_trace(&trace);
+    let starts: Vec<u64> = records
+        .iter()
+        .filter(
+            |r| matches!(&r.entry, radar::trace::Entry::SlotBegin { slot, .. } if slot == "start"),
+        )
+        .map(|r| r.t)
         .collect();
-    assert!(records
-        .iter()
-        .all(|r| r["t"].is_u64() && r["kind"].is_string()));
-    let last = records.last().expect("records");
-    assert!(last["t"].as_u64().expect("t") <= 30_000_000_000);
-    assert!(records
-        .iter()
-        .any(|r| r["kind"] == "connect" && r["from"] == "TestEvent.triggered"));
+    assert_eq!(starts, [0, 5_000_000_000, 10_000_000_000]);
+    assert!(
+        !text(&out.stdout).contains("deliberative program"),
+        "a manifest without [deliberative] has no program to end"
+    );
 }
 
 fn write_manifest(dir: &Path, body: &str) -> String {

@@ -177,6 +177,17 @@ fn a_trapping_response_goes_to_error_skips_exit_and_can_be_reset() {
         json!({"kind": "slot-begin", "plugin": "Trap", "slot": "exit"})
     )
     .is_empty());
+    // The cause is one line; the wasm backtrace has a field of its own.
+    let fault = &find(&trace, json!({"kind": "fault", "plugin": "Trap"}))[0];
+    let error = fault["error"].as_str().expect("error text");
+    assert!(!error.contains('\n'), "one line: {error:?}");
+    assert!(error.starts_with("trapped: "), "{error}");
+    assert!(
+        fault["backtrace"]
+            .as_str()
+            .is_some_and(|b| b.contains("wasm backtrace")),
+        "{fault}"
+    );
     // The rest of the system never stopped.
     let starts = find(
         &trace,

@@ -7,7 +7,7 @@ use std::sync::mpsc;
 use std::time::Duration;
 
 use common::*;
-use radar::{Busy, Link, ProgramFailure, RadarError};
+use radar::{Busy, Link, Plugin, ProgramFailure, RadarError};
 use serde_json::json;
 
 #[test]
@@ -712,4 +712,364 @@ fn wasi_time_and_randomness_are_virtual_and_seeded_under_the_virtual_clock() {
         first[0]["random"],
         "another seed, other randomness"
     );
+}
+
+/// `slot-begin` records of R's start slot as (time, connection).
+fn activations(trace: &[serde_json::Value], plugin: &str) -> Vec<(f64, u64)> {
+    find(
+        trace,
+        json!({"kind": "slot-begin", "plugin": plugin, "slot": "start"}),
+    )
+    .iter()
+    .map(|r| {
+        let t = r["t"].as_u64().expect("t") as f64 / 1e9;
+        (t, r["connection"].as_u64().expect("connection"))
+    })
+    .collect()
+}
+
+#[test]
+fn exited_connected_to_its_own_start_restarts_the_response() {
+    // Listing 1's `on exit: restart`: CountUp counts for 5 s, then restarts.
+    let system = virtual_system().plugin(Plugin::file("R", radar::example::plugins::COUNT_UP));
+    let report = run(system, 12, |radar| {
+        radar.whenever("R.exited", "R.start")?.keep();
+        radar.inject("R.start", json!(null))
+    });
+    let trace = records(&report);
+    assert_eq!(
+        activations(&trace, "R"),
+        vec![(0.0, 0), (5.0, 1), (10.0, 1)]
+    );
+    assert_eq!(
+        count(&trace, json!({"kind": "dropped", "reason": "busy"})),
+        0
+    );
+}
+
+#[test]
+fn whenever_until_interrupts_every_activation_its_connection_started_and_no_other() {
+    // E triggers at 5 and 10 s, F at 3, 6, 9 and 12 s; one activation of R
+    // lasts 4.5 s. An injected activation runs from 0 to 4.5 s.
+    let system = virtual_system()
+        .plugin(test_event("E", 5))
+        .plugin(test_event("F", 3))
+        .plugin(test_response("R", 9, 0.5));
+    let report = run(system, 14, |radar| {
+        radar.whenever_until("E", "R.start", "F")?.keep();
+        radar.inject("R.start", json!(0))
+    });
+    let trace = records(&report);
+    assert_eq!(
+        activations(&trace, "R"),
+        vec![(0.0, 0), (5.0, 1), (10.0, 1)]
+    );
+    // F reaches R.interrupt through connection 2 on each trigger.
+    let outcomes: Vec<(u64, String)> = records(&report)
+        .iter()
+        .filter(|r| r["id"] == json!(2) && (r["kind"] == "deliver" || r["kind"] == "dropped"))
+        .map(|r| {
+            let what = match r["reason"].as_str() {
+                Some(reason) => format!("dropped: {reason}"),
+                None => "deliver".to_string(),
+            };
+            (r["t"].as_u64().expect("t") / 1_000_000_000, what)
+        })
+        .collect();
+    assert_eq!(
+        outcomes,
+        vec![
+            (3, "dropped: other-activation".to_string()),
+            (6, "deliver".to_string()),
+            (9, "dropped: idle".to_string()),
+            (12, "deliver".to_string()),
+        ]
+    );
+    assert_eq!(
+        times(
+            &trace,
+            json!({"kind": "slot-end", "plugin": "R", "slot": "start", "outcome": "interrupted"})
+        ),
+        vec![json!(ns(6.0)), json!(ns(12.0))]
+    );
+    assert!(
+        find(&trace, json!({"kind": "disconnect", "id": 2})).is_empty(),
+        "F stays connected while the whenever lives"
+    );
+}
+
+#[test]
+fn restart_goes_ahead_of_the_queue_and_queued_starts_keep_their_place() {
+    // R (CountUp, 9 counts of 0.5 s) runs 0–4.5 s (injected). At 1 s a
+    // queue connection queues a start; at 2 s a restart connection stops R
+    // and starts next, ahead of it.
+    let system = virtual_system()
+        .plugin(timer_event("Q", 1.0))
+        .plugin(timer_event("X", 2.0))
+        .plugin(Plugin::file("R", radar::example::plugins::COUNT_UP).config("count_to", 9));
+    let report = run(system, 12, |radar| {
+        radar
+            .connect(Link::once("Q", "R.start").busy(Busy::Queue(2)))?
+            .keep();
+        radar
+            .connect(Link::once("X", "R.start").busy(Busy::Restart))?
+            .keep();
+        radar.inject("R.start", json!(null))
+    });
+    let trace = records(&report);
+    assert_eq!(
+        activations(&trace, "R"),
+        vec![(0.0, 0), (2.0, 2), (6.5, 1)],
+        "the restart's start runs next, the queued one after it"
+    );
+    assert_sequence(
+        &trace,
+        &[
+            json!({"kind": "slot-end", "plugin": "R", "slot": "start", "outcome": "interrupted", "t": ns(2.0)}),
+            json!({"kind": "slot-begin", "plugin": "R", "slot": "exit", "t": ns(2.0)}),
+        ],
+    );
+    assert!(find(&trace, json!({"kind": "slot-begin", "slot": "interrupt"})).is_empty());
+}
+
+#[test]
+fn a_restart_in_the_instant_of_an_unbegun_start_replaces_it_and_runs_whole() {
+    // Two connections on one signal: the first is accepted (R was idle), the
+    // restart in the same instant replaces it before it begins.
+    let system = virtual_system()
+        .plugin(test_event("E", 2))
+        .plugin(test_response("R", 4, 0.5));
+    let report = run(system, 5, |radar| {
+        radar.connect(Link::once("E", "R.start"))?.keep();
+        radar
+            .connect(Link::once("E", "R.start").busy(Busy::Restart))?
+            .keep();
+        Ok(())
+    });
+    let trace = records(&report);
+    assert_sequence(
+        &trace,
+        &[
+            json!({"kind": "deliver", "id": 1, "to": "R.start", "t": ns(2.0)}),
+            json!({"kind": "dropped", "id": 1, "to": "R.start", "reason": "restarted", "t": ns(2.0)}),
+            json!({"kind": "deliver", "id": 2, "to": "R.start", "t": ns(2.0)}),
+            json!({"kind": "slot-begin", "plugin": "R", "slot": "start", "connection": 2, "t": ns(2.0)}),
+            json!({"kind": "slot-end", "plugin": "R", "slot": "start", "outcome": "completed", "t": ns(4.0)}),
+        ],
+    );
+    assert_eq!(activations(&trace, "R").len(), 1);
+}
+
+#[test]
+fn busy_restart_drops_with_a_record_the_start_it_replaces() {
+    // X triggers every second with `restart`; R lasts 4.5 s. At 1 s R runs
+    // (injected) and X's start goes next; a queued start from Q is kept.
+    let system = virtual_system()
+        .plugin(test_event("X", 1))
+        .plugin(test_response("R", 9, 0.5));
+    let report = run(system, 3, |radar| {
+        radar.inject("R.start", json!(0))?;
+        radar
+            .connect(Link::whenever("X", "R.start").busy(Busy::Restart))?
+            .keep();
+        Ok(())
+    });
+    let trace = records(&report);
+    // Each trigger stops the running activation and starts anew; nothing
+    // accepted disappears: `checked` (in `run`) holds the law, and here the
+    // starts all begin.
+    assert_eq!(
+        activations(&trace, "R"),
+        vec![(0.0, 0), (1.0, 1), (2.0, 1), (3.0, 1)]
+    );
+}
+
+#[test]
+fn a_fault_drops_the_queued_starts_with_a_record() {
+    // E triggers every 0.25 s into a queue of 2; R traps 1 s into start.
+    let system = virtual_system()
+        .plugin(test_event("E", 1).config("interval_s", 0.25))
+        .plugin(Plugin::file("R", radar::example::plugins::TRAP_RESPONSE).config("after_s", 1));
+    let report = run(system, 2, |radar| {
+        radar
+            .connect(Link::whenever("E", "R.start").busy(Busy::Queue(2)))?
+            .keep();
+        Ok(())
+    });
+    let trace = records(&report);
+    assert_sequence(
+        &trace,
+        &[
+            json!({"kind": "slot-begin", "plugin": "R", "slot": "start", "t": ns(0.25)}),
+            json!({"kind": "dropped", "id": 1, "reason": "queue-full", "t": ns(1.0)}),
+            json!({"kind": "fault", "plugin": "R", "t": ns(1.25)}),
+            json!({"kind": "dropped", "id": 1, "to": "R.start", "reason": "fault", "t": ns(1.25)}),
+            json!({"kind": "dropped", "id": 1, "to": "R.start", "reason": "fault", "t": ns(1.25)}),
+            json!({"kind": "signal", "plugin": "R", "signal": "faulted", "t": ns(1.25)}),
+            json!({"kind": "dropped", "id": 1, "reason": "error", "t": ns(1.5)}),
+        ],
+    );
+}
+
+#[test]
+fn a_program_error_reading_ok_is_still_an_error() {
+    let system = virtual_system().plugin(test_event("E", 2));
+    let report = run(system, 1, |_radar| Err(RadarError::Program("ok".into())));
+    assert_eq!(
+        report.program,
+        Some(Err(ProgramFailure::Error(
+            "deliberative program failed: ok".into()
+        )))
+    );
+    assert_eq!(
+        count(
+            &records(&report),
+            json!({"kind": "program-end", "outcome": "error"})
+        ),
+        1
+    );
+}
+
+/// Runs `body` on a thread and fails (instead of hanging the suite) if it
+/// does not finish within a minute of wall time.
+fn within_a_minute<T: Send + 'static>(body: impl FnOnce() -> T + Send + 'static) -> T {
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(body());
+    });
+    rx.recv_timeout(Duration::from_secs(60))
+        .expect("the run finished instead of hanging")
+}
+
+#[test]
+fn a_clone_of_the_program_handle_on_another_thread_never_hangs_the_run() {
+    // The helper thread is not one of the run's native contexts: its calls
+    // are external (applied as they arrive). They must not upset the
+    // program's lockstep, whatever the threads' timing.
+    let report = within_a_minute(|| {
+        let system = virtual_system()
+            .plugin(test_event("E", 2))
+            .plugin(test_response("R", 1, 0.5));
+        run(system, 10, |radar| {
+            radar.whenever("E", "R")?.keep();
+            let clone = radar.clone();
+            std::thread::spawn(move || {
+                for _ in 0..3 {
+                    if clone.sleep(Duration::from_secs(1)).is_err() {
+                        return;
+                    }
+                    let _ = clone.now();
+                }
+            });
+            radar.sleep(Duration::from_secs(5))
+        })
+    });
+    assert_eq!(report.program, Some(Ok(())));
+    assert_eq!(report.ended_at, Duration::from_secs(10));
+    assert_eq!(
+        activations(&records(&report), "R").len(),
+        5,
+        "E at 2, 4, 6, 8 and 10 s"
+    );
+}
+
+/// A program and a task it spawns, each sleeping and injecting; the
+/// program joins the task.
+fn spawned_task_trace() -> String {
+    let system = virtual_system().plugin(test_response("R", 1, 0.25));
+    let report = run(system, 6, |radar| {
+        let task = radar.spawn(|radar| {
+            for i in 0..3 {
+                radar.sleep(Duration::from_millis(700))?;
+                radar.inject("R.start", json!(i))?;
+            }
+            Ok::<(), RadarError>(())
+        })?;
+        for _ in 0..3 {
+            radar.sleep(Duration::from_millis(700))?;
+            radar.inject("R.start", json!(10))?;
+        }
+        assert_eq!(task.join()?, Ok(()));
+        radar.inject("R.start", json!(99))
+    });
+    assert_eq!(report.program, Some(Ok(())));
+    report.trace_json_lines()
+}
+
+#[test]
+fn a_spawned_task_takes_turns_with_the_program_deterministically() {
+    let first = within_a_minute(spawned_task_trace);
+    // At 0.7 s both wake; the program blocked first (the task started when
+    // it slept), so it goes first: its start is taken, the task's dropped.
+    assert!(
+        first.contains(
+            r#"{"t":700000000,"kind":"inject","to":"R.start","payload":10}
+{"t":700000000,"kind":"state","plugin":"R","state":"running"}
+{"t":700000000,"kind":"deliver","id":0,"to":"R.start"}
+{"t":700000000,"kind":"inject","to":"R.start","payload":0}
+{"t":700000000,"kind":"dropped","id":0,"to":"R.start","reason":"busy"}"#
+        ),
+        "{first}"
+    );
+    assert!(first.contains(r#"{"t":2100000000,"kind":"inject","to":"R.start","payload":99}"#));
+    for run in 1..10 {
+        assert!(
+            within_a_minute(spawned_task_trace) == first,
+            "run {run} differs from run 0"
+        );
+    }
+}
+
+/// A program and an anonymous slot woken by the same signal, both issuing
+/// commands; the slot blocks in `sleep` on a clone of the program's handle.
+fn two_contexts_trace() -> String {
+    let system = virtual_system()
+        .plugin(test_event("E", 2))
+        .plugin(test_response("R", 1, 0.5))
+        .plugin(test_response("S", 1, 0.5));
+    let report = run(system, 9, |radar| {
+        let slot_handle = radar.clone();
+        radar
+            .whenever_do("E", move |_| {
+                let _ = slot_handle.inject("S.start", json!(1));
+                let _ = slot_handle.sleep(Duration::from_millis(300));
+                let _ = slot_handle.inject("S.interrupt", json!(null));
+            })?
+            .keep();
+        for _ in 0..3 {
+            radar.waitfor("E", None)?;
+            radar.inject("R.start", json!(2))?;
+            radar.sleep(Duration::from_millis(100))?;
+            radar.inject("R.exit", json!(null))?;
+        }
+        Ok(())
+    });
+    assert_eq!(report.program, Some(Ok(())));
+    report.trace_json_lines()
+}
+
+#[test]
+fn native_contexts_woken_together_take_turns_deterministically() {
+    let first = within_a_minute(two_contexts_trace);
+    let trace = radar::trace::parse_json_lines(&first).expect("parses");
+    let starts: Vec<_> = trace
+        .iter()
+        .filter(
+            |r| matches!(&r.entry, radar::trace::Entry::SlotBegin { slot, .. } if slot == "start"),
+        )
+        .map(|r| r.t)
+        .collect();
+    assert_eq!(
+        starts.len(),
+        7,
+        "R three times, S at each of E's four triggers"
+    );
+    // The slot's inject lands at 2 s, its interrupt 300 ms later.
+    assert!(first.contains(r#"{"t":2300000000,"kind":"inject","to":"S.interrupt","payload":null}"#));
+    for run in 1..10 {
+        assert!(
+            within_a_minute(two_contexts_trace) == first,
+            "run {run} differs from run 0"
+        );
+    }
 }

@@ -146,6 +146,20 @@ pub(crate) enum Command {
         closure: AnonymousSlot,
         panicked: bool,
     },
+    /// A new native context (`Radar::spawn`): `go` lets its thread run.
+    Spawn {
+        go: Sender<()>,
+        reply: Sender<u64>,
+    },
+    TaskDone {
+        task: u64,
+        outcome: Result<(), ProgramFailure>,
+    },
+    Join {
+        task: u64,
+        lockstep: bool,
+        reply: Sender<Result<(), ProgramFailure>>,
+    },
     Stop,
 }
 
@@ -442,7 +456,18 @@ pub(crate) struct State {
     seed: u64,
     stop: bool,
     program_outcome: Option<Result<(), ProgramFailure>>,
+    /// Tasks started with `Radar::spawn`, by id.
+    tasks: HashMap<u64, TaskState>,
+    next_task_id: u64,
     route_buffer: Vec<u64>,
+}
+
+/// A spawned native context, running or ended.
+enum TaskState {
+    Running {
+        joiners: Vec<(bool, Sender<Result<(), ProgramFailure>>)>,
+    },
+    Ended(Result<(), ProgramFailure>),
 }
 
 /// The scheduler's shared state, reached by every actor task.
@@ -564,6 +589,8 @@ impl Scheduler {
             seed,
             stop: false,
             program_outcome: None,
+            tasks: HashMap::new(),
+            next_task_id: 0,
             route_buffer: Vec::new(),
         };
         Self {
@@ -859,6 +886,53 @@ impl Scheduler {
                 closure,
                 panicked,
             } => core.with(|st| st.anonymous_done(slot, closure, panicked)),
+            Command::Spawn { go, reply } => core.with(|st| {
+                st.next_task_id += 1;
+                let task = st.next_task_id;
+                st.tasks.insert(
+                    task,
+                    TaskState::Running {
+                        joiners: Vec::new(),
+                    },
+                );
+                let _ = reply.send(task);
+                // Its first turn comes when the contexts ready before it
+                // have blocked.
+                st.turns.wake(Box::new(move || go.send(()).is_ok()));
+            }),
+            Command::TaskDone { task, outcome } => core.with(|st| {
+                st.turns.block();
+                if let Err(failure) = &outcome {
+                    st.record(Entry::Log {
+                        plugin: "(deliberative)".into(),
+                        level: "error".into(),
+                        message: format!("task {task} failed: {failure}"),
+                    });
+                }
+                let ended = TaskState::Ended(outcome.clone());
+                if let Some(TaskState::Running { joiners }) = st.tasks.insert(task, ended) {
+                    for (lockstep, reply) in joiners {
+                        let outcome = outcome.clone();
+                        st.resume(lockstep, Box::new(move || reply.send(outcome).is_ok()));
+                    }
+                }
+            }),
+            Command::Join {
+                task,
+                lockstep,
+                reply,
+            } => core.with(|st| match st.tasks.get_mut(&task) {
+                Some(TaskState::Ended(outcome)) => {
+                    let _ = reply.send(outcome.clone());
+                }
+                Some(TaskState::Running { joiners }) => {
+                    joiners.push((lockstep, reply));
+                    if lockstep {
+                        st.turns.block();
+                    }
+                }
+                None => {}
+            }),
             Command::Stop => core.with(|st| st.stop = true),
         }
         self.absorb();
