@@ -139,6 +139,13 @@ fn run(args: RunArgs) -> Result<()> {
             system.run(args.run_for)?
         }
     };
+    if let Some(at) = report.livelock {
+        anyhow::bail!(
+            "stopped at {:.3} s: signals kept flowing without virtual time advancing \
+             (the connections form a loop that takes no time)",
+            at.as_secs_f64()
+        );
+    }
     if let Some(Err(e)) = &report.program {
         anyhow::bail!("deliberative program: {e}");
     }

@@ -299,6 +299,10 @@ pub struct RunReport {
     /// Trace sinks that lost records (a trace file on a full disk, a closed
     /// pipe): the trace they wrote is incomplete.
     pub trace_errors: Vec<String>,
+    /// Virtual clock: the run was stopped at this time because signals kept
+    /// flowing without time advancing (connections that form a loop taking
+    /// no time, such as `R.started → R.start` with `restart`).
+    pub livelock: Option<Duration>,
 }
 
 impl RunReport {
@@ -396,6 +400,7 @@ impl System {
             ended_at: Duration::from_nanos(end.ended_at),
             program: end.program_outcome,
             trace_errors: end.trace_errors,
+            livelock: end.livelock.map(Duration::from_nanos),
         })
     }
 }

@@ -1073,3 +1073,27 @@ fn native_contexts_woken_together_take_turns_deterministically() {
         );
     }
 }
+
+#[test]
+fn a_loop_of_connections_that_takes_no_time_stops_the_run_and_says_so() {
+    // Each start restarts the response at once: virtual time would never
+    // advance again.
+    let system = virtual_system().plugin(Plugin::file("R", radar::example::plugins::COUNT_UP));
+    let report = within_a_minute(|| {
+        run(system, 10, |radar| {
+            radar.sleep(Duration::from_secs(1))?;
+            radar
+                .connect(Link::whenever("R.started", "R.start").busy(Busy::Restart))?
+                .keep();
+            radar.inject("R.start", json!(null))
+        })
+    });
+    assert_eq!(report.livelock, Some(Duration::from_secs(1)));
+    assert_eq!(report.ended_at, Duration::from_secs(1));
+    let trace = records(&report);
+    let last_log = find(&trace, json!({"kind": "log", "plugin": "(radar)"}));
+    assert_eq!(last_log.len(), 1);
+    assert!(last_log[0]["message"]
+        .as_str()
+        .is_some_and(|m| m.contains("without virtual time advancing")));
+}

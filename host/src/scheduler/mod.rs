@@ -455,6 +455,9 @@ pub(crate) struct State {
     anonymous_jobs: Sender<AnonymousJob>,
     seed: u64,
     stop: bool,
+    /// Virtual clock: signals emitted in the current instant, to catch a
+    /// system that loops without time ever advancing (see `Livelock`).
+    instant: Instant,
     program_outcome: Option<Result<(), ProgramFailure>>,
     /// Tasks started with `Radar::spawn`, by id.
     tasks: HashMap<u64, TaskState>,
@@ -468,6 +471,30 @@ enum TaskState {
         joiners: Vec<(bool, Sender<Result<(), ProgramFailure>>)>,
     },
     Ended(Result<(), ProgramFailure>),
+}
+
+/// Counts the signals of one virtual instant. A system wired into a loop
+/// that takes no time (`R.exited → R.start` on a start that returns at once,
+/// `R.started → R.start` with `restart`) would otherwise stop virtual time
+/// for good, with the trace growing until memory runs out; the run is ended
+/// instead, and says so.
+pub(crate) struct Instant {
+    at: u64,
+    signals: u64,
+    limit: u64,
+    /// When the run was ended for it.
+    pub livelock: Option<u64>,
+}
+
+impl Instant {
+    fn new(plugins: usize) -> Self {
+        Self {
+            at: 0,
+            signals: 0,
+            limit: 100_000u64.max(20 * plugins as u64),
+            livelock: None,
+        }
+    }
 }
 
 /// The scheduler's shared state, reached by every actor task.
@@ -498,6 +525,9 @@ pub(crate) struct RunEnd {
     pub program_outcome: Option<Result<(), ProgramFailure>>,
     /// Trace sinks that lost records (a full disk, a closed pipe).
     pub trace_errors: Vec<String>,
+    /// The run was ended at this virtual time: signals kept flowing without
+    /// time advancing.
+    pub livelock: Option<u64>,
 }
 
 /// What a run is made of.
@@ -542,6 +572,7 @@ impl Scheduler {
             injections,
         } = setup;
         let mut by_name = BTreeMap::new();
+        let plugin_count = plugins.len();
         let plugins: Vec<PluginEntry> = plugins
             .into_iter()
             .enumerate()
@@ -588,6 +619,7 @@ impl Scheduler {
             anonymous_jobs,
             seed,
             stop: false,
+            instant: Instant::new(plugin_count),
             program_outcome: None,
             tasks: HashMap::new(),
             next_task_id: 0,
@@ -718,6 +750,7 @@ impl Scheduler {
     fn finish(self) -> RunEnd {
         let ended_at = self.core.base.now();
         // End every wait so that blocked deliberative threads see the stop.
+        let livelock = self.core.with(|st| st.instant.livelock);
         let (trace, program_outcome, trace_errors) = self.core.with(|st| {
             st.record_logs();
             st.waiters.clear();
@@ -740,6 +773,7 @@ impl Scheduler {
             ended_at,
             program_outcome,
             trace_errors,
+            livelock,
         }
     }
 

@@ -333,6 +333,9 @@ impl State {
     /// Emits `signal` from `pid` and routes it to every connection, in the
     /// order the connections were made.
     pub(super) fn emit(&mut self, pid: usize, signal: Signal, payload: Option<Val>) {
+        if self.base.kind() == ClockKind::Virtual {
+            self.count_signal();
+        }
         if self.tracing() {
             let plugin = self.plugins[pid].name.clone();
             let json = payload.as_ref().map(val_to_json).unwrap_or(Json::Null);
@@ -356,6 +359,33 @@ impl State {
         }
         ids.clear();
         self.route_buffer = ids;
+    }
+
+    /// See [`Instant`]: ends the run when one virtual instant has seen
+    /// more signals than any system that makes progress would emit.
+    fn count_signal(&mut self) {
+        let now = self.now();
+        let instant = &mut self.instant;
+        if instant.at != now {
+            instant.at = now;
+            instant.signals = 0;
+        }
+        instant.signals += 1;
+        if instant.signals == instant.limit && instant.livelock.is_none() {
+            instant.livelock = Some(now);
+            self.stop = true;
+            let message = format!(
+                "{} signals at {:.3} s without virtual time advancing: the connections form a loop \
+                 that takes no time; the run is stopped",
+                instant.limit,
+                now as f64 / 1e9
+            );
+            self.record(Entry::Log {
+                plugin: "(radar)".into(),
+                level: "error".into(),
+                message,
+            });
+        }
     }
 
     pub(super) fn deliver(&mut self, id: u64, payload: &Option<Val>) {

@@ -22,7 +22,8 @@
 //! - **Conservation**: every emission (a `signal` record) reaches each
 //!   connection live on its source exactly once, as a `deliver` or a
 //!   `dropped` record, in the order the connections were made, before the
-//!   next emission; an `inject` is followed likewise by one `deliver` or
+//!   next emission (a connection that an earlier delivery of the same
+//!   signal ends, with its `disconnect` record, is no longer reached); an `inject` is followed likewise by one `deliver` or
 //!   `dropped` with id 0. A start that was delivered leaves the queue only by
 //!   beginning (`slot-begin`) or by a `dropped` record whose reason is one of
 //!   [`WITHDRAWN`]; so a response never goes idle, or emits `faulted`, with
@@ -328,7 +329,15 @@ impl Checker {
                 }
             }
             Entry::Disconnect { id, .. } => match self.connections.get_mut(id) {
-                Some(c) if c.live => c.live = false,
+                Some(c) if c.live => {
+                    c.live = false;
+                    // Ended by an earlier delivery of the signal being
+                    // routed (an `until` whose `once` was dropped): the
+                    // signal no longer reaches it, and this record says why.
+                    if let Some(w) = &mut self.window {
+                        w.owed.retain(|o| o != id);
+                    }
+                }
                 _ => self.fail(
                     "conservation",
                     format!("disconnect of #{id}, which is not live"),
