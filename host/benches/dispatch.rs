@@ -79,11 +79,8 @@ impl TraceSink for Latency {
     fn record(&mut self, record: &Record) {
         let mut state = self.0.lock().expect("not poisoned");
         match &record.entry {
-            Entry::Signal {
-                signal: "triggered",
-                ..
-            } => state.0 = Some(Instant::now()),
-            Entry::SlotBegin { slot: "start", .. } => {
+            Entry::Signal { signal, .. } if signal == "triggered" => state.0 = Some(Instant::now()),
+            Entry::SlotBegin { slot, .. } if slot == "start" => {
                 if let Some(t) = state.0.take() {
                     state.1.push(t.elapsed().as_nanos() as u64);
                 }

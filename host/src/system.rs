@@ -27,10 +27,10 @@
 //!
 //! ## Lockstep under the virtual clock
 //! The run's *native contexts* are the program's thread (the closure given
-//! to [`System::run_with`]) and the anonymous slots (closures given to
-//! [`Radar::whenever_do`] and friends, run one at a time on a thread of
-//! Radar's, never on the scheduler's: a slow one delays only the other
-//! anonymous slots). Under the virtual clock they run in lockstep: one at a
+//! to [`System::run_with`]), the tasks it starts with [`Radar::spawn`], and
+//! the anonymous slots (closures given to [`Radar::whenever_do`] and friends,
+//! run one at a time on a thread of Radar's, never on the scheduler's: a slow
+//! one delays only the other anonymous slots). Under the virtual clock they run in lockstep: one at a
 //! time, while time stands still, each until it blocks in `sleep` or
 //! `waitfor` or ends, then the next in the order they became ready. So a run
 //! with native code is as deterministic as one without.
@@ -41,9 +41,11 @@
 //! any other thread (one you spawn, with a clone moved into it) a handle is
 //! *external*: its commands are applied when they arrive, like a user typing
 //! at a console; that never hangs a run, but where they land in virtual
-//! time depends on the operating system's thread timing, so keep the
-//! deliberative code that must be deterministic on the program's thread
-//! and in anonymous slots.
+//! time depends on the operating system's thread timing, so run deliberative
+//! code that must be deterministic with [`Radar::spawn`] instead. (A native
+//! context that blocks on something outside Radar, such as joining a thread
+//! of its own that waits for virtual time, would wait forever: virtual time
+//! stands still while it runs. [`Task::join`] is the way to wait for a task.)
 
 use std::cell::Cell;
 use std::collections::BTreeMap;

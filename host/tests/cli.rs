@@ -149,11 +149,14 @@ to = "Counter.start"
             plugins::TEST_RESPONSE
         ),
     );
-    let out = radar(&["run", &manifest, "--for", "5s"]);
+    let trace = dir.path().join("t.jsonl");
+    let trace_arg = trace.to_str().expect("utf-8 path");
+    let out = radar(&["run", &manifest, "--for", "5s", "--trace", trace_arg]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let stdout = text(&out.stdout);
     assert!(stdout.contains("Counter.started(2)"), "{stdout}");
     assert!(stdout.contains("Counter.exited({\"ok\":2})"), "{stdout}");
+    lawful_trace(&trace);
 }
 
 #[test]
@@ -192,6 +195,8 @@ fn bad_input_exits_non_zero_with_a_one_line_cause() {
 
 #[test]
 fn inject_sends_payloads_into_slots_at_given_times() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let trace = dir.path().join("t.jsonl");
     let out = radar(&[
         "run",
         "--for",
@@ -200,8 +205,11 @@ fn inject_sends_payloads_into_slots_at_given_times() {
         "1s:TestResponse.start=7",
         "--inject",
         "2.5s:TestResponse.interrupt",
+        "--trace",
+        trace.to_str().expect("utf-8 path"),
     ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
+    lawful_trace(&trace);
     let stdout = text(&out.stdout);
     for expected in [
         "1.000s  inject 7 → TestResponse.start",
@@ -220,5 +228,33 @@ fn inject_sends_payloads_into_slots_at_given_times() {
         text(&bad.stderr).contains("expected u32"),
         "{}",
         text(&bad.stderr)
+    );
+}
+
+#[test]
+fn a_loop_that_takes_no_time_ends_the_run_with_one_line() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let manifest = write_manifest(
+        dir.path(),
+        &format!(
+            "[plugins.R]\nwasm = \"{}\"\n\n[[connect]]\nmode = \"whenever\"\nfrom = \"R.started\"\nto = \"R.start\"\nbusy = \"restart\"\n",
+            plugins::COUNT_UP
+        ),
+    );
+    let out = radar(&[
+        "run",
+        &manifest,
+        "--for",
+        "5s",
+        "-q",
+        "--inject",
+        "1s:R.start",
+    ]);
+    assert!(!out.status.success());
+    let stderr = text(&out.stderr);
+    assert_eq!(stderr.lines().count(), 1, "one line: {stderr}");
+    assert!(
+        stderr.contains("stopped at 1.000 s: signals kept flowing without virtual time advancing"),
+        "{stderr}"
     );
 }

@@ -456,17 +456,17 @@ pub(crate) struct State {
     seed: u64,
     stop: bool,
     /// Virtual clock: signals emitted in the current instant, to catch a
-    /// system that loops without time ever advancing (see `Livelock`).
-    instant: Instant,
+    /// system that loops without time ever advancing.
+    instant: InstantSignals,
     program_outcome: Option<Result<(), ProgramFailure>>,
     /// Tasks started with `Radar::spawn`, by id.
-    tasks: HashMap<u64, TaskState>,
-    next_task_id: u64,
+    native_tasks: HashMap<u64, NativeTask>,
+    next_native_task: u64,
     route_buffer: Vec<u64>,
 }
 
 /// A spawned native context, running or ended.
-enum TaskState {
+enum NativeTask {
     Running {
         joiners: Vec<(bool, Sender<Result<(), ProgramFailure>>)>,
     },
@@ -478,7 +478,7 @@ enum TaskState {
 /// `R.started → R.start` with `restart`) would otherwise stop virtual time
 /// for good, with the trace growing until memory runs out; the run is ended
 /// instead, and says so.
-pub(crate) struct Instant {
+pub(crate) struct InstantSignals {
     at: u64,
     signals: u64,
     limit: u64,
@@ -486,7 +486,7 @@ pub(crate) struct Instant {
     pub livelock: Option<u64>,
 }
 
-impl Instant {
+impl InstantSignals {
     fn new(plugins: usize) -> Self {
         Self {
             at: 0,
@@ -619,10 +619,10 @@ impl Scheduler {
             anonymous_jobs,
             seed,
             stop: false,
-            instant: Instant::new(plugin_count),
+            instant: InstantSignals::new(plugin_count),
             program_outcome: None,
-            tasks: HashMap::new(),
-            next_task_id: 0,
+            native_tasks: HashMap::new(),
+            next_native_task: 0,
             route_buffer: Vec::new(),
         };
         Self {
@@ -921,11 +921,11 @@ impl Scheduler {
                 panicked,
             } => core.with(|st| st.anonymous_done(slot, closure, panicked)),
             Command::Spawn { go, reply } => core.with(|st| {
-                st.next_task_id += 1;
-                let task = st.next_task_id;
-                st.tasks.insert(
+                st.next_native_task += 1;
+                let task = st.next_native_task;
+                st.native_tasks.insert(
                     task,
-                    TaskState::Running {
+                    NativeTask::Running {
                         joiners: Vec::new(),
                     },
                 );
@@ -943,8 +943,8 @@ impl Scheduler {
                         message: format!("task {task} failed: {failure}"),
                     });
                 }
-                let ended = TaskState::Ended(outcome.clone());
-                if let Some(TaskState::Running { joiners }) = st.tasks.insert(task, ended) {
+                let ended = NativeTask::Ended(outcome.clone());
+                if let Some(NativeTask::Running { joiners }) = st.native_tasks.insert(task, ended) {
                     for (lockstep, reply) in joiners {
                         let outcome = outcome.clone();
                         st.resume(lockstep, Box::new(move || reply.send(outcome).is_ok()));
@@ -955,11 +955,11 @@ impl Scheduler {
                 task,
                 lockstep,
                 reply,
-            } => core.with(|st| match st.tasks.get_mut(&task) {
-                Some(TaskState::Ended(outcome)) => {
+            } => core.with(|st| match st.native_tasks.get_mut(&task) {
+                Some(NativeTask::Ended(outcome)) => {
                     let _ = reply.send(outcome.clone());
                 }
-                Some(TaskState::Running { joiners }) => {
+                Some(NativeTask::Running { joiners }) => {
                     joiners.push((lockstep, reply));
                     if lockstep {
                         st.turns.block();

@@ -361,7 +361,7 @@ impl State {
         self.route_buffer = ids;
     }
 
-    /// See [`Instant`]: ends the run when one virtual instant has seen
+    /// See [`InstantSignals`]: ends the run when one virtual instant has seen
     /// more signals than any system that makes progress would emit.
     fn count_signal(&mut self) {
         let now = self.now();
