@@ -115,6 +115,21 @@ impl Executor {
     }
 }
 
+/// Lets every other ready task run once before going on.
+pub(crate) async fn yield_now() {
+    let mut yielded = false;
+    std::future::poll_fn(|cx| {
+        if yielded {
+            Poll::Ready(())
+        } else {
+            yielded = true;
+            cx.waker().wake_by_ref();
+            Poll::Pending
+        }
+    })
+    .await
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -125,17 +140,7 @@ mod tests {
     fn yielding(label: &'static str, log: Rc<RefCell<Vec<String>>>) -> LocalTask {
         Box::pin(async move {
             log.borrow_mut().push(format!("{label}1"));
-            let mut yielded = false;
-            std::future::poll_fn(|cx| {
-                if yielded {
-                    Poll::Ready(())
-                } else {
-                    yielded = true;
-                    cx.waker().wake_by_ref();
-                    Poll::Pending
-                }
-            })
-            .await;
+            yield_now().await;
             log.borrow_mut().push(format!("{label}2"));
         })
     }

@@ -173,6 +173,14 @@ impl Scenario {
         format!("{}.{s}", self.name(p))
     }
 
+    fn inject_payload(&self, p: usize, slot: &str) -> serde_json::Value {
+        if slot == "start" {
+            self.plugins[p].start_payload()
+        } else {
+            json!(null)
+        }
+    }
+
     fn link(&self, step: &Step) -> Option<Link> {
         let Step::Connect {
             from,
@@ -233,11 +241,7 @@ impl Scenario {
                         }
                     }
                     Step::Inject(p, slot) => {
-                        let payload = if *slot == "start" {
-                            scenario.plugins[*p].start_payload()
-                        } else {
-                            json!(null)
-                        };
+                        let payload = scenario.inject_payload(*p, slot);
                         let _ = radar.inject(&scenario.signal((*p, slot)), payload);
                     }
                     Step::Reset(p) => {
@@ -343,11 +347,7 @@ impl fmt::Debug for Scenario {
                 }
                 Step::Disconnect(n) => writeln!(f, "# {at}s: close connection #{n}")?,
                 Step::Inject(p, slot) => {
-                    let payload = if *slot == "start" {
-                        self.plugins[*p].start_payload()
-                    } else {
-                        json!(null)
-                    };
+                    let payload = self.inject_payload(*p, slot);
                     writeln!(f, "--inject {at}s:{}={payload}", self.signal((*p, slot)))?;
                 }
                 Step::Reset(p) => writeln!(f, "# {at}s: reset {}", self.name(*p))?,
@@ -371,13 +371,15 @@ fn scenario() -> impl Strategy<Value = Scenario> {
             let r = responses.len();
             let n = e + r;
             let plugins: Vec<Fixture> = events.into_iter().chain(responses).collect();
-            let signal = (0..n, 0..4usize).prop_map(move |(p, s)| {
+            // An event's signals, or a response's.
+            let signal_of = move |(p, s): (usize, usize)| {
                 if p < e {
                     (p, EVENT_SIGNALS[s % 2])
                 } else {
                     (p, RESPONSE_SIGNALS[s])
                 }
-            });
+            };
+            let signal = (0..n, 0..4usize).prop_map(signal_of);
             let event_signal = (0..e).prop_map(|p| (p, "triggered"));
             let slot = (e..n, prop::sample::select(SLOTS));
             let to = prop_oneof![
@@ -398,13 +400,7 @@ fn scenario() -> impl Strategy<Value = Scenario> {
                 prop::option::weighted(0.3, (0..n, 0..4usize)),
             )
                 .prop_map(move |(from, to, once, busy, min_interval_ms, until)| {
-                    let until = until.map(|(p, s)| {
-                        if p < e {
-                            (p, "triggered")
-                        } else {
-                            (p, RESPONSE_SIGNALS[s])
-                        }
-                    });
+                    let until = until.map(signal_of);
                     Step::Connect {
                         from,
                         to,

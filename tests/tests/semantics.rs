@@ -913,18 +913,24 @@ fn a_fault_drops_the_queued_starts_with_a_record() {
 
 #[test]
 fn a_program_error_reading_ok_is_still_an_error() {
-    let system = virtual_system().plugin(test_event("E", 2));
-    let report = run(system, 1, |_radar| Err(RadarError::Program("ok".into())));
+    let report = checked(
+        virtual_system()
+            .plugin(test_event("E", 2))
+            .build()
+            .expect("builds")
+            .run_with(Some(Duration::from_secs(1)), |_radar| {
+                Err::<(), String>("ok".into())
+            })
+            .expect("runs"),
+    );
     assert_eq!(
         report.program,
-        Some(Err(ProgramFailure::Error(
-            "deliberative program failed: ok".into()
-        )))
+        Some(Err(ProgramFailure::Error("ok".into())))
     );
     assert_eq!(
         count(
             &records(&report),
-            json!({"kind": "program-end", "outcome": "error"})
+            json!({"kind": "program-end", "outcome": "error", "error": "ok"})
         ),
         1
     );

@@ -133,21 +133,6 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
     }
 }
 
-/// Lets every other ready task run once.
-async fn yield_once() {
-    let mut yielded = false;
-    poll_fn(|cx| {
-        if yielded {
-            Poll::Ready(())
-        } else {
-            yielded = true;
-            cx.waker().wake_by_ref();
-            Poll::Pending
-        }
-    })
-    .await
-}
-
 pub(super) fn slot_end(core: &Core, pid: usize, slot: Slot, outcome: &'static str) {
     core.with(|st| {
         if !st.tracing() {
@@ -198,7 +183,7 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
         // Other tasks ready at this instant go first: an activation that
         // takes no time must not keep the thread (and a loop of such
         // activations must not stop the scheduler from ever ending it).
-        yield_once().await;
+        crate::executor::yield_now().await;
         core.until_ready(pid, |e| {
             e.reset_requested || (e.lifecycle != Lifecycle::Error && e.has_start_waiting())
         })
