@@ -269,7 +269,7 @@ fn describe_fault(err: &wasmtime::Error) -> String {
         chain.join(": ")
     };
     match err.downcast_ref::<Trap>() {
-        Some(_) => format!("trapped: {text}"),
+        Some(_) => format!("trapped: {}", text.trim_start_matches("wasm trap: ")),
         None => text,
     }
 }
