@@ -34,6 +34,14 @@ pub enum RadarError {
         /// What is missing or unexpected.
         cause: String,
     },
+    /// A setting of the plugin that cannot work (a zero check period, ...).
+    #[error("plugin `{plugin}`: {cause}")]
+    BadSetting {
+        /// The plugin's name in the system.
+        plugin: String,
+        /// What is wrong with the setting.
+        cause: String,
+    },
     /// A plugin name that cannot be used in `Plugin.port` references.
     #[error("plugin name `{0}` is not usable: names are non-empty and have no `.` or spaces")]
     BadName(String),

@@ -246,6 +246,14 @@ impl SystemBuilder {
             if defs.iter().any(|d| d.name == p.name) {
                 return Err(RadarError::DuplicatePlugin(p.name));
             }
+            if p.period.is_some_and(|d| d.is_zero()) {
+                // Checks back to back with no time between would stop the
+                // virtual clock for good.
+                return Err(RadarError::BadSetting {
+                    plugin: p.name,
+                    cause: "an event's check period must be longer than zero".into(),
+                });
+            }
             let code = match &p.source {
                 Source::File(path) => loader.load_file(&p.name, path)?,
                 Source::Bytes(bytes) => loader.load_bytes(&p.name, bytes)?,

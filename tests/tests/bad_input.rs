@@ -346,3 +346,12 @@ fn plugin_names_must_be_unique_and_usable_in_references() {
         assert!(matches!(err, RadarError::BadName(_)), "{name:?}: {err:?}");
     }
 }
+
+#[test]
+fn a_zero_check_period_is_refused_naming_the_plugin() {
+    let err = build_error(test_event("E", 2).period(Duration::ZERO));
+    assert_eq!(
+        err.to_string(),
+        "plugin `E`: an event's check period must be longer than zero"
+    );
+}
