@@ -94,6 +94,14 @@ pub enum RadarError {
         /// Why it does not fit.
         cause: String,
     },
+    /// A new version of a plugin that cannot take the old one's place.
+    #[error("swap of `{plugin}` refused: {cause}")]
+    SwapRefused {
+        /// The plugin's name in the system.
+        plugin: String,
+        /// Why (the connection and both types, the kind, ...).
+        cause: String,
+    },
     /// `reset` of a plugin that is not in `error`.
     #[error("plugin `{0}` is not in error; only a faulted plugin can be reset")]
     NotFaulted(String),

@@ -28,5 +28,5 @@ pub use clock::ClockKind;
 pub use error::RadarError;
 pub use payload::{Payload, PayloadType};
 pub use plugin::Limits;
-pub use scheduler::{AnonymousSlot, Busy, Mode, ProgramFailure};
+pub use scheduler::{AnonymousSlot, Busy, Mode, ProgramFailure, SwapPolicy};
 pub use system::{Connection, Link, Plugin, Radar, RunReport, System, SystemBuilder, Task};

@@ -77,6 +77,8 @@ pub(crate) enum Kind {
 /// A compiled, validated plugin component, ready to instantiate.
 pub(crate) struct PluginCode {
     pub kind: Kind,
+    /// The first 12 hex digits of the component's sha256 (DESIGN §1.4).
+    pub version: String,
     pre: InstancePre<PluginCtx>,
 }
 
@@ -248,6 +250,8 @@ pub(crate) struct PluginInstance {
     start: Option<Func>,
     interrupt: Option<Func>,
     exit: Option<Func>,
+    snapshot: Option<Func>,
+    restore: Option<Func>,
 }
 
 /// One line: the trap or the error chain, without the wasm backtrace
@@ -313,6 +317,8 @@ impl PluginCode {
         let start = instance.get_func(&mut store, "start");
         let interrupt = instance.get_func(&mut store, "interrupt");
         let exit = instance.get_func(&mut store, "exit");
+        let snapshot = instance.get_func(&mut store, "snapshot");
+        let restore = instance.get_func(&mut store, "restore");
         Ok(PluginInstance {
             store,
             fuel_per_call: setup.limits.fuel_per_call,
@@ -320,6 +326,8 @@ impl PluginCode {
             start,
             interrupt,
             exit,
+            snapshot,
+            restore,
         })
     }
 }
@@ -382,6 +390,51 @@ impl PluginInstance {
         let Some(f) = self.exit else { return Ok(()) };
         self.call(f, &[], false).await.map(drop)
     }
+
+    /// The plugin's state in its own format, if it exports `snapshot`.
+    pub async fn snapshot(&mut self) -> Result<Option<Vec<u8>>, Fault> {
+        let Some(f) = self.snapshot else {
+            return Ok(None);
+        };
+        match self.call(f, &[], true).await? {
+            Some(Val::List(bytes)) => Ok(Some(
+                bytes
+                    .into_iter()
+                    .map(|b| match b {
+                        Val::U8(b) => b,
+                        _ => 0,
+                    })
+                    .collect(),
+            )),
+            _ => Ok(Some(Vec::new())),
+        }
+    }
+
+    /// Whether the plugin exports `restore`.
+    pub fn can_restore(&self) -> bool {
+        self.restore.is_some()
+    }
+
+    /// Hands `state` to the plugin's `restore`; `Err` inside is the error
+    /// the plugin returned.
+    pub async fn restore(&mut self, state: Vec<u8>) -> Result<Result<(), String>, Fault> {
+        let Some(f) = self.restore else {
+            return Ok(Ok(()));
+        };
+        let bytes = Val::List(state.into_iter().map(Val::U8).collect());
+        match self.call(f, &[bytes], true).await? {
+            Some(Val::Result(Err(error))) => Ok(Err(match error.as_deref() {
+                Some(Val::String(text)) => text.clone(),
+                _ => "restore returned an error".into(),
+            })),
+            _ => Ok(Ok(())),
+        }
+    }
+}
+
+/// A component's version: the first 12 hex digits of its sha256.
+pub(crate) fn version_of(bytes: &[u8]) -> String {
+    format!("{:x}", Sha256::digest(bytes))[..12].to_string()
 }
 
 /// Compiles and validates plugin components for one engine.
@@ -442,7 +495,8 @@ impl Loader {
     }
 
     pub fn load_bytes(&mut self, plugin: &str, bytes: &[u8]) -> Result<PluginCode, RadarError> {
-        let component = self.compile(plugin, bytes)?;
+        let digest = format!("{:x}", Sha256::digest(bytes));
+        let component = self.compile(plugin, bytes, &digest)?;
         let kind = self.validate(plugin, &component)?;
         let pre = self
             .linker
@@ -451,10 +505,19 @@ impl Loader {
                 plugin: plugin.into(),
                 cause: format!("{e:#}"),
             })?;
-        Ok(PluginCode { kind, pre })
+        Ok(PluginCode {
+            kind,
+            version: digest[..12].to_string(),
+            pre,
+        })
     }
 
-    fn compile(&mut self, plugin: &str, bytes: &[u8]) -> Result<Component, RadarError> {
+    fn compile(
+        &mut self,
+        plugin: &str,
+        bytes: &[u8],
+        digest: &str,
+    ) -> Result<Component, RadarError> {
         let not_component = |cause: String| RadarError::NotAComponent {
             plugin: plugin.into(),
             cause,
@@ -471,7 +534,7 @@ impl Loader {
                     .into(),
             ));
         }
-        let key = format!("{:x}-{:016x}", Sha256::digest(bytes), self.engine_key);
+        let key = format!("{digest}-{:016x}", self.engine_key);
         if let Some(c) = self.compiled.get(&key) {
             return Ok(c.clone());
         }
@@ -545,6 +608,25 @@ impl Loader {
             };
         let result =
             |f: &types::ComponentFunc| f.results().next().map(|t| PayloadType::from_wasm(&t));
+        // State for hot swap (DESIGN §1.4): both optional, typed if present.
+        let bytes = PayloadType::List(Box::new(PayloadType::U8));
+        if let Some(f) = funcs.get("snapshot") {
+            if f.params().len() != 0 || result(f).as_ref() != Some(&bytes) {
+                return Err(wrong("`snapshot` must be `func() -> list<u8>`".into()));
+            }
+        }
+        if let Some(f) = funcs.get("restore") {
+            let takes: Vec<_> = f
+                .params()
+                .map(|(_, t)| PayloadType::from_wasm(&t))
+                .collect();
+            let returns_result = matches!(result(f), Some(PayloadType::Result { .. }));
+            if takes != [bytes.clone()] || !returns_result {
+                return Err(wrong(
+                    "`restore` must be `func(state: list<u8>) -> result<_, string>`".into(),
+                ));
+            }
+        }
         match (funcs.get("check"), funcs.get("start")) {
             (Some(_), Some(_)) => Err(wrong(
                 "it exports both `check` (event) and `start` (response); a plugin is one or the other".into(),

@@ -50,10 +50,11 @@
 use std::cell::Cell;
 use std::collections::BTreeMap;
 use std::fmt::Display;
+use std::path::Path;
 use std::path::PathBuf;
 use std::rc::Rc;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use crossbeam_channel::{bounded, unbounded, Receiver, Sender};
@@ -62,10 +63,11 @@ use serde_json::Value as Json;
 use crate::clock::{ClockKind, TimeBase};
 use crate::error::RadarError;
 use crate::payload::Payload;
-use crate::plugin::{default_cache_dir, Limits, Loader};
+use crate::plugin::{default_cache_dir, Limits, Loader, PluginCode};
 use crate::scheduler::{
     duration_nanos, AnonymousJob, AnonymousSlot, Busy, Command, LinkSpec, LinkTarget, Mode,
-    PluginDef, ProgramFailure, RunSetup, Scheduler, StaticInjection, TraceOut,
+    PluginDef, ProgramFailure, RunSetup, Scheduler, StaticInjection, StaticSwap, SwapPolicy,
+    TraceOut,
 };
 
 /// Distinguishes the systems of one process, for [`NATIVE_CONTEXT`].
@@ -147,6 +149,7 @@ pub struct SystemBuilder {
     plugins: Vec<Plugin>,
     links: Vec<Link>,
     injections: Vec<StaticInjection>,
+    swaps: Vec<(Duration, String, PathBuf, SwapPolicy)>,
     sinks: Vec<Box<dyn TraceSink>>,
     keep_trace: bool,
     cache_dir: Option<PathBuf>,
@@ -162,6 +165,7 @@ impl Default for SystemBuilder {
             plugins: Vec::new(),
             links: Vec::new(),
             injections: Vec::new(),
+            swaps: Vec::new(),
             sinks: Vec::new(),
             keep_trace: true,
             cache_dir: default_cache_dir(),
@@ -201,6 +205,21 @@ impl SystemBuilder {
             to: slot.into(),
             payload,
         });
+        self
+    }
+
+    /// Swaps `plugin` for the component at `path` at `at` of the run's time
+    /// (`radar run --swap`). The component is compiled by `build`; one that
+    /// does not load or fit is refused when its time comes (a
+    /// `swap-refused` record), and the old version goes on serving.
+    pub fn swap_at(
+        mut self,
+        at: Duration,
+        plugin: impl Into<String>,
+        path: impl Into<PathBuf>,
+        policy: SwapPolicy,
+    ) -> Self {
+        self.swaps.push((at, plugin.into(), path.into(), policy));
         self
     }
 
@@ -266,8 +285,20 @@ impl SystemBuilder {
                 name: p.name,
             });
         }
+        let swaps = self
+            .swaps
+            .into_iter()
+            .map(|(at, plugin, path, policy)| StaticSwap {
+                at,
+                code: load_version(&mut loader, &plugin, &path),
+                plugin,
+                policy,
+            })
+            .collect();
         let (tx, rx) = unbounded();
         Ok(System {
+            loader: Arc::new(Mutex::new(loader)),
+            swaps,
             id: NEXT_SYSTEM.fetch_add(1, Ordering::Relaxed),
             clock: self.clock,
             plugins: defs,
@@ -285,6 +316,9 @@ impl SystemBuilder {
 /// A set of plugins ready to run. See the module docs.
 pub struct System {
     id: u64,
+    /// Kept for swaps: one engine for the whole run.
+    loader: Arc<Mutex<Loader>>,
+    swaps: Vec<StaticSwap>,
     clock: ClockKind,
     plugins: Vec<PluginDef>,
     links: Vec<LinkSpec>,
@@ -338,6 +372,7 @@ impl System {
         Radar {
             tx: self.tx.clone(),
             system: self.id,
+            loader: self.loader.clone(),
         }
     }
 
@@ -400,6 +435,7 @@ impl System {
             programs,
             links: self.links,
             injections: self.injections,
+            swaps: self.swaps,
         });
         let end = scheduler.run()?;
         // The scheduler dropped the job sender: the runner ends after its
@@ -448,6 +484,20 @@ where
             let _ = tx.send(done(outcome));
         })
         .map(drop)
+}
+
+/// A new version of a plugin, or its version and why it cannot be loaded.
+fn load_version(
+    loader: &mut Loader,
+    plugin: &str,
+    path: &Path,
+) -> Result<Box<PluginCode>, (String, RadarError)> {
+    loader.load_file(plugin, path).map(Box::new).map_err(|e| {
+        let version = std::fs::read(path)
+            .map(|bytes| crate::plugin::version_of(&bytes))
+            .unwrap_or_else(|_| "unreadable".into());
+        (version, e)
+    })
 }
 
 fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
@@ -606,6 +656,7 @@ pub struct Radar {
     tx: Sender<Command>,
     /// The system this handle drives (see [`NATIVE_CONTEXT`]).
     system: u64,
+    loader: Arc<Mutex<Loader>>,
 }
 
 impl Radar {
@@ -761,6 +812,33 @@ impl Radar {
             id,
             radar: self.clone(),
         })
+    }
+
+    /// Replaces `plugin` by the component at `path` while the system runs
+    /// (DESIGN §1.4). The component is compiled here, on the caller's thread
+    /// (through the compiled-artifact cache), then checked against every
+    /// live connection of the plugin: a new version that does not fit is
+    /// refused with an error naming the connection and both types, and the
+    /// old version goes on serving. An accepted one takes over at the
+    /// plugin's safe point, as `policy` says, with the old version's state if
+    /// both export `snapshot` / `restore`; a failure there rolls back (a
+    /// `swap-rolled-back` record).
+    pub fn swap(
+        &self,
+        plugin: &str,
+        path: impl AsRef<Path>,
+        policy: SwapPolicy,
+    ) -> Result<(), RadarError> {
+        let code = {
+            let mut loader = self.loader.lock().unwrap_or_else(|e| e.into_inner());
+            load_version(&mut loader, plugin, path.as_ref())
+        };
+        self.ask(|reply| Command::Swap {
+            plugin: plugin.to_string(),
+            code,
+            policy,
+            reply,
+        })?
     }
 
     /// Ends the run.

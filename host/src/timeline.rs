@@ -181,6 +181,29 @@ impl<W: Write + Send> Timeline<W> {
                 message,
             } => format!("  {plugin} [{level}] {message}"),
             Entry::Inject { to, payload } => format!("inject {payload} → {to}"),
+            Entry::SwapRequest {
+                plugin,
+                version,
+                policy,
+                ..
+            } => format!("swap {plugin} → {version} requested ({policy})"),
+            Entry::Swap {
+                plugin,
+                from,
+                to,
+                policy,
+                state,
+            } => format!("SWAP {plugin} {from} → {to} ({policy}, state {state})"),
+            Entry::SwapRefused {
+                plugin,
+                version,
+                reason,
+            } => format!("swap of {plugin} to {version} refused: {reason}"),
+            Entry::SwapRolledBack {
+                plugin,
+                version,
+                reason,
+            } => format!("swap of {plugin} to {version} rolled back: {reason}"),
             Entry::ProgramEnd { outcome, error } => match error {
                 Some(error) => format!("deliberative program ended: {outcome}: {error}"),
                 None => format!("deliberative program ended: {outcome}"),

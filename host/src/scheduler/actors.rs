@@ -2,6 +2,7 @@
 //! its slots, an event's checks at their cadence, a response's
 //! start → [interrupt] → exit for each accepted start.
 
+use super::swap::Transition;
 use super::*;
 
 impl Core {
@@ -51,38 +52,16 @@ impl Core {
         Some(inst)
     }
 
-    /// Handles a pending `reset`: a fresh store and instance.
-    pub(super) async fn reset(&self, pid: usize) -> Option<PluginInstance> {
-        // Cleared first: a reset whose instantiation fails leaves the plugin
-        // in `error` until the next `reset`, rather than retrying forever.
-        self.with(|st| st.plugins[pid].reset_requested = false);
-        let inst = self.instantiate(pid).await?;
+    /// A reset or a swap waiting for this plugin's safe point, if any.
+    fn pending_transition(&self, pid: usize) -> Option<Transition> {
         self.with(|st| {
             let entry = &mut st.plugins[pid];
-            entry.lifecycle = Lifecycle::Inactive;
-            let name = entry.name.clone();
-            let listening = entry.listeners > 0;
-            let event = entry.is_event();
-            st.record(Entry::Reset {
-                plugin: name.clone(),
-            });
-            if event {
-                st.record(Entry::State {
-                    plugin: name,
-                    state: "inactive".into(),
-                });
-                if listening {
-                    st.activate(pid);
-                }
+            if entry.reset_requested {
+                Some(Transition::Reset)
             } else {
-                st.plugins[pid].lifecycle = Lifecycle::Active;
-                st.record(Entry::State {
-                    plugin: name,
-                    state: "idle".into(),
-                });
+                entry.swap.take().map(Transition::Swap)
             }
-        });
-        Some(inst)
+        })
     }
 }
 
@@ -91,16 +70,18 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
     let (stop, period) = core.with(|st| (st.plugins[pid].stop.clone(), st.plugins[pid].def.period));
     loop {
         core.until_ready(pid, |e| {
-            e.reset_requested || e.lifecycle == Lifecycle::Active
+            e.reset_requested || e.swap.is_some() || e.lifecycle == Lifecycle::Active
         })
         .await;
-        if core.with(|st| st.plugins[pid].reset_requested) {
-            instance = core.reset(pid).await;
+        // The safe point: between checks.
+        if let Some(transition) = core.pending_transition(pid) {
+            core.transition(pid, &mut instance, transition).await;
             continue;
         }
         let Some(inst) = instance.as_mut() else {
-            // Faulted while instantiating: wait for a reset.
-            core.until_ready(pid, |e| e.reset_requested).await;
+            // Faulted while instantiating: wait for a reset or a swap.
+            core.until_ready(pid, |e| e.reset_requested || e.swap.is_some())
+                .await;
             continue;
         };
         let next = core.with(|st| st.plugins[pid].next_check);
@@ -111,12 +92,15 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
         let began = core.base.now();
         let outcome = inst.check().await;
         core.with(|st| {
-            st.plugins[pid].next_check = began.saturating_add(period).max(st.now());
+            let now = st.now();
+            let entry = &mut st.plugins[pid];
+            entry.next_check = began.saturating_add(period).max(now);
+            // A `restart` swap interrupted this check: its result does not count.
+            let counts = entry.lifecycle == Lifecycle::Active
+                && !entry.swap.as_ref().is_some_and(|s| s.discard_check);
             match outcome {
                 Err(fault) => st.fault(pid, fault),
-                Ok(Some(payload)) if st.plugins[pid].lifecycle == Lifecycle::Active => {
-                    st.emit(pid, Signal::Triggered, payload)
-                }
+                Ok(Some(payload)) if counts => st.emit(pid, Signal::Triggered, payload),
                 Ok(Some(payload)) => {
                     let plugin = st.plugins[pid].name.clone();
                     st.record(Entry::Discarded {
@@ -168,32 +152,26 @@ pub(super) fn slot_begin(st: &mut State, pid: usize, slot: Slot, connection: Opt
 
 pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
     let mut instance = core.instantiate(pid).await;
-    let (stop, has_result) = core.with(|st| {
-        let e = &st.plugins[pid];
-        let has_result = matches!(
-            e.def.code.kind,
-            Kind::Response {
-                start_result: Some(_),
-                ..
-            }
-        );
-        (e.stop.clone(), has_result)
-    });
+    let stop = core.with(|st| st.plugins[pid].stop.clone());
     loop {
         // Other tasks ready at this instant go first: an activation that
         // takes no time must not keep the thread (and a loop of such
         // activations must not stop the scheduler from ever ending it).
         crate::executor::yield_now().await;
         core.until_ready(pid, |e| {
-            e.reset_requested || (e.lifecycle != Lifecycle::Error && e.has_start_waiting())
+            e.reset_requested
+                || e.swap.is_some()
+                || (e.lifecycle != Lifecycle::Error && e.has_start_waiting())
         })
         .await;
-        if core.with(|st| st.plugins[pid].reset_requested) {
-            instance = core.reset(pid).await;
+        // The safe point: between activations.
+        if let Some(transition) = core.pending_transition(pid) {
+            core.transition(pid, &mut instance, transition).await;
             continue;
         }
         let Some(mut inst) = instance.as_mut() else {
-            core.until_ready(pid, |e| e.reset_requested).await;
+            core.until_ready(pid, |e| e.reset_requested || e.swap.is_some())
+                .await;
             continue;
         };
         let Some(request) = core.with(|st| {
@@ -202,17 +180,32 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
         }) else {
             continue;
         };
-        // start
+        // start (the slots' shapes are read each time: a swap may change them)
+        let (has_result, takes_payload, interrupt_takes) =
+            core.with(|st| match &st.plugins[pid].def.code.kind {
+                Kind::Response {
+                    start_param,
+                    start_result,
+                    interrupt_param,
+                } => (
+                    start_result.is_some(),
+                    start_param.is_some(),
+                    interrupt_param.is_some(),
+                ),
+                Kind::Event { .. } => (false, false, false),
+            });
+        let payload = request.payload.clone().filter(|_| takes_payload);
         core.with(|st| {
             st.set_phase(pid, Phase::Running);
             st.plugins[pid].activation = Some(Activation {
                 via: request.via,
+                payload: request.payload.clone(),
                 until: request.until,
             });
             slot_begin(st, pid, Slot::Start, Some(request.via));
-            st.emit(pid, Signal::Started, request.payload.clone());
+            st.emit(pid, Signal::Started, payload.clone());
         });
-        let outcome = inst.start(request.payload, has_result).await;
+        let outcome = inst.start(payload, has_result).await;
         let stop_request = core.with(|st| st.plugins[pid].stop_request.take());
         let result = match outcome {
             Ok(value) => {
@@ -256,6 +249,7 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
         stop.clear();
         // interrupt
         if let Some((StopReason::Interrupt, payload)) = stop_request {
+            let payload = payload.filter(|_| interrupt_takes);
             core.with(|st| {
                 st.set_phase(pid, Phase::Interrupting);
                 slot_begin(st, pid, Slot::Interrupt, None);

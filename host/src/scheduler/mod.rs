@@ -38,7 +38,10 @@ use crate::trace::{Entry, Record, TraceSink};
 
 mod actors;
 mod routing;
+mod swap;
 mod turns;
+
+pub use swap::SwapPolicy;
 
 use turns::Turns;
 
@@ -146,6 +149,14 @@ pub(crate) enum Command {
         closure: AnonymousSlot,
         panicked: bool,
     },
+    /// A new version of a plugin (compiled by the caller, off the
+    /// scheduler's thread), or why it could not be loaded.
+    Swap {
+        plugin: String,
+        code: Result<Box<PluginCode>, (String, RadarError)>,
+        policy: SwapPolicy,
+        reply: Sender<Result<(), RadarError>>,
+    },
     /// A new native context (`Radar::spawn`): `go` lets its thread run.
     Spawn {
         go: Sender<()>,
@@ -186,6 +197,14 @@ pub(crate) struct StaticInjection {
     pub at: Duration,
     pub to: String,
     pub payload: Json,
+}
+
+/// A swap given when the system was built (`radar run --swap`).
+pub(crate) struct StaticSwap {
+    pub at: Duration,
+    pub plugin: String,
+    pub code: Result<Box<PluginCode>, (String, RadarError)>,
+    pub policy: SwapPolicy,
 }
 
 /// A payload for a slot, checked against the slot's type.
@@ -294,6 +313,8 @@ struct Delivery {
 struct Activation {
     /// The connection whose start began it (0: an injection).
     via: u64,
+    /// Its start payload, for a `restart` swap that starts it again.
+    payload: Option<Val>,
     /// See [`StartRequest::until`].
     until: Option<u64>,
 }
@@ -328,6 +349,8 @@ struct PluginEntry {
     queue: VecDeque<StartRequest>,
     activation: Option<Activation>,
     stop_request: Option<(StopReason, Option<Val>)>,
+    /// A new version waiting for the plugin's safe point.
+    swap: Option<swap::PendingSwap>,
     /// `Plugin.start`, the label of dropped records for accepted starts.
     start_label: Arc<str>,
 }
@@ -358,33 +381,44 @@ impl PluginEntry {
     }
 
     fn signal_type(&self, signal: Signal) -> Option<Option<PayloadType>> {
-        match (&self.def.code.kind, signal) {
-            (_, Signal::Faulted) => Some(Some(PayloadType::String)),
-            (Kind::Event { payload, .. }, Signal::Triggered) => Some(payload.clone()),
-            (Kind::Response { start_param, .. }, Signal::Started) => Some(start_param.clone()),
-            (
-                Kind::Response {
-                    interrupt_param, ..
-                },
-                Signal::Interrupted,
-            ) => Some(interrupt_param.clone()),
-            (Kind::Response { start_result, .. }, Signal::Exited) => Some(start_result.clone()),
-            _ => None,
-        }
+        signal_type(&self.def.code.kind, signal)
     }
 
     fn slot_type(&self, slot: Slot) -> Option<Option<PayloadType>> {
-        match (&self.def.code.kind, slot) {
-            (Kind::Response { start_param, .. }, Slot::Start) => Some(start_param.clone()),
-            (
-                Kind::Response {
-                    interrupt_param, ..
-                },
-                Slot::Interrupt,
-            ) => Some(interrupt_param.clone()),
-            (Kind::Response { .. }, Slot::Exit) => Some(None),
-            _ => None,
-        }
+        slot_type(&self.def.code.kind, slot)
+    }
+}
+
+/// The payload type of a plugin kind's signal (`None`: no such signal;
+/// `Some(None)`: a signal without payload).
+fn signal_type(kind: &Kind, signal: Signal) -> Option<Option<PayloadType>> {
+    match (kind, signal) {
+        (_, Signal::Faulted) => Some(Some(PayloadType::String)),
+        (Kind::Event { payload, .. }, Signal::Triggered) => Some(payload.clone()),
+        (Kind::Response { start_param, .. }, Signal::Started) => Some(start_param.clone()),
+        (
+            Kind::Response {
+                interrupt_param, ..
+            },
+            Signal::Interrupted,
+        ) => Some(interrupt_param.clone()),
+        (Kind::Response { start_result, .. }, Signal::Exited) => Some(start_result.clone()),
+        _ => None,
+    }
+}
+
+/// The parameter type of a plugin kind's slot (as [`signal_type`]).
+fn slot_type(kind: &Kind, slot: Slot) -> Option<Option<PayloadType>> {
+    match (kind, slot) {
+        (Kind::Response { start_param, .. }, Slot::Start) => Some(start_param.clone()),
+        (
+            Kind::Response {
+                interrupt_param, ..
+            },
+            Slot::Interrupt,
+        ) => Some(interrupt_param.clone()),
+        (Kind::Response { .. }, Slot::Exit) => Some(None),
+        _ => None,
     }
 }
 
@@ -491,7 +525,7 @@ impl InstantSignals {
         Self {
             at: 0,
             signals: 0,
-            limit: 100_000u64.max(20 * plugins as u64),
+            limit: 10_000u64.max(20 * plugins as u64),
             livelock: None,
         }
     }
@@ -544,6 +578,7 @@ pub(crate) struct RunSetup {
     /// Static connections, made when the run begins.
     pub links: Vec<LinkSpec>,
     pub injections: Vec<StaticInjection>,
+    pub swaps: Vec<StaticSwap>,
 }
 
 /// Owns the executor and the command channel; [`Scheduler::run`] is the
@@ -555,6 +590,7 @@ pub(crate) struct Scheduler {
     limit: Option<u64>,
     links: Vec<LinkSpec>,
     injections: Vec<StaticInjection>,
+    swaps: Vec<StaticSwap>,
 }
 
 impl Scheduler {
@@ -570,6 +606,7 @@ impl Scheduler {
             programs,
             links,
             injections,
+            swaps,
         } = setup;
         let mut by_name = BTreeMap::new();
         let plugin_count = plugins.len();
@@ -597,6 +634,7 @@ impl Scheduler {
                     queue: VecDeque::new(),
                     activation: None,
                     stop_request: None,
+                    swap: None,
                 }
             })
             .collect();
@@ -635,6 +673,7 @@ impl Scheduler {
             limit: limit.map(duration_nanos),
             links,
             injections,
+            swaps,
         }
     }
 
@@ -672,6 +711,16 @@ impl Scheduler {
             for i in std::mem::take(&mut self.injections) {
                 let injection = st.prepare_inject(&i.to, i.payload)?;
                 st.inject_at(&core, injection, Some(i.at));
+            }
+            for swap in std::mem::take(&mut self.swaps) {
+                st.plugin(&swap.plugin)?;
+                let core = core.clone();
+                let at = duration_nanos(swap.at);
+                st.spawn(Box::pin(async move {
+                    let _ = core.base.sleep_until(at, None).await;
+                    // A refusal is recorded; the run goes on.
+                    let _ = core.with(|st| st.request_swap(&swap.plugin, swap.code, swap.policy));
+                }));
             }
             Ok(())
         })?;
@@ -920,6 +969,14 @@ impl Scheduler {
                 closure,
                 panicked,
             } => core.with(|st| st.anonymous_done(slot, closure, panicked)),
+            Command::Swap {
+                plugin,
+                code,
+                policy,
+                reply,
+            } => {
+                let _ = reply.send(core.with(|st| st.request_swap(&plugin, code, policy)));
+            }
             Command::Spawn { go, reply } => core.with(|st| {
                 st.next_native_task += 1;
                 let task = st.next_native_task;

@@ -396,7 +396,27 @@ impl Checker {
                     self.set_step(plugin, Step::StartEnded);
                 }
             }
-            Entry::Discarded { .. } | Entry::Log { .. } | Entry::ProgramEnd { .. } => {}
+            Entry::SwapRequest {
+                plugin,
+                connection: Some(id),
+                ..
+            } => {
+                // `restart`: the stopped activation's start is taken again.
+                self.owed_starts
+                    .entry(plugin.to_string())
+                    .or_default()
+                    .push(*id);
+            }
+            Entry::Swap { plugin, .. } => {
+                // A faulted plugin swapped for a new version runs again.
+                self.faulted.remove(plugin.as_ref());
+            }
+            Entry::Discarded { .. }
+            | Entry::Log { .. }
+            | Entry::ProgramEnd { .. }
+            | Entry::SwapRequest { .. }
+            | Entry::SwapRefused { .. }
+            | Entry::SwapRolledBack { .. } => {}
         }
     }
 

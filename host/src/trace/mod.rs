@@ -110,6 +110,39 @@ pub enum Entry {
     },
     /// A plugin was re-instantiated after `reset`.
     Reset { plugin: Arc<str> },
+    /// A new version of a plugin was accepted and waits for its safe point;
+    /// with `restart`, `connection` names the start of the activation that
+    /// is stopped and will run again on the new version.
+    SwapRequest {
+        plugin: Arc<str>,
+        version: String,
+        policy: Name,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        connection: Option<u64>,
+    },
+    /// The new version took over: `state` is `moved` (snapshot → restore)
+    /// or `none`.
+    Swap {
+        plugin: Arc<str>,
+        from: String,
+        to: String,
+        policy: Name,
+        state: Name,
+    },
+    /// A new version that does not fit (kind, types, invalid component):
+    /// the old version goes on serving.
+    SwapRefused {
+        plugin: Arc<str>,
+        version: String,
+        reason: String,
+    },
+    /// A swap that failed at its safe point (the new version cannot start,
+    /// `snapshot` or `restore` failed): the old version goes on serving.
+    SwapRolledBack {
+        plugin: Arc<str>,
+        version: String,
+        reason: String,
+    },
     /// A plugin wrote a log line.
     Log {
         plugin: Arc<str>,

@@ -1,0 +1,370 @@
+//! Hot swap (DESIGN §1.4): a plugin replaced by a new version while the
+//! system runs, its connections untouched.
+//!
+//! The new version is compiled by whoever asks (`Radar::swap`, off the
+//! scheduler's thread) and arrives as a [`Command::Swap`]. The request is
+//! checked at once against every live connection of the plugin (kind, signal
+//! and slot types) and refused, with a `swap-refused` record, if anything
+//! would not fit. An accepted swap waits for the plugin's *safe point*, the
+//! top of its actor's loop: a response between activations, an event
+//! between checks. With `restart` the running activation (or check) is
+//! stopped first: a response's start is put back ahead of everything so that
+//! it runs again, with the same payload, on the new version; an event's
+//! check result is discarded. At the safe point the actor calls
+//! [`Core::transition`], the one path by which a plugin gets a new instance
+//! (reset, swap, rollback), shared by events and responses.
+
+use super::*;
+
+/// How a swap treats the work in progress.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum SwapPolicy {
+    /// The running activation (or check) finishes on the old version; the
+    /// next one runs on the new (the default).
+    #[default]
+    Drain,
+    /// The running activation is stopped as by an exit signal and starts
+    /// again, with the same payload, on the new version; a check in progress
+    /// is interrupted and its result discarded.
+    Restart,
+}
+
+impl SwapPolicy {
+    pub(crate) fn as_str(self) -> &'static str {
+        match self {
+            SwapPolicy::Drain => "drain",
+            SwapPolicy::Restart => "restart",
+        }
+    }
+}
+
+impl std::str::FromStr for SwapPolicy {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "drain" => Ok(Self::Drain),
+            "restart" => Ok(Self::Restart),
+            other => Err(format!(
+                "unknown swap policy `{other}` (expected `drain` or `restart`)"
+            )),
+        }
+    }
+}
+
+/// An accepted swap waiting for its safe point.
+pub(crate) struct PendingSwap {
+    code: Rc<PluginCode>,
+    policy: SwapPolicy,
+    /// An event's check was interrupted for it: its result is discarded.
+    pub discard_check: bool,
+}
+
+/// What a plugin's new instance is for.
+pub(super) enum Transition {
+    /// `reset` of a plugin in `error`: a fresh instance of the same code.
+    Reset,
+    /// A swap that reached the plugin's safe point.
+    Swap(PendingSwap),
+}
+
+/// Whether a payload of type `emits` fits a slot taking `takes`; `Ok(pass)`
+/// says whether the slot takes the payload at all.
+fn fits(emits: &Option<PayloadType>, takes: &Option<PayloadType>) -> Result<bool, ()> {
+    match (emits, takes) {
+        (_, None) => Ok(false),
+        (Some(e), Some(t)) if e == t => Ok(true),
+        _ => Err(()),
+    }
+}
+
+fn type_text(ty: &Option<PayloadType>) -> String {
+    ty.as_ref()
+        .map_or("no payload".to_string(), |t| t.to_string())
+}
+
+impl State {
+    /// Checks a new version against the plugin's live connections and, if
+    /// it fits, makes it wait for the plugin's safe point.
+    pub(super) fn request_swap(
+        &mut self,
+        plugin: &str,
+        code: Result<Box<PluginCode>, (String, RadarError)>,
+        policy: SwapPolicy,
+    ) -> Result<(), RadarError> {
+        let pid = self.plugin(plugin)?;
+        let code = match code {
+            Ok(code) => code,
+            Err((version, error)) => {
+                self.refuse_swap(pid, &version, error.to_string());
+                return Err(error);
+            }
+        };
+        if let Err(cause) = self.check_swap(pid, &code.kind) {
+            self.refuse_swap(pid, &code.version, cause.clone());
+            return Err(RadarError::SwapRefused {
+                plugin: plugin.to_string(),
+                cause,
+            });
+        }
+        let entry = &mut self.plugins[pid];
+        let mut pending = PendingSwap {
+            code: Rc::new(*code),
+            policy,
+            discard_check: false,
+        };
+        let mut restarted = None;
+        if policy == SwapPolicy::Restart && entry.lifecycle != Lifecycle::Error {
+            if entry.is_event() {
+                // A check in progress is interrupted at its next host call;
+                // between checks this changes nothing (the flag is cleared
+                // when the new version takes over).
+                if entry.lifecycle == Lifecycle::Active {
+                    pending.discard_check = true;
+                    entry.stop.request(StopReason::Deactivate);
+                }
+            } else if let (Some(activation), Phase::Running) = (&entry.activation, entry.phase) {
+                // Stopped as by an exit signal, then started again, first.
+                let again = StartRequest {
+                    payload: activation.payload.clone(),
+                    via: activation.via,
+                    until: None,
+                };
+                restarted = Some(again.via);
+                if let Some(next) = entry.next.replace(again) {
+                    entry.queue.push_front(next);
+                }
+                if entry.stop_request.is_none() {
+                    entry.stop_request = Some((StopReason::Exit, None));
+                    entry.stop.request(StopReason::Exit);
+                }
+            }
+        }
+        let version = pending.code.version.clone();
+        entry.swap = Some(pending);
+        entry.wake();
+        let plugin = entry.name.clone();
+        self.record(Entry::SwapRequest {
+            plugin,
+            version,
+            policy: policy.as_str().into(),
+            connection: restarted,
+        });
+        Ok(())
+    }
+
+    fn refuse_swap(&mut self, pid: usize, version: &str, reason: String) {
+        let plugin = self.plugins[pid].name.clone();
+        self.record(Entry::SwapRefused {
+            plugin,
+            version: version.to_string(),
+            reason,
+        });
+    }
+
+    /// Whether `kind` can take the place of plugin `pid`'s code under its
+    /// live connections; the error names the connection and both types.
+    pub(super) fn check_swap(&self, pid: usize, kind: &Kind) -> Result<(), String> {
+        let entry = &self.plugins[pid];
+        let new_is_event = matches!(kind, Kind::Event { .. });
+        if new_is_event != entry.is_event() {
+            let what = |event: bool| if event { "an event" } else { "a response" };
+            return Err(format!(
+                "`{}` is {}, the new version is {}",
+                entry.name,
+                what(entry.is_event()),
+                what(new_is_event)
+            ));
+        }
+        for (id, c) in &self.connections {
+            let from_here = c.from.0 == pid;
+            let to_here = matches!(c.target, Target::Slot(q, _) if q == pid);
+            if !from_here && !to_here {
+                continue;
+            }
+            let from_label = self.signal_label(c.from);
+            let emits = if from_here {
+                signal_type(kind, c.from.1).ok_or_else(|| {
+                    format!(
+                        "connection #{id} needs `{from_label}`, which the new version does not emit"
+                    )
+                })?
+            } else {
+                self.plugins[c.from.0].signal_type(c.from.1).flatten()
+            };
+            let Target::Slot(q, slot) = c.target else {
+                continue; // anonymous slots and waits take any payload
+            };
+            let takes = if q == pid {
+                slot_type(kind, slot).ok_or_else(|| {
+                    format!(
+                        "connection #{id} needs `{}`, which the new version does not have",
+                        c.to_label
+                    )
+                })?
+            } else {
+                self.plugins[q].slot_type(slot).flatten()
+            };
+            if fits(&emits, &takes).is_err() {
+                return Err(format!(
+                    "connection #{id}: `{from_label}` would emit {}, but `{}` would take {}",
+                    type_text(&emits),
+                    c.to_label,
+                    type_text(&takes)
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// After a swap: whether each connection of the plugin passes payloads.
+    fn refresh_payloads(&mut self, pid: usize) {
+        let updates: Vec<(u64, bool)> = self
+            .connections
+            .iter()
+            .filter_map(|(id, c)| match c.target {
+                Target::Slot(q, slot) if q == pid || c.from.0 == pid => {
+                    let emits = self.plugins[c.from.0].signal_type(c.from.1).flatten();
+                    let takes = self.plugins[q].slot_type(slot).flatten();
+                    Some((*id, fits(&emits, &takes).unwrap_or(false)))
+                }
+                _ => None,
+            })
+            .collect();
+        for (id, pass) in updates {
+            if let Some(c) = self.connections.get_mut(&id) {
+                c.pass_payload = pass;
+            }
+        }
+    }
+
+    /// A plugin that has a new instance after `error`: back to its lifecycle
+    /// (an event active again if anything listens, a response idle).
+    fn revive(&mut self, pid: usize) {
+        let entry = &mut self.plugins[pid];
+        let name = entry.name.clone();
+        let listening = entry.listeners > 0;
+        if entry.is_event() {
+            entry.lifecycle = Lifecycle::Inactive;
+            self.record(Entry::State {
+                plugin: name,
+                state: "inactive".into(),
+            });
+            if listening {
+                self.activate(pid);
+            }
+        } else {
+            entry.lifecycle = Lifecycle::Active;
+            self.record(Entry::State {
+                plugin: name,
+                state: "idle".into(),
+            });
+            if self.plugins[pid].has_start_waiting() {
+                self.set_phase(pid, Phase::Running);
+            }
+        }
+    }
+}
+
+impl Core {
+    /// The one path by which a plugin gets a new instance, at its actor's
+    /// safe point: `reset` (fresh instance of the same code) or a swap (the
+    /// new version, with the old one's state if both export it). A swap that
+    /// fails anywhere leaves the old version serving and says why.
+    pub(super) async fn transition(
+        &self,
+        pid: usize,
+        instance: &mut Option<PluginInstance>,
+        transition: Transition,
+    ) {
+        let pending = match transition {
+            Transition::Reset => {
+                // Cleared first: a reset whose instantiation fails leaves the
+                // plugin in `error` until the next `reset`.
+                self.with(|st| st.plugins[pid].reset_requested = false);
+                *instance = self.instantiate(pid).await;
+                if instance.is_some() {
+                    self.with(|st| {
+                        let plugin = st.plugins[pid].name.clone();
+                        st.record(Entry::Reset { plugin });
+                        st.revive(pid);
+                    });
+                }
+                return;
+            }
+            Transition::Swap(pending) => pending,
+        };
+        let version = pending.code.version.clone();
+        let rolled_back = |reason: String| {
+            self.with(|st| {
+                let plugin = st.plugins[pid].name.clone();
+                st.record(Entry::SwapRolledBack {
+                    plugin,
+                    version: version.clone(),
+                    reason,
+                });
+            })
+        };
+        // Connections made since the request are checked too.
+        if let Err(cause) = self.with(|st| st.check_swap(pid, &pending.code.kind)) {
+            self.with(|st| st.refuse_swap(pid, &version, cause));
+            return;
+        }
+        let setup = self.with(|st| st.setup(pid).1);
+        let mut fresh = match pending.code.instantiate(setup).await {
+            Ok(fresh) => fresh,
+            Err(fault) => {
+                rolled_back(format!("the new version cannot start: {}", fault.cause));
+                return;
+            }
+        };
+        let mut state = "none";
+        if let Some(old) = instance.as_mut() {
+            match old.snapshot().await {
+                Ok(Some(bytes)) if fresh.can_restore() => match fresh.restore(bytes).await {
+                    Ok(Ok(())) => state = "moved",
+                    Ok(Err(error)) => {
+                        rolled_back(format!("restore returned an error: {error}"));
+                        return;
+                    }
+                    Err(fault) => {
+                        rolled_back(format!("restore trapped: {}", fault.cause));
+                        return;
+                    }
+                },
+                Ok(_) => {}
+                Err(fault) => {
+                    // The trap killed the old store: the old version goes on
+                    // serving from a fresh instance, its state lost.
+                    rolled_back(format!(
+                        "snapshot trapped: {}; the old version serves on a fresh instance",
+                        fault.cause
+                    ));
+                    *instance = self.fresh_instance(pid).await;
+                    return;
+                }
+            }
+        }
+        let was_faulted = instance.is_none();
+        self.with(|st| {
+            let entry = &mut st.plugins[pid];
+            let from = entry.def.code.version.clone();
+            entry.def.code = pending.code;
+            if entry.is_event() && entry.lifecycle == Lifecycle::Active {
+                entry.stop.clear();
+            }
+            st.refresh_payloads(pid);
+            let plugin = st.plugins[pid].name.clone();
+            st.record(Entry::Swap {
+                plugin,
+                from,
+                to: version.clone(),
+                policy: pending.policy.as_str().into(),
+                state: state.into(),
+            });
+            if was_faulted {
+                st.revive(pid);
+            }
+        });
+        *instance = Some(fresh);
+    }
+}
