@@ -141,8 +141,8 @@ fn run(args: RunArgs) -> Result<()> {
     };
     if let Some(at) = report.livelock {
         anyhow::bail!(
-            "stopped at {:.3} s: signals kept flowing without virtual time advancing \
-             (the connections form a loop that takes no time)",
+            "stopped at {:.3} s: the system kept working without virtual time advancing \
+             (a loop that takes no time, such as connections that restart a response at once)",
             at.as_secs_f64()
         );
     }

@@ -344,8 +344,9 @@ pub struct RunReport {
     /// pipe): the trace they wrote is incomplete.
     pub trace_errors: Vec<String>,
     /// Virtual clock: the run was stopped at this time because signals kept
-    /// flowing without time advancing (connections that form a loop taking
-    /// no time, such as `R.started → R.start` with `restart`).
+    /// flowing (or tasks kept running) without time advancing: connections
+    /// that form a loop taking no time, such as `R.started → R.start` with
+    /// `restart`. The trace's last `log` line from `(radar)` says which.
     pub livelock: Option<Duration>,
 }
 

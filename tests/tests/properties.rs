@@ -15,7 +15,7 @@ use std::time::Duration;
 
 use proptest::prelude::*;
 use radar::example::plugins;
-use radar::{Busy, Limits, Link, Plugin, Radar, RadarError, SystemBuilder};
+use radar::{Busy, Limits, Link, Plugin, Radar, RadarError, SwapPolicy, SystemBuilder};
 use serde_json::json;
 
 /// A fixture plugin and its configuration.
@@ -125,6 +125,15 @@ fn response() -> impl Strategy<Value = Fixture> {
     ]
 }
 
+/// What a plugin may be swapped for: fixtures that keep working under the
+/// limits of the plugin they replace (not the fuel or memory eaters).
+fn swap_target() -> impl Strategy<Value = Fixture> {
+    prop_oneof![
+        event().prop_filter("cheap", |f| !matches!(f, Fixture::Spin)),
+        response().prop_filter("cheap", |f| !matches!(f, Fixture::Stubborn | Fixture::Hog)),
+    ]
+}
+
 /// Where a connection goes.
 #[derive(Clone, Debug)]
 enum To {
@@ -147,6 +156,9 @@ enum Step {
     Disconnect(usize),
     Inject(usize, &'static str),
     Reset(usize),
+    /// Swaps the plugin for another fixture's component (any kind: a
+    /// refusal is part of the test too).
+    Swap(usize, Fixture, SwapPolicy),
 }
 
 #[derive(Clone)]
@@ -246,6 +258,9 @@ impl Scenario {
                     }
                     Step::Reset(p) => {
                         let _ = radar.reset(&scenario.name(*p));
+                    }
+                    Step::Swap(p, to, policy) => {
+                        let _ = radar.swap(&scenario.name(*p), to.file(), *policy);
                     }
                 }
             }
@@ -351,6 +366,13 @@ impl fmt::Debug for Scenario {
                     writeln!(f, "--inject {at}s:{}={payload}", self.signal((*p, slot)))?;
                 }
                 Step::Reset(p) => writeln!(f, "# {at}s: reset {}", self.name(*p))?,
+                Step::Swap(p, to, policy) => writeln!(
+                    f,
+                    "--swap {at}s:{}={}:{} # {to:?}",
+                    self.name(*p),
+                    to.file(),
+                    policy.as_str()
+                )?,
             }
         }
         Ok(())
@@ -415,6 +437,12 @@ fn scenario() -> impl Strategy<Value = Scenario> {
                 2 => (0usize..8).prop_map(Step::Disconnect),
                 3 => slot.prop_map(|(p, s)| Step::Inject(p, s)),
                 1 => (e..n).prop_map(Step::Reset),
+                2 => (
+                    0..n,
+                    swap_target(),
+                    prop_oneof![Just(SwapPolicy::Drain), Just(SwapPolicy::Restart)],
+                )
+                    .prop_map(|(p, to, policy)| Step::Swap(p, to, policy)),
             ];
             // A third of the steps at 0 s, so that most systems are wired
             // for the whole run.
@@ -488,8 +516,10 @@ fn the_generator_builds_systems_that_do_something() {
         for record in common::records(&scenario.trace()) {
             let kind = record["kind"].as_str().unwrap_or_default();
             let key = match record["reason"].as_str() {
-                Some(reason) => format!("{kind} {reason}"),
-                None => kind.to_string(),
+                Some(reason) if kind == "dropped" || kind == "disconnect" => {
+                    format!("{kind} {reason}")
+                }
+                _ => kind.to_string(),
             };
             *seen.entry(key).or_default() += 1;
         }
@@ -503,6 +533,8 @@ fn the_generator_builds_systems_that_do_something() {
         "dropped fault",
         "disconnect until",
         "disconnect closed",
+        "swap",
+        "swap-refused",
     ] {
         assert!(
             seen.contains_key(kind),

@@ -516,6 +516,10 @@ pub(crate) struct InstantSignals {
     at: u64,
     signals: u64,
     limit: u64,
+    /// Executor steps too: a task that loops without emitting anything
+    /// (a bug, or a guest that yields forever) is caught the same way.
+    steps: u64,
+    step_limit: u64,
     /// When the run was ended for it.
     pub livelock: Option<u64>,
 }
@@ -526,6 +530,8 @@ impl InstantSignals {
             at: 0,
             signals: 0,
             limit: 10_000u64.max(20 * plugins as u64),
+            steps: 0,
+            step_limit: 5_000_000u64.max(1_000 * plugins as u64),
             livelock: None,
         }
     }
@@ -751,6 +757,9 @@ impl Scheduler {
                 self.core.base.fire_due(now);
             }
             if self.executor.run_one() {
+                if kind == ClockKind::Virtual {
+                    self.core.with(|st| st.count_in_instant(true));
+                }
                 self.absorb();
                 continue;
             }

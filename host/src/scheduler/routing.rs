@@ -364,28 +364,47 @@ impl State {
     /// See [`InstantSignals`]: ends the run when one virtual instant has seen
     /// more signals than any system that makes progress would emit.
     fn count_signal(&mut self) {
+        self.count_in_instant(false);
+    }
+
+    /// Counts a signal (or, `step`, a task's step) of the current virtual
+    /// instant, and ends the run once there are more than any system that
+    /// makes progress would have.
+    pub(super) fn count_in_instant(&mut self, step: bool) {
         let now = self.now();
         let instant = &mut self.instant;
         if instant.at != now {
             instant.at = now;
             instant.signals = 0;
+            instant.steps = 0;
         }
-        instant.signals += 1;
-        if instant.signals == instant.limit && instant.livelock.is_none() {
-            instant.livelock = Some(now);
-            self.stop = true;
-            let message = format!(
-                "{} signals at {:.3} s without virtual time advancing: the connections form a loop \
-                 that takes no time; the run is stopped",
-                instant.limit,
-                now as f64 / 1e9
-            );
-            self.record(Entry::Log {
-                plugin: "(radar)".into(),
-                level: "error".into(),
-                message,
-            });
+        let over = if step {
+            instant.steps += 1;
+            instant.steps == instant.step_limit
+        } else {
+            instant.signals += 1;
+            instant.signals == instant.limit
+        };
+        if !over || instant.livelock.is_some() {
+            return;
         }
+        instant.livelock = Some(now);
+        self.stop = true;
+        let (count, what) = if step {
+            (instant.step_limit, "task steps")
+        } else {
+            (instant.limit, "signals")
+        };
+        let message = format!(
+            "{count} {what} at {:.3} s without virtual time advancing: something loops \
+             without taking time; the run is stopped",
+            now as f64 / 1e9
+        );
+        self.record(Entry::Log {
+            plugin: "(radar)".into(),
+            level: "error".into(),
+            message,
+        });
     }
 
     pub(super) fn deliver(&mut self, id: u64, payload: &Option<Val>) {

@@ -30,7 +30,8 @@ pub enum SwapPolicy {
 }
 
 impl SwapPolicy {
-    pub(crate) fn as_str(self) -> &'static str {
+    /// The policy as the trace and the CLI write it.
+    pub fn as_str(self) -> &'static str {
         match self {
             SwapPolicy::Drain => "drain",
             SwapPolicy::Restart => "restart",
@@ -293,6 +294,15 @@ impl Core {
             }
             Transition::Swap(pending) => pending,
         };
+        // At the safe point the check a `restart` interrupted is over: the
+        // request has done its work, whatever becomes of the swap (left set,
+        // every later check and cadence wait would end at once).
+        self.with(|st| {
+            let entry = &st.plugins[pid];
+            if entry.is_event() && entry.lifecycle == Lifecycle::Active {
+                entry.stop.clear();
+            }
+        });
         let version = pending.code.version.clone();
         let rolled_back = |reason: String| {
             self.with(|st| {
@@ -349,9 +359,6 @@ impl Core {
             let entry = &mut st.plugins[pid];
             let from = entry.def.code.version.clone();
             entry.def.code = pending.code;
-            if entry.is_event() && entry.lifecycle == Lifecycle::Active {
-                entry.stop.clear();
-            }
             st.refresh_payloads(pid);
             let plugin = st.plugins[pid].name.clone();
             st.record(Entry::Swap {

@@ -382,6 +382,11 @@ impl Checker {
                 if state == "idle" {
                     self.require_nothing_owed(plugin, "went idle");
                 }
+                if state == "error" || state == "inactive" {
+                    // A faulted event is no longer active; after a reset or
+                    // a swap it is activated again if anything listens.
+                    self.active_events.remove(plugin.as_ref());
+                }
                 self.states.insert(plugin.to_string(), state.to_string());
             }
             Entry::Fault { plugin, .. } => {
