@@ -11,7 +11,7 @@ use clap::{Parser, Subcommand};
 use radar::manifest::{parse_duration, Manifest};
 use radar::timeline::Timeline;
 use radar::trace::JsonLines;
-use radar::{example, ClockKind, System};
+use radar::{example, ClockKind, SwapPolicy, System};
 
 /// Runs robot reactive behaviours (RADAR events and responses) as
 /// sandboxed WebAssembly components.
@@ -51,6 +51,39 @@ struct RunArgs {
     /// `4.5s:TestResponse.interrupt` (repeatable).
     #[arg(long = "inject", value_parser = parse_injection)]
     injections: Vec<Injection>,
+    /// Replace a plugin by another component at a given time (hot swap,
+    /// DESIGN §1.4): `AT:Plugin=PATH[:drain|restart]`, e.g.
+    /// `3s:TestEvent=counter_v2.wasm:restart` (repeatable; drain by default).
+    #[arg(long = "swap", value_parser = parse_swap)]
+    swaps: Vec<Swap>,
+}
+
+/// One `--swap`.
+#[derive(Clone)]
+struct Swap {
+    at: Duration,
+    plugin: String,
+    path: PathBuf,
+    policy: SwapPolicy,
+}
+
+fn parse_swap(text: &str) -> Result<Swap, String> {
+    let shape = || format!("`{text}`: expected AT:Plugin=PATH[:drain|restart]");
+    let (at, rest) = text.split_once(':').ok_or_else(shape)?;
+    let (plugin, target) = rest.split_once('=').ok_or_else(shape)?;
+    let (path, policy) = match target.rsplit_once(':') {
+        Some((path, policy)) if policy == "drain" || policy == "restart" => (path, policy.parse()?),
+        _ => (target, SwapPolicy::Drain),
+    };
+    if plugin.is_empty() || path.is_empty() {
+        return Err(shape());
+    }
+    Ok(Swap {
+        at: parse_duration(at)?,
+        plugin: plugin.to_string(),
+        path: PathBuf::from(path),
+        policy,
+    })
 }
 
 /// One `--inject`.
@@ -106,6 +139,9 @@ fn run(args: RunArgs) -> Result<()> {
     }
     for i in &args.injections {
         builder = builder.inject_at(i.at, &i.slot, i.payload.clone());
+    }
+    for s in &args.swaps {
+        builder = builder.swap_at(s.at, &s.plugin, &s.path, s.policy);
     }
     let clock = match args.clock {
         ClockKind::Virtual => "virtual",

@@ -259,3 +259,52 @@ fn a_loop_that_takes_no_time_ends_the_run_with_one_line() {
         "{stderr}"
     );
 }
+
+#[test]
+fn swap_replaces_a_plugin_at_its_time_and_a_broken_one_is_refused_without_stopping_the_run() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let manifest = write_manifest(
+        dir.path(),
+        &format!(
+            "[plugins.E]\nwasm = \"{}\"\n[plugins.R]\nwasm = \"{}\"\nconfig = {{ count_to = 1 }}\n\n[[connect]]\nmode = \"whenever\"\nfrom = \"E.triggered\"\nto = \"R.start\"\n",
+            plugins::COUNTER_EVENT,
+            plugins::COUNT_UP
+        ),
+    );
+    let trace = dir.path().join("t.jsonl");
+    let swap = format!("2.5s:E={}:restart", plugins::COUNTER_EVENT_V2);
+    let out = radar(&[
+        "run",
+        &manifest,
+        "--for",
+        "5s",
+        "--swap",
+        &swap,
+        "--swap",
+        "4.2s:E=/nonexistent/v3.wasm",
+        "--trace",
+        trace.to_str().expect("utf-8 path"),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(stdout.contains("(restart, state moved)"), "{stdout}");
+    assert!(
+        stdout.contains(
+            "swap of E to unreadable refused: plugin `E`: cannot read /nonexistent/v3.wasm"
+        ),
+        "{stdout}"
+    );
+    let (_, records) = lawful_trace(&trace);
+    let payloads: Vec<serde_json::Value> = records
+        .iter()
+        .filter_map(|r| match &r.entry {
+            radar::trace::Entry::Signal {
+                plugin, payload, ..
+            } if plugin.as_ref() == "E" => Some(payload.clone()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(payloads, [1, 2, 300, 400].map(|n| serde_json::json!(n)));
+    let bad = radar(&["run", "--swap", "soon:E=x.wasm"]);
+    assert!(!bad.status.success());
+}

@@ -39,7 +39,9 @@ impl Guest for Counter {
         if config_or("restore_fails", false) {
             return Err("this version refuses the old state".into());
         }
-        let bytes: [u8; 4] = state.try_into().map_err(|_| "expected 4 bytes".to_string())?;
+        let bytes: [u8; 4] = state
+            .try_into()
+            .map_err(|_| "expected 4 bytes".to_string())?;
         COUNT.store(u32::from_le_bytes(bytes), Ordering::Relaxed);
         Ok(())
     }

@@ -36,7 +36,9 @@ impl Guest for Counter {
     }
 
     fn restore(state: Vec<u8>) -> Result<(), String> {
-        let bytes: [u8; 4] = state.try_into().map_err(|_| "expected 4 bytes".to_string())?;
+        let bytes: [u8; 4] = state
+            .try_into()
+            .map_err(|_| "expected 4 bytes".to_string())?;
         COUNT.store(u32::from_le_bytes(bytes), Ordering::Relaxed);
         Ok(())
     }
