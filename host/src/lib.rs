@@ -23,6 +23,7 @@ pub(crate) mod scheduler;
 pub mod system;
 pub mod timeline;
 pub mod trace;
+pub mod workspace;
 
 pub use clock::ClockKind;
 pub use error::RadarError;

@@ -11,6 +11,7 @@ use clap::{Parser, Subcommand};
 use radar::manifest::{parse_duration, Manifest};
 use radar::timeline::Timeline;
 use radar::trace::JsonLines;
+use radar::workspace::{self, WatchEvent};
 use radar::{example, ClockKind, SwapPolicy, System};
 
 /// Runs robot reactive behaviours (RADAR events and responses) as
@@ -26,6 +27,11 @@ struct Cli {
 enum Cmd {
     /// Runs a system: the manifest's, or the paper's Listing 2/3 example.
     Run(RunArgs),
+    /// Runs each plugin's `[plugins.X.build]` command.
+    Build {
+        /// The `radar.toml` (default: `radar.toml` here).
+        manifest: Option<PathBuf>,
+    },
 }
 
 #[derive(clap::Args, Default)]
@@ -56,6 +62,11 @@ struct RunArgs {
     /// `3s:TestEvent=counter_v2.wasm:restart` (repeatable; drain by default).
     #[arg(long = "swap", value_parser = parse_swap)]
     swaps: Vec<Swap>,
+    /// Real clock, with a manifest: when a plugin's component file changes,
+    /// or one of the sources its `[plugins.X.build]` table watches (then it
+    /// is rebuilt first), swap the new version in.
+    #[arg(long)]
+    watch: bool,
 }
 
 /// One `--swap`.
@@ -109,11 +120,12 @@ fn parse_injection(text: &str) -> Result<Injection, String> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let args = match cli.command {
-        Some(Cmd::Run(args)) => args,
-        None => RunArgs::default(),
+    let result = match cli.command {
+        Some(Cmd::Run(args)) => run(args),
+        Some(Cmd::Build { manifest }) => build_all(manifest),
+        None => run(RunArgs::default()),
     };
-    match run(args) {
+    match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("radar: {e:#}");
@@ -125,6 +137,48 @@ fn main() -> ExitCode {
 /// Prints a line; a closed stdout (`radar run | head`) is not an error.
 fn say(line: std::fmt::Arguments<'_>) {
     let _ = writeln!(std::io::stdout(), "{line}");
+}
+
+/// `radar build`: each plugin's build command, one line each.
+fn build_all(manifest: Option<PathBuf>) -> Result<()> {
+    let path = manifest.unwrap_or_else(|| PathBuf::from("radar.toml"));
+    let manifest = Manifest::load(&path)?;
+    let mut failed = 0;
+    for build in manifest.builds().iter().filter(|b| b.command.is_some()) {
+        match workspace::build(build) {
+            Ok(took) => say(format_args!(
+                "built {} in {:.1} s → {}",
+                build.plugin,
+                took.as_secs_f64(),
+                build.wasm.display()
+            )),
+            Err(failure) => {
+                eprintln!("radar: {failure}");
+                failed += 1;
+            }
+        }
+    }
+    if failed > 0 {
+        anyhow::bail!("{failed} build(s) failed");
+    }
+    Ok(())
+}
+
+/// What `--watch` did, one line each.
+fn print_watch_event(event: WatchEvent) {
+    match event {
+        WatchEvent::Built { plugin, took } => say(format_args!(
+            "watch: built {plugin} in {:.1} s",
+            took.as_secs_f64()
+        )),
+        WatchEvent::BuildFailed(failure) => {
+            say(format_args!("watch: {failure}; the running version stays"))
+        }
+        WatchEvent::SwapRequested { plugin, version } => {
+            say(format_args!("watch: swapping {plugin} for {version}"))
+        }
+        WatchEvent::SwapRefused(e) => say(format_args!("watch: {e}; the running version stays")),
+    }
 }
 
 fn run(args: RunArgs) -> Result<()> {
@@ -147,6 +201,9 @@ fn run(args: RunArgs) -> Result<()> {
         ClockKind::Virtual => "virtual",
         ClockKind::Real => "real",
     };
+    if args.watch && (args.manifest.is_none() || args.clock != ClockKind::Real) {
+        anyhow::bail!("--watch goes with a manifest and --clock real");
+    }
     let report = match &args.manifest {
         None => {
             let limit = args.run_for.unwrap_or(Duration::from_secs(20));
@@ -171,6 +228,10 @@ fn run(args: RunArgs) -> Result<()> {
             let system = manifest.add_plugins(builder).build()?;
             if !args.quiet {
                 say(format_args!("Radar: {}, {clock} clock\n", path.display()));
+            }
+            if args.watch {
+                workspace::watch(manifest.builds(), system.handle(), print_watch_event)
+                    .context("cannot watch the plugins' files")?;
             }
             system.run(args.run_for)?
         }

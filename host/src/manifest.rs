@@ -16,6 +16,16 @@
 //! min_interval_ms = 500                # optional
 //! until = "Stop.triggered"             # optional, with to = "X.start"
 //! ```
+//!
+//! A plugin may say how its component is built, for `radar build` and
+//! `radar run --watch`:
+//!
+//! ```toml
+//! [plugins.TestResponse.build]
+//! command = "cargo build --release --target wasm32-wasip2"
+//! workdir = "test-response"            # relative to the manifest
+//! watch = ["src/**/*.rs", "wit/*.wit"] # relative to workdir
+//! ```
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -59,6 +69,38 @@ pub struct PluginEntry {
     pub fuel: Option<u64>,
     /// Memory limit in bytes.
     pub memory_bytes: Option<usize>,
+    /// How to build the component (`radar build`, `radar run --watch`).
+    pub build: Option<BuildEntry>,
+}
+
+/// `[plugins.NAME.build]` (DESIGN §3.2).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BuildEntry {
+    /// The build command, run with `sh -c` in `workdir`.
+    pub command: String,
+    /// Where to run it, relative to the manifest (default: the manifest's
+    /// folder).
+    pub workdir: Option<PathBuf>,
+    /// Sources whose change `--watch` rebuilds on: glob patterns relative to
+    /// `workdir` (e.g. `src/**/*.rs`).
+    #[serde(default)]
+    pub watch: Vec<String>,
+}
+
+/// A plugin's build, with its paths resolved against the manifest.
+#[derive(Clone, Debug)]
+pub struct Build {
+    /// The plugin's name.
+    pub plugin: String,
+    /// The component the build writes (the plugin's `wasm`).
+    pub wasm: PathBuf,
+    /// The build command, if the plugin has one.
+    pub command: Option<String>,
+    /// Where the command runs.
+    pub workdir: PathBuf,
+    /// Glob patterns, relative to `workdir`, of the sources to watch.
+    pub watch: Vec<String>,
 }
 
 /// `[deliberative]`.
@@ -112,7 +154,15 @@ impl Manifest {
                 None => e.message().to_string(),
             })
         })?;
-        manifest.dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        // Absolute, so that paths built from it compare with what a file
+        // watcher reports.
+        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let dir = if dir.as_os_str().is_empty() {
+            PathBuf::from(".")
+        } else {
+            dir
+        };
+        manifest.dir = std::fs::canonicalize(&dir).unwrap_or(dir);
         if manifest.deliberative.is_some() {
             return Err(bad(
                 "[deliberative] components are not supported yet; wire the system with [[connect]] \
@@ -148,6 +198,26 @@ impl Manifest {
             builder = builder.plugin(plugin);
         }
         builder
+    }
+
+    /// Each plugin's component file and build (paths resolved), in name
+    /// order.
+    pub fn builds(&self) -> Vec<Build> {
+        self.plugins
+            .iter()
+            .map(|(name, entry)| {
+                let build = entry.build.as_ref();
+                Build {
+                    plugin: name.clone(),
+                    wasm: self.dir.join(&entry.wasm),
+                    command: build.map(|b| b.command.clone()),
+                    workdir: build
+                        .and_then(|b| b.workdir.as_ref())
+                        .map_or_else(|| self.dir.clone(), |w| self.dir.join(w)),
+                    watch: build.map(|b| b.watch.clone()).unwrap_or_default(),
+                }
+            })
+            .collect()
     }
 
     /// The static connections, as links to make when the run begins.

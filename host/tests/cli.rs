@@ -308,3 +308,110 @@ fn swap_replaces_a_plugin_at_its_time_and_a_broken_one_is_refused_without_stoppi
     let bad = radar(&["run", "--swap", "soon:E=x.wasm"]);
     assert!(!bad.status.success());
 }
+
+#[test]
+fn watch_rebuilds_and_swaps_a_plugin_whose_source_changes_and_keeps_it_when_a_build_fails() {
+    // E's "source" names the component its build copies into place: a
+    // stand-in for a compiler that needs no toolchain.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let source = dir.path().join("source.txt");
+    std::fs::write(&source, plugins::COUNTER_EVENT).expect("source written");
+    std::fs::copy(plugins::COUNTER_EVENT, dir.path().join("e.wasm")).expect("first build");
+    let manifest = write_manifest(
+        dir.path(),
+        &format!(
+            "[plugins.E]\nwasm = \"e.wasm\"\nconfig = {{ interval_s = 0.25 }}\n\n\
+             [plugins.E.build]\ncommand = 'cp \"$(cat source.txt)\" e.wasm'\nwatch = [\"*.txt\"]\n\n\
+             [plugins.R]\nwasm = \"{}\"\nconfig = {{ count_to = 1, interval_s = 0.1 }}\n\n\
+             [[connect]]\nmode = \"whenever\"\nfrom = \"E.triggered\"\nto = \"R.start\"\n",
+            plugins::COUNT_UP
+        ),
+    );
+    let trace = dir.path().join("t.jsonl");
+    let child = Command::new(env!("CARGO_BIN_EXE_radar"))
+        .args([
+            "run",
+            &manifest,
+            "--clock",
+            "real",
+            "--for",
+            "6s",
+            "--watch",
+            "--trace",
+            trace.to_str().expect("utf-8 path"),
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("radar starts");
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    std::fs::write(&source, plugins::COUNTER_EVENT_V2).expect("source edited");
+    std::thread::sleep(std::time::Duration::from_millis(2000));
+    std::fs::write(&source, "/nonexistent/broken.wasm").expect("source broken");
+    let out = child.wait_with_output().expect("radar ends");
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(stdout.contains("watch: built E in"), "{stdout}");
+    assert!(stdout.contains("watch: swapping E for"), "{stdout}");
+    assert!(
+        stdout.contains("watch: build of `E` failed: cp: cannot stat"),
+        "{stdout}"
+    );
+    let (_, records) = lawful_trace(&trace);
+    let swaps = records
+        .iter()
+        .filter(|r| matches!(&r.entry, radar::trace::Entry::Swap { state, .. } if state == "moved"))
+        .count();
+    assert_eq!(
+        swaps, 1,
+        "one swap, state moved; the failed build swapped nothing"
+    );
+    // The count goes on across the swap, now × 100; and it still runs at
+    // the end, on the new version.
+    let payloads: Vec<u64> = records
+        .iter()
+        .filter_map(|r| match &r.entry {
+            radar::trace::Entry::Signal {
+                plugin, payload, ..
+            } if plugin.as_ref() == "E" => payload.as_u64(),
+            _ => None,
+        })
+        .collect();
+    let first_new = payloads
+        .iter()
+        .position(|p| *p >= 100)
+        .expect("the new version triggered");
+    assert!(first_new > 0, "{payloads:?}");
+    assert_eq!(
+        payloads[first_new],
+        (payloads[first_new - 1] + 1) * 100,
+        "{payloads:?}"
+    );
+    assert!(payloads.last().is_some_and(|p| *p >= 100));
+}
+
+#[test]
+fn build_runs_each_plugins_build_command_and_reports_a_failure_in_one_line() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let manifest = write_manifest(
+        dir.path(),
+        &format!(
+            "[plugins.Good]\nwasm = \"good.wasm\"\n[plugins.Good.build]\ncommand = 'cp {} good.wasm'\n\n\
+             [plugins.Bad]\nwasm = \"bad.wasm\"\n[plugins.Bad.build]\ncommand = 'echo \"error: expected one of ;\" >&2; exit 1'\n",
+            plugins::COUNT_UP
+        ),
+    );
+    let out = radar(&["build", &manifest]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stdout).contains("built Good in"),
+        "{}",
+        text(&out.stdout)
+    );
+    assert!(dir.path().join("good.wasm").exists());
+    let stderr = text(&out.stderr);
+    assert!(
+        stderr.contains("radar: build of `Bad` failed: error: expected one of ;"),
+        "{stderr}"
+    );
+}

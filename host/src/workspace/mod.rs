@@ -1,0 +1,132 @@
+//! The project side of a system: building plugins from their sources
+//! (`[plugins.X.build]`, `radar build`) and rebuilding and swapping them in
+//! as they change (`radar run --watch`).
+//!
+//! A build is the plugin's own command, run with `sh -c` in its folder, so
+//! every language builds the same way; what it writes is the plugin's `wasm`
+//! file. A build that fails is reported by the first line of its output that
+//! names an error (the compiler's first error), and changes nothing.
+
+use std::path::Path;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+use crate::manifest::Build;
+
+mod watch;
+
+pub use watch::{watch, WatchEvent};
+
+/// A build command that did not succeed.
+#[derive(Debug, thiserror::Error)]
+#[error("build of `{plugin}` failed: {line}")]
+pub struct BuildFailure {
+    /// The plugin.
+    pub plugin: String,
+    /// The first line of the output that names an error (else the last).
+    pub line: String,
+}
+
+/// Runs a plugin's build command; its duration on success. A plugin without
+/// a command has nothing to build.
+pub fn build(build: &Build) -> Result<Duration, BuildFailure> {
+    let began = Instant::now();
+    let Some(command) = &build.command else {
+        return Ok(Duration::ZERO);
+    };
+    let failure = |line: String| BuildFailure {
+        plugin: build.plugin.clone(),
+        line,
+    };
+    let output = Command::new("sh")
+        .arg("-c")
+        .arg(command)
+        .current_dir(&build.workdir)
+        .output()
+        .map_err(|e| {
+            failure(format!(
+                "cannot run `{command}` in {}: {e}",
+                build.workdir.display()
+            ))
+        })?;
+    if output.status.success() {
+        return Ok(began.elapsed());
+    }
+    let text = format!(
+        "{}\n{}",
+        String::from_utf8_lossy(&output.stderr),
+        String::from_utf8_lossy(&output.stdout)
+    );
+    Err(failure(first_error(&text).unwrap_or_else(|| {
+        format!("`{command}` exited with {}", output.status)
+    })))
+}
+
+/// The line a user wants first: one that names an error, else the last
+/// non-empty one.
+fn first_error(text: &str) -> Option<String> {
+    let lines: Vec<&str> = text
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect();
+    lines
+        .iter()
+        .find(|l| l.to_lowercase().contains("error"))
+        .or_else(|| lines.last())
+        .map(|l| l.to_string())
+}
+
+/// Whether `path` is one of `build`'s watched sources.
+fn watched(build: &Build, path: &Path) -> bool {
+    let Ok(relative) = path.strip_prefix(&build.workdir) else {
+        return false;
+    };
+    build.watch.iter().any(|pattern| {
+        glob::Pattern::new(pattern).is_ok_and(|p| {
+            p.matches_path_with(
+                relative,
+                glob::MatchOptions {
+                    require_literal_separator: false,
+                    ..glob::MatchOptions::new()
+                },
+            )
+        })
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::PathBuf;
+
+    fn build(command: &str, watch: &[&str]) -> Build {
+        Build {
+            plugin: "P".into(),
+            wasm: PathBuf::from("/p/out.wasm"),
+            command: Some(command.into()),
+            workdir: PathBuf::from("/p"),
+            watch: watch.iter().map(|w| w.to_string()).collect(),
+        }
+    }
+
+    #[test]
+    fn a_failed_build_reports_the_compilers_first_error_line() {
+        let text = "   Compiling p v0.1.0\nerror[E0425]: cannot find value `x`\n  --> src/lib.rs:3:5\nerror: aborting";
+        assert_eq!(
+            first_error(text).as_deref(),
+            Some("error[E0425]: cannot find value `x`")
+        );
+        assert_eq!(first_error("one\ntwo\n").as_deref(), Some("two"));
+    }
+
+    #[test]
+    fn watched_sources_match_their_globs_below_the_workdir() {
+        let b = build("true", &["src/**/*.rs", "wit/*.wit"]);
+        assert!(watched(&b, Path::new("/p/src/lib.rs")));
+        assert!(watched(&b, Path::new("/p/src/deep/mod.rs")));
+        assert!(watched(&b, Path::new("/p/wit/world.wit")));
+        assert!(!watched(&b, Path::new("/p/target/debug/x.rs")));
+        assert!(!watched(&b, Path::new("/elsewhere/src/lib.rs")));
+    }
+}

@@ -1,0 +1,136 @@
+//! `radar run --watch`: rebuild and swap plugins as their files change.
+//!
+//! A thread of its own watches every plugin's component file and, for a
+//! plugin with a build command, the sources its `watch` patterns name.
+//! Changes are gathered until the files have been quiet for a moment (an
+//! editor's save or a compiler's output is several events), then each
+//! affected plugin is rebuilt if its sources changed and swapped for what is
+//! now in its component file, unless that is the version already running.
+//! The swap is compiled on this thread, never the scheduler's; a build that
+//! fails, or a swap that is refused, leaves the old version running.
+
+use std::collections::{BTreeSet, HashMap};
+use std::path::PathBuf;
+use std::sync::mpsc;
+use std::time::Duration;
+
+use notify::{RecursiveMode, Watcher};
+
+use super::{build, watched, BuildFailure};
+use crate::error::RadarError;
+use crate::manifest::Build;
+use crate::plugin::version_of;
+use crate::scheduler::SwapPolicy;
+use crate::system::Radar;
+
+/// How long the files must be quiet before a change is acted on.
+const QUIET: Duration = Duration::from_millis(200);
+
+/// What the watcher did, one event per line a user wants to see.
+#[derive(Debug)]
+pub enum WatchEvent {
+    /// A plugin's build command succeeded.
+    Built {
+        /// The plugin.
+        plugin: String,
+        /// How long the build took.
+        took: Duration,
+    },
+    /// A build failed; the old version keeps running.
+    BuildFailed(BuildFailure),
+    /// A new version was accepted; it takes over at the plugin's safe point
+    /// (the trace's `swap` or `swap-rolled-back` record says how it went).
+    SwapRequested {
+        /// The plugin.
+        plugin: String,
+        /// The new version.
+        version: String,
+    },
+    /// The new version was refused; the old version keeps running.
+    SwapRefused(RadarError),
+}
+
+/// Starts watching `builds` for the system `radar` drives; `report` hears
+/// what happens. The watcher ends with the run.
+pub fn watch(
+    builds: Vec<Build>,
+    radar: Radar,
+    mut report: impl FnMut(WatchEvent) + Send + 'static,
+) -> Result<(), notify::Error> {
+    let (tx, rx) = mpsc::channel();
+    let mut watcher = notify::recommended_watcher(move |event: notify::Result<notify::Event>| {
+        if let Ok(event) = event {
+            let _ = tx.send(event.paths);
+        }
+    })?;
+    let mut folders = BTreeSet::new();
+    for b in &builds {
+        if let Some(dir) = b.wasm.parent() {
+            folders.insert((dir.to_path_buf(), RecursiveMode::NonRecursive));
+        }
+        if b.command.is_some() && !b.watch.is_empty() {
+            folders.insert((b.workdir.clone(), RecursiveMode::Recursive));
+        }
+    }
+    for (dir, mode) in &folders {
+        std::fs::create_dir_all(dir).map_err(notify::Error::io)?;
+        watcher.watch(dir, *mode)?;
+    }
+    let mut running: HashMap<String, String> = builds
+        .iter()
+        .filter_map(|b| {
+            let bytes = std::fs::read(&b.wasm).ok()?;
+            Some((b.plugin.clone(), version_of(&bytes)))
+        })
+        .collect();
+    std::thread::Builder::new()
+        .name("radar-watch".into())
+        .spawn(move || {
+            let _watcher = watcher; // dropped (and stopped) with this thread
+            while let Ok(first) = rx.recv() {
+                let mut changed: BTreeSet<PathBuf> = first.into_iter().collect();
+                while let Ok(more) = rx.recv_timeout(QUIET) {
+                    changed.extend(more);
+                }
+                for b in &builds {
+                    let rebuild = b.command.is_some() && changed.iter().any(|p| watched(b, p));
+                    let replaced = changed.contains(&b.wasm);
+                    if !rebuild && !replaced {
+                        continue;
+                    }
+                    if rebuild {
+                        match build(b) {
+                            Ok(took) => report(WatchEvent::Built {
+                                plugin: b.plugin.clone(),
+                                took,
+                            }),
+                            Err(failure) => {
+                                report(WatchEvent::BuildFailed(failure));
+                                continue;
+                            }
+                        }
+                    }
+                    let Ok(bytes) = std::fs::read(&b.wasm) else {
+                        continue; // being written; its next event brings it
+                    };
+                    let version = version_of(&bytes);
+                    if running.get(&b.plugin) == Some(&version) {
+                        continue;
+                    }
+                    match radar.swap(&b.plugin, &b.wasm, SwapPolicy::Drain) {
+                        Ok(()) => {
+                            running.insert(b.plugin.clone(), version.clone());
+                            report(WatchEvent::SwapRequested {
+                                plugin: b.plugin.clone(),
+                                version,
+                            });
+                        }
+                        Err(RadarError::Stopped) => return,
+                        Err(e) => report(WatchEvent::SwapRefused(e)),
+                    }
+                }
+            }
+        })
+        .map_err(notify::Error::io)?;
+    Ok(())
+}
