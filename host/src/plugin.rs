@@ -74,7 +74,9 @@ pub(crate) enum Kind {
     },
 }
 
-/// A compiled, validated plugin component, ready to instantiate.
+/// A compiled, validated plugin component, ready to instantiate (cheap to
+/// clone: the compiled code is shared).
+#[derive(Clone)]
 pub(crate) struct PluginCode {
     pub kind: Kind,
     /// The first 12 hex digits of the component's sha256 (DESIGN §1.4).
@@ -443,6 +445,9 @@ pub(crate) struct Loader {
     linker: Linker<PluginCtx>,
     cache_dir: Option<PathBuf>,
     compiled: HashMap<String, Component>,
+    /// Validated and linked, by content hash: loading the same component
+    /// again (a swap to a version this system knows) is a lookup.
+    prepared: HashMap<String, PluginCode>,
     engine_key: u64,
 }
 
@@ -480,6 +485,7 @@ impl Loader {
             linker,
             cache_dir,
             compiled: HashMap::new(),
+            prepared: HashMap::new(),
             engine_key: hasher.finish(),
         })
     }
@@ -496,6 +502,9 @@ impl Loader {
 
     pub fn load_bytes(&mut self, plugin: &str, bytes: &[u8]) -> Result<PluginCode, RadarError> {
         let digest = format!("{:x}", Sha256::digest(bytes));
+        if let Some(code) = self.prepared.get(&digest) {
+            return Ok(code.clone());
+        }
         let component = self.compile(plugin, bytes, &digest)?;
         let kind = self.validate(plugin, &component)?;
         let pre = self
@@ -505,11 +514,13 @@ impl Loader {
                 plugin: plugin.into(),
                 cause: format!("{e:#}"),
             })?;
-        Ok(PluginCode {
+        let code = PluginCode {
             kind,
             version: digest[..12].to_string(),
             pre,
-        })
+        };
+        self.prepared.insert(digest, code.clone());
+        Ok(code)
     }
 
     fn compile(
