@@ -329,3 +329,30 @@ fn a_swap_storm_loses_no_signal() {
     assert_eq!(count(&trace, json!({"kind": "swap", "plugin": "E"})), 100);
     assert_eq!(count(&trace, json!({"kind": "swap", "plugin": "R"})), 100);
 }
+
+#[test]
+fn two_versions_before_one_safe_point_the_newer_one_wins() {
+    let system = virtual_system().plugin(test_response("R", 4, 1.0));
+    let report = run(system, 6, |radar| {
+        radar.inject("R.start", json!(7))?;
+        radar.sleep(Duration::from_secs(1))?;
+        radar.swap("R", plugins::COUNT_UP, SwapPolicy::Drain)?;
+        radar.swap("R", plugins::YIELD_RESPONSE, SwapPolicy::Drain)
+    });
+    let trace = records(&report);
+    let refused = find(&trace, json!({"kind": "swap-refused", "plugin": "R"}));
+    assert_eq!(refused.len(), 1);
+    assert!(refused[0]["reason"]
+        .as_str()
+        .is_some_and(|r| r.starts_with("superseded by")));
+    let swaps = find(&trace, json!({"kind": "swap", "plugin": "R"}));
+    assert_eq!(swaps.len(), 1);
+    assert_eq!(swaps[0]["t"], json!(ns(4.0)));
+    assert_eq!(
+        refused[0]["reason"],
+        json!(format!(
+            "superseded by {} before it took over",
+            swaps[0]["to"].as_str().expect("version")
+        ))
+    );
+}

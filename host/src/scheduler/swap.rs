@@ -141,9 +141,17 @@ impl State {
             }
         }
         let version = pending.code.version.clone();
-        entry.swap = Some(pending);
+        let superseded = entry.swap.replace(pending);
         entry.wake();
         let plugin = entry.name.clone();
+        if let Some(old) = superseded {
+            // Two versions before one safe point: the newer one wins.
+            self.refuse_swap(
+                pid,
+                &old.code.version,
+                format!("superseded by {version} before it took over"),
+            );
+        }
         self.record(Entry::SwapRequest {
             plugin,
             version,
