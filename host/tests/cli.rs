@@ -415,3 +415,41 @@ fn build_runs_each_plugins_build_command_and_reports_a_failure_in_one_line() {
         "{stderr}"
     );
 }
+
+#[test]
+fn watch_swaps_a_component_file_that_is_replaced() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let wasm = dir.path().join("e.wasm");
+    std::fs::copy(plugins::COUNTER_EVENT, &wasm).expect("first version");
+    let manifest = write_manifest(
+        dir.path(),
+        "[plugins.E]\nwasm = \"e.wasm\"\nconfig = { interval_s = 0.25 }\n",
+    );
+    let trace = dir.path().join("t.jsonl");
+    let child = Command::new(env!("CARGO_BIN_EXE_radar"))
+        .args([
+            "run", &manifest, "--clock", "real", "--for", "3s", "--watch", "-q",
+        ])
+        .args(["--trace", trace.to_str().expect("utf-8 path")])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("radar starts");
+    std::thread::sleep(std::time::Duration::from_millis(1000));
+    // As a compiler would: write the new file beside, then move it in place.
+    let fresh = dir.path().join("e.wasm.new");
+    std::fs::copy(plugins::COUNTER_EVENT_V2, &fresh).expect("new version");
+    std::fs::rename(&fresh, &wasm).expect("moved in place");
+    let out = child.wait_with_output().expect("radar ends");
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stdout).contains("watch: swapping E for"),
+        "{}",
+        text(&out.stdout)
+    );
+    let (_, records) = lawful_trace(&trace);
+    assert!(records.iter().any(|r| matches!(
+        &r.entry,
+        radar::trace::Entry::Swap { plugin, state, .. } if plugin.as_ref() == "E" && state == "moved"
+    )));
+}
