@@ -119,6 +119,41 @@ fn saturating_nanos(duration: Duration) -> u64 {
     u64::try_from(duration.as_nanos()).unwrap_or(u64::MAX)
 }
 
+/// A plugin's state across a hot swap (DESIGN §1.4), as serde values: the
+/// plugin's `snapshot` and `restore` exports become two short functions.
+///
+/// ```ignore
+/// fn snapshot() -> Vec<u8> {
+///     state::save(&COUNT.load(Ordering::Relaxed))
+/// }
+/// fn restore(bytes: Vec<u8>) -> Result<(), String> {
+///     COUNT.store(state::load(&bytes)?, Ordering::Relaxed);
+///     Ok(())
+/// }
+/// ```
+///
+/// The bytes are JSON, so a new version may add fields with
+/// `#[serde(default)]` and still take the old version's state. (Feature
+/// `state`.)
+#[cfg(feature = "state")]
+pub mod state {
+    pub use serde;
+
+    /// The state as bytes for `snapshot`.
+    pub fn save<T: serde::Serialize>(state: &T) -> Vec<u8> {
+        // Serializing plain data to JSON does not fail; a type whose
+        // `Serialize` does fail saves nothing rather than trap.
+        serde_json::to_vec(state).unwrap_or_default()
+    }
+
+    /// The state back from `restore`'s bytes; the error, for `restore` to
+    /// return, says why they do not fit.
+    pub fn load<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> Result<T, String> {
+        serde_json::from_slice(bytes)
+            .map_err(|e| format!("the old version's state does not fit: {e}"))
+    }
+}
+
 /// What a plugin module usually needs: the host calls and `Duration`.
 pub mod prelude {
     pub use crate::{
