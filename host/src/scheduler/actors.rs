@@ -154,10 +154,13 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
     let mut instance = core.instantiate(pid).await;
     let stop = core.with(|st| st.plugins[pid].stop.clone());
     loop {
-        // Other tasks ready at this instant go first: an activation that
-        // takes no time must not keep the thread (and a loop of such
-        // activations must not stop the scheduler from ever ending it).
-        crate::executor::yield_now().await;
+        // Before a start that was already waiting, other tasks ready at this
+        // instant go first: back-to-back activations that take no time must
+        // not keep the thread (nor stop the scheduler from ever ending a
+        // loop of them). An idle response waits below instead.
+        if core.with(|st| st.plugins[pid].has_start_waiting()) {
+            crate::executor::yield_now().await;
+        }
         core.until_ready(pid, |e| {
             e.reset_requested
                 || e.swap.is_some()

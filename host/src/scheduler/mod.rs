@@ -407,6 +407,23 @@ fn signal_type(kind: &Kind, signal: Signal) -> Option<Option<PayloadType>> {
     }
 }
 
+/// Whether a payload of type `emits` fits a slot taking `takes` (DESIGN
+/// §1.2: equal types, or a slot without parameter, which drops it); `Ok`
+/// says whether the slot takes the payload at all.
+fn fits(emits: &Option<PayloadType>, takes: &Option<PayloadType>) -> Result<bool, ()> {
+    match (emits, takes) {
+        (_, None) => Ok(false),
+        (Some(e), Some(t)) if e == t => Ok(true),
+        _ => Err(()),
+    }
+}
+
+/// A payload type as errors show it.
+fn type_text(ty: &Option<PayloadType>) -> String {
+    ty.as_ref()
+        .map_or("no payload".to_string(), |t| t.to_string())
+}
+
 /// The parameter type of a plugin kind's slot (as [`signal_type`]).
 fn slot_type(kind: &Kind, slot: Slot) -> Option<Option<PayloadType>> {
     match (kind, slot) {

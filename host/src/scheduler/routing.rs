@@ -147,16 +147,12 @@ impl State {
     ) -> Result<bool, RadarError> {
         let emits = self.plugins[from.0].signal_type(from.1).flatten();
         let takes = self.plugins[pid].slot_type(slot).flatten();
-        match (emits, takes) {
-            (_, None) => Ok(false),
-            (Some(e), Some(t)) if e == t => Ok(true),
-            (e, Some(t)) => Err(RadarError::TypeMismatch {
-                from: self.signal_label(from),
-                from_type: e.map_or("no payload".to_string(), |e| e.to_string()),
-                to: self.slot_label(pid, slot),
-                to_type: t.to_string(),
-            }),
-        }
+        fits(&emits, &takes).map_err(|()| RadarError::TypeMismatch {
+            from: self.signal_label(from),
+            from_type: type_text(&emits),
+            to: self.slot_label(pid, slot),
+            to_type: type_text(&takes),
+        })
     }
 
     pub(super) fn add_connection(
@@ -334,7 +330,7 @@ impl State {
     /// order the connections were made.
     pub(super) fn emit(&mut self, pid: usize, signal: Signal, payload: Option<Val>) {
         if self.base.kind() == ClockKind::Virtual {
-            self.count_signal();
+            self.count_in_instant(false);
         }
         if self.tracing() {
             let plugin = self.plugins[pid].name.clone();
@@ -361,15 +357,9 @@ impl State {
         self.route_buffer = ids;
     }
 
-    /// See [`InstantSignals`]: ends the run when one virtual instant has seen
-    /// more signals than any system that makes progress would emit.
-    fn count_signal(&mut self) {
-        self.count_in_instant(false);
-    }
-
     /// Counts a signal (or, `step`, a task's step) of the current virtual
     /// instant, and ends the run once there are more than any system that
-    /// makes progress would have.
+    /// makes progress would have (see [`InstantSignals`]).
     pub(super) fn count_in_instant(&mut self, step: bool) {
         let now = self.now();
         let instant = &mut self.instant;

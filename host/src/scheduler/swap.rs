@@ -68,21 +68,6 @@ pub(super) enum Transition {
     Swap(PendingSwap),
 }
 
-/// Whether a payload of type `emits` fits a slot taking `takes`; `Ok(pass)`
-/// says whether the slot takes the payload at all.
-fn fits(emits: &Option<PayloadType>, takes: &Option<PayloadType>) -> Result<bool, ()> {
-    match (emits, takes) {
-        (_, None) => Ok(false),
-        (Some(e), Some(t)) if e == t => Ok(true),
-        _ => Err(()),
-    }
-}
-
-fn type_text(ty: &Option<PayloadType>) -> String {
-    ty.as_ref()
-        .map_or("no payload".to_string(), |t| t.to_string())
-}
-
 impl State {
     /// Checks a new version against the plugin's live connections and, if
     /// it fits, makes it wait for the plugin's safe point.
