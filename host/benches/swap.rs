@@ -6,7 +6,9 @@
 //! it), by a trace sink that timestamps the record, for a new version that
 //! is already compiled in this system (precompiled), one that another
 //! system compiled into the on-disk artifact cache, and one never seen
-//! (cold). Prints medians; the target is ≤ 100 µs precompiled.
+//! (cold); and from `Radar::swap_prepared` for a version that
+//! `Radar::prepare` compiled and instantiated beforehand. Prints medians;
+//! the target is ≤ 100 µs precompiled.
 
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -51,7 +53,12 @@ fn median(mut v: Vec<Duration>) -> Duration {
 /// system; `cache` is the artifact cache folder (`None`: none), `warm` makes
 /// `to` a plugin of the system too, so that it is compiled already. Returns
 /// the time from the request to the `swap` record.
-fn swap_latency(cache: Option<std::path::PathBuf>, warm: bool, to: &'static str) -> Duration {
+fn swap_latency(
+    cache: Option<std::path::PathBuf>,
+    warm: bool,
+    to: &'static str,
+    prepared: bool,
+) -> Duration {
     let watch = Watch::default();
     let mut builder = System::builder()
         .clock(ClockKind::Real)
@@ -68,8 +75,15 @@ fn swap_latency(cache: Option<std::path::PathBuf>, warm: bool, to: &'static str)
     system
         .run_with(Some(Duration::from_secs(5)), move |radar| {
             radar.sleep(Duration::from_millis(5))?;
-            let began = Instant::now();
-            radar.swap("R", to, SwapPolicy::Drain)?;
+            let began;
+            if prepared {
+                let version = radar.prepare("R", to)?;
+                began = Instant::now();
+                radar.swap_prepared(version, SwapPolicy::Drain)?;
+            } else {
+                began = Instant::now();
+                radar.swap("R", to, SwapPolicy::Drain)?;
+            }
             loop {
                 if let Some(at) = watch.0.lock().expect("not poisoned").swapped_at.first() {
                     *out.lock().expect("not poisoned") = Some(*at - began);
@@ -91,23 +105,30 @@ fn main() {
     let cache = tempfile::tempdir().expect("temp dir");
     // Precompiled: the new version is a plugin of the same system already.
     let precompiled: Vec<Duration> = (0..runs)
-        .map(|_| swap_latency(None, true, plugins::TEST_RESPONSE))
+        .map(|_| swap_latency(None, true, plugins::TEST_RESPONSE, false))
+        .collect();
+    let prepared: Vec<Duration> = (0..runs)
+        .map(|_| swap_latency(None, true, plugins::TEST_RESPONSE, true))
         .collect();
     // From the artifact cache: compiled by an earlier system into `cache`.
     let dir = || Some(cache.path().to_path_buf());
-    let _ = swap_latency(dir(), true, plugins::YIELD_RESPONSE);
+    let _ = swap_latency(dir(), true, plugins::YIELD_RESPONSE, false);
     let from_cache: Vec<Duration> = (0..runs)
-        .map(|_| swap_latency(dir(), false, plugins::YIELD_RESPONSE))
+        .map(|_| swap_latency(dir(), false, plugins::YIELD_RESPONSE, false))
         .collect();
     // Cold: no cache, never compiled in this system.
     let cold: Vec<Duration> = (0..5)
-        .map(|_| swap_latency(None, false, plugins::TRAP_RESPONSE))
+        .map(|_| swap_latency(None, false, plugins::TRAP_RESPONSE, false))
         .collect();
     let storm = storm();
     println!("\n== Radar hot swap summary (real clock, medians) ==");
     println!(
         "swap → new version in place, precompiled      {:>8.1} µs (target ≤ 100 µs)",
         median(precompiled).as_secs_f64() * 1e6
+    );
+    println!(
+        "swap_prepared → new version in place          {:>8.1} µs",
+        median(prepared).as_secs_f64() * 1e6
     );
     println!(
         "swap → new version in place, artifact cache   {:>8.1} µs",

@@ -30,4 +30,6 @@ pub use error::RadarError;
 pub use payload::{Payload, PayloadType};
 pub use plugin::Limits;
 pub use scheduler::{AnonymousSlot, Busy, Mode, ProgramFailure, SwapPolicy};
-pub use system::{Connection, Link, Plugin, Radar, RunReport, System, SystemBuilder, Task};
+pub use system::{
+    Connection, Link, Plugin, PreparedVersion, Radar, RunReport, System, SystemBuilder, Task,
+};

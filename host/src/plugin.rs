@@ -204,6 +204,7 @@ fn name_seed(name: &str, seed: u64) -> u64 {
 }
 
 /// Everything an instance needs besides its code.
+#[derive(Clone)]
 pub(crate) struct InstanceSetup {
     pub name: Arc<str>,
     pub base: TimeBase,
@@ -448,7 +449,35 @@ pub(crate) struct Loader {
     /// Validated and linked, by content hash: loading the same component
     /// again (a swap to a version this system knows) is a lookup.
     prepared: HashMap<String, PluginCode>,
+    /// The content hash of each file loaded, with what identified the file
+    /// then: a file loaded again unchanged is not read or hashed again.
+    hashed: HashMap<PathBuf, (FileStamp, String)>,
     engine_key: u64,
+}
+
+/// What changes when a file is written or replaced: its size, modification
+/// time and, on Unix, its inode and status-change time (a rename changes
+/// those even when it keeps the modification time).
+#[derive(Clone, PartialEq, Eq)]
+struct FileStamp {
+    len: u64,
+    modified: Option<std::time::SystemTime>,
+    #[cfg(unix)]
+    inode: (u64, u64, i64, i64),
+}
+
+impl FileStamp {
+    fn of(path: &Path) -> Option<Self> {
+        let meta = std::fs::metadata(path).ok()?;
+        #[cfg(unix)]
+        use std::os::unix::fs::MetadataExt;
+        Some(Self {
+            len: meta.len(),
+            modified: meta.modified().ok(),
+            #[cfg(unix)]
+            inode: (meta.dev(), meta.ino(), meta.ctime(), meta.ctime_nsec()),
+        })
+    }
 }
 
 /// Where compiled artifacts are kept between runs: `$RADAR_CACHE_DIR`, else
@@ -486,22 +515,45 @@ impl Loader {
             cache_dir,
             compiled: HashMap::new(),
             prepared: HashMap::new(),
+            hashed: HashMap::new(),
             engine_key: hasher.finish(),
         })
     }
 
     /// Reads, compiles (or fetches from the cache) and validates a plugin.
     pub fn load_file(&mut self, plugin: &str, path: &Path) -> Result<PluginCode, RadarError> {
+        let stamp = FileStamp::of(path);
+        if let (Some(stamp), Some((seen, digest))) = (&stamp, self.hashed.get(path)) {
+            if stamp == seen {
+                if let Some(code) = self.prepared.get(digest) {
+                    return Ok(code.clone());
+                }
+            }
+        }
         let bytes = std::fs::read(path).map_err(|cause| RadarError::Read {
             plugin: plugin.into(),
             path: path.into(),
             cause,
         })?;
-        self.load_bytes(plugin, &bytes)
+        let digest = format!("{:x}", Sha256::digest(&bytes));
+        let code = self.load_hashed(plugin, &bytes, digest.clone())?;
+        if let Some(stamp) = stamp {
+            self.hashed.insert(path.to_path_buf(), (stamp, digest));
+        }
+        Ok(code)
     }
 
     pub fn load_bytes(&mut self, plugin: &str, bytes: &[u8]) -> Result<PluginCode, RadarError> {
         let digest = format!("{:x}", Sha256::digest(bytes));
+        self.load_hashed(plugin, bytes, digest)
+    }
+
+    fn load_hashed(
+        &mut self,
+        plugin: &str,
+        bytes: &[u8],
+        digest: String,
+    ) -> Result<PluginCode, RadarError> {
         if let Some(code) = self.prepared.get(&digest) {
             return Ok(code.clone());
         }

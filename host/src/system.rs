@@ -48,7 +48,7 @@
 //! stands still while it runs. [`Task::join`] is the way to wait for a task.)
 
 use std::cell::Cell;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::fmt::Display;
 use std::path::Path;
 use std::path::PathBuf;
@@ -63,12 +63,17 @@ use serde_json::Value as Json;
 use crate::clock::{ClockKind, TimeBase};
 use crate::error::RadarError;
 use crate::payload::Payload;
-use crate::plugin::{default_cache_dir, Limits, Loader, PluginCode};
+use crate::plugin::{default_cache_dir, InstanceSetup, Limits, Loader};
 use crate::scheduler::{
     duration_nanos, AnonymousJob, AnonymousSlot, Busy, Command, LinkSpec, LinkTarget, Mode,
-    PluginDef, ProgramFailure, RunSetup, Scheduler, StaticInjection, StaticSwap, SwapPolicy,
-    TraceOut,
+    NewVersion, PluginDef, ProgramFailure, RunSetup, Scheduler, StaticInjection, StaticSwap,
+    SwapPolicy, TraceOut,
 };
+
+/// What a new instance of each plugin needs, published when the run
+/// begins: `Radar::swap` makes the new version's instance on the caller's
+/// thread with it.
+type SharedSetups = Arc<Mutex<HashMap<String, InstanceSetup>>>;
 
 /// Distinguishes the systems of one process, for [`NATIVE_CONTEXT`].
 static NEXT_SYSTEM: AtomicU64 = AtomicU64::new(1);
@@ -298,6 +303,7 @@ impl SystemBuilder {
         let (tx, rx) = unbounded();
         Ok(System {
             loader: Arc::new(Mutex::new(loader)),
+            setups: SharedSetups::default(),
             swaps,
             id: NEXT_SYSTEM.fetch_add(1, Ordering::Relaxed),
             clock: self.clock,
@@ -318,6 +324,7 @@ pub struct System {
     id: u64,
     /// Kept for swaps: one engine for the whole run.
     loader: Arc<Mutex<Loader>>,
+    setups: SharedSetups,
     swaps: Vec<StaticSwap>,
     clock: ClockKind,
     plugins: Vec<PluginDef>,
@@ -374,6 +381,7 @@ impl System {
             tx: self.tx.clone(),
             system: self.id,
             loader: self.loader.clone(),
+            setups: self.setups.clone(),
         }
     }
 
@@ -438,7 +446,13 @@ impl System {
             injections: self.injections,
             swaps: self.swaps,
         });
-        let end = scheduler.run()?;
+        *self.setups.lock().unwrap_or_else(|e| e.into_inner()) = scheduler.instance_setups();
+        let end = scheduler.run();
+        self.setups
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clear();
+        let end = end?;
         // The scheduler dropped the job sender: the runner ends after its
         // current closure.
         drop(runner);
@@ -492,13 +506,40 @@ fn load_version(
     loader: &mut Loader,
     plugin: &str,
     path: &Path,
-) -> Result<Box<PluginCode>, (String, RadarError)> {
-    loader.load_file(plugin, path).map(Box::new).map_err(|e| {
+) -> Result<Box<NewVersion>, (String, RadarError)> {
+    let code = loader.load_file(plugin, path);
+    code.map(|code| {
+        Box::new(NewVersion {
+            code,
+            instance: None,
+        })
+    })
+    .map_err(|e| {
         let version = std::fs::read(path)
             .map(|bytes| crate::plugin::version_of(&bytes))
             .unwrap_or_else(|_| "unreadable".into());
         (version, e)
     })
+}
+
+/// Runs a future to its end on the calling thread (a new version's
+/// instantiation, which yields only to let fuel be metered).
+fn block_on<F: std::future::Future>(future: F) -> F::Output {
+    struct Unpark(std::thread::Thread);
+    impl std::task::Wake for Unpark {
+        fn wake(self: Arc<Self>) {
+            self.0.unpark();
+        }
+    }
+    let waker = std::task::Waker::from(Arc::new(Unpark(std::thread::current())));
+    let mut cx = std::task::Context::from_waker(&waker);
+    let mut future = std::pin::pin!(future);
+    loop {
+        match future.as_mut().poll(&mut cx) {
+            std::task::Poll::Ready(out) => return out,
+            std::task::Poll::Pending => std::thread::park(),
+        }
+    }
 }
 
 fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
@@ -658,6 +699,7 @@ pub struct Radar {
     /// The system this handle drives (see [`NATIVE_CONTEXT`]).
     system: u64,
     loader: Arc<Mutex<Loader>>,
+    setups: SharedSetups,
 }
 
 impl Radar {
@@ -830,10 +872,7 @@ impl Radar {
         path: impl AsRef<Path>,
         policy: SwapPolicy,
     ) -> Result<(), RadarError> {
-        let code = {
-            let mut loader = self.loader.lock().unwrap_or_else(|e| e.into_inner());
-            load_version(&mut loader, plugin, path.as_ref())
-        };
+        let code = self.stage(plugin, path.as_ref());
         self.ask(|reply| Command::Swap {
             plugin: plugin.to_string(),
             code,
@@ -842,9 +881,100 @@ impl Radar {
         })?
     }
 
+    /// The first half of [`Radar::swap`], done ahead of time, as Erlang
+    /// loads new code before switching to it: compiles the component at
+    /// `path`, checks that it is a plugin, and makes its instance for
+    /// `plugin`, all on the caller's thread. [`Radar::swap_prepared`] then
+    /// only switches. Fails if the component cannot be loaded (nothing is
+    /// recorded: no swap was asked for).
+    pub fn prepare(
+        &self,
+        plugin: &str,
+        path: impl AsRef<Path>,
+    ) -> Result<PreparedVersion, RadarError> {
+        match self.stage(plugin, path.as_ref()) {
+            Ok(new) => Ok(PreparedVersion {
+                system: self.system,
+                plugin: plugin.to_string(),
+                new,
+            }),
+            Err((_, error)) => Err(error),
+        }
+    }
+
+    /// Switches to a version made by [`Radar::prepare`], as [`Radar::swap`]
+    /// would: checked against the plugin's live connections, taking over at
+    /// its safe point as `policy` says.
+    pub fn swap_prepared(
+        &self,
+        prepared: PreparedVersion,
+        policy: SwapPolicy,
+    ) -> Result<(), RadarError> {
+        if prepared.system != self.system {
+            return Err(RadarError::SwapRefused {
+                plugin: prepared.plugin,
+                cause: "the version was prepared for another system".into(),
+            });
+        }
+        self.ask(|reply| Command::Swap {
+            plugin: prepared.plugin,
+            code: Ok(prepared.new),
+            policy,
+            reply,
+        })?
+    }
+
+    /// Loads a new version of `plugin` and, once the run has begun, makes
+    /// its instance here, so that the scheduler's thread only switches.
+    fn stage(&self, plugin: &str, path: &Path) -> Result<Box<NewVersion>, (String, RadarError)> {
+        let mut code = {
+            let mut loader = self.loader.lock().unwrap_or_else(|e| e.into_inner());
+            load_version(&mut loader, plugin, path)
+        };
+        let setup = self
+            .setups
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .get(plugin)
+            .cloned();
+        if let (Ok(new), Some(setup)) = (code.as_mut(), setup) {
+            new.instance = Some(block_on(new.code.instantiate(setup)));
+        }
+        code
+    }
+
     /// Ends the run.
     pub fn stop(&self) {
         let _ = self.tx.send(Command::Stop);
+    }
+}
+
+/// A new version of a plugin, compiled and instantiated ahead of the swap
+/// by [`Radar::prepare`].
+pub struct PreparedVersion {
+    system: u64,
+    plugin: String,
+    new: Box<NewVersion>,
+}
+
+impl PreparedVersion {
+    /// The plugin it is for.
+    pub fn plugin(&self) -> &str {
+        &self.plugin
+    }
+
+    /// Its version: the first 12 hex digits of the component's sha256.
+    pub fn version(&self) -> &str {
+        &self.new.code.version
+    }
+}
+
+impl std::fmt::Debug for PreparedVersion {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PreparedVersion")
+            .field("plugin", &self.plugin)
+            .field("version", &self.version())
+            .finish()
     }
 }
 

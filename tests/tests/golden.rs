@@ -6,46 +6,9 @@
 
 mod common;
 
-use std::path::PathBuf;
 use std::time::Duration;
 
 use radar::example;
-
-fn golden(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("golden")
-        .join(name)
-}
-
-fn check_golden(name: &str, actual: &str) {
-    let path = golden(name);
-    if std::env::var_os("UPDATE_GOLDEN").is_some() {
-        std::fs::write(&path, actual).expect("write golden file");
-    }
-    let expected = std::fs::read_to_string(&path).unwrap_or_else(|e| {
-        panic!(
-            "cannot read {} ({e}); run with UPDATE_GOLDEN=1 to create it",
-            path.display()
-        )
-    });
-    if expected != actual {
-        let diff: Vec<String> = expected
-            .lines()
-            .zip(actual.lines())
-            .enumerate()
-            .filter(|(_, (e, a))| e != a)
-            .take(5)
-            .map(|(i, (e, a))| format!("line {}:\n  expected {e}\n  actual   {a}", i + 1))
-            .collect();
-        panic!(
-            "trace differs from {} ({} expected lines, {} actual):\n{}",
-            path.display(),
-            expected.lines().count(),
-            actual.lines().count(),
-            diff.join("\n")
-        );
-    }
-}
 
 fn listing23_trace() -> String {
     let report = example::listing23(common::virtual_system())
@@ -58,7 +21,7 @@ fn listing23_trace() -> String {
 
 #[test]
 fn listing_2_3_matches_its_expected_trace() {
-    check_golden("listing23.jsonl", &listing23_trace());
+    common::check_golden("listing23.jsonl", &listing23_trace());
 }
 
 #[test]
@@ -75,7 +38,7 @@ fn listing_1_matches_its_expected_trace() {
         Some(Ok(())),
         "the deliberative part finished"
     );
-    check_golden("listing1.jsonl", &report.trace_json_lines());
+    common::check_golden("listing1.jsonl", &report.trace_json_lines());
 }
 
 #[test]

@@ -94,18 +94,77 @@ fn a_counter_swapped_with_restart_drops_its_check_and_the_new_version_checks_at_
 }
 
 fn response_swap(policy: SwapPolicy) -> Vec<Json> {
+    records(&response_swap_report(policy))
+}
+
+fn response_swap_report(policy: SwapPolicy) -> radar::RunReport {
     // R counts 4 × 1 s from 0 s (started with 7); at 1.5 s it is swapped for
     // CountUp (which keeps R's configuration: one count a second, to 10); at
     // 5 s it is started again.
     let system = virtual_system().plugin(test_response("R", 4, 1.0));
-    let report = run(system, 7, move |radar| {
+    run(system, 7, move |radar| {
         radar.inject("R.start", json!(7))?;
         radar.sleep(Duration::from_millis(1500))?;
         radar.swap("R", plugins::COUNT_UP, policy)?;
         radar.sleep(Duration::from_millis(3500))?;
         radar.inject("R.start", json!(8))
+    })
+}
+
+/// `drain` and `restart`, for a running response and for an event in the
+/// middle of a check, as whole expected traces (`tests/golden/swap-*.jsonl`,
+/// versions named `v1`, `v2` in order of appearance).
+#[test]
+fn drain_and_restart_match_their_expected_traces() {
+    for policy in [SwapPolicy::Drain, SwapPolicy::Restart] {
+        let name = policy.as_str();
+        check_golden(
+            &format!("swap-response-{name}.jsonl"),
+            &with_versions_named(&response_swap_report(policy).trace_json_lines()),
+        );
+        check_golden(
+            &format!("swap-event-{name}.jsonl"),
+            &with_versions_named(&counter_swap(policy).trace_json_lines()),
+        );
+    }
+}
+
+#[test]
+fn a_version_prepared_ahead_swaps_exactly_as_a_swap_from_its_file() {
+    let system = virtual_system().plugin(counter("E"));
+    let prepared = run(system, 7, move |radar| {
+        radar.whenever_do("E", |_| {})?.keep();
+        radar.sleep(Duration::from_millis(1500))?;
+        let version = radar.prepare("E", plugins::COUNTER_EVENT_V2)?;
+        assert_eq!(version.plugin(), "E");
+        assert_eq!(version.version().len(), 12);
+        radar.sleep(Duration::from_millis(2000))?;
+        radar.swap_prepared(version, SwapPolicy::Drain)
     });
-    records(&report)
+    assert_eq!(
+        prepared.program,
+        Some(Ok(())),
+        "the checks in the program held"
+    );
+    assert_eq!(
+        prepared.trace_json_lines(),
+        counter_swap(SwapPolicy::Drain).trace_json_lines()
+    );
+    // A broken file fails at `prepare`, before any swap is asked for.
+    let system = virtual_system().plugin(counter("E"));
+    let report = run(system, 1, move |radar| {
+        let error = radar
+            .prepare("E", plugins::COUNTER_EVENT_V2.replace(".wasm", ".missing"))
+            .expect_err("no such file");
+        assert!(error.to_string().contains("`E`"), "{error}");
+        Ok(())
+    });
+    assert_eq!(
+        report.program,
+        Some(Ok(())),
+        "the checks in the program held"
+    );
+    assert!(find(&records(&report), json!({"kind": "swap-refused"})).is_empty());
 }
 
 #[test]
@@ -354,5 +413,75 @@ fn two_versions_before_one_safe_point_the_newer_one_wins() {
             "superseded by {} before it took over",
             swaps[0]["to"].as_str().expect("version")
         ))
+    );
+}
+
+#[test]
+fn a_restart_swap_keeps_the_activations_until_connection() {
+    // `once E start R until F`: E starts R at 1 s; R is swapped with
+    // `restart` at 2 s; F (listening since 0 s, triggering at 3 s) must
+    // still interrupt the activation, now running on the new version.
+    let system = virtual_system()
+        .plugin(test_event("E", 1))
+        .plugin(timer_event("F", 3.0))
+        .plugin(test_response("R", 10, 1.0));
+    let report = run(system, 8, move |radar| {
+        radar.once_until("E", "R", "F")?.keep();
+        radar.sleep(Duration::from_millis(2000))?;
+        radar.swap("R", plugins::COUNT_UP, SwapPolicy::Restart)
+    });
+    let trace = records(&report);
+    assert_sequence(
+        &trace,
+        &[
+            json!({"kind": "slot-begin", "plugin": "R", "slot": "start", "t": ns(1.0)}),
+            json!({"kind": "swap", "plugin": "R", "policy": "restart", "t": ns(2.0)}),
+            json!({"kind": "slot-begin", "plugin": "R", "slot": "start", "t": ns(2.0)}),
+            json!({"kind": "signal", "plugin": "F", "signal": "triggered", "t": ns(3.0)}),
+            json!({"kind": "deliver", "id": 2, "to": "R.interrupt", "t": ns(3.0)}),
+            json!({"kind": "slot-begin", "plugin": "R", "slot": "interrupt", "t": ns(3.0)}),
+        ],
+    );
+    // The until connection ended with the new activation, not the old one.
+    let until_ended = find(&trace, json!({"kind": "disconnect", "id": 2}));
+    assert_eq!(until_ended.len(), 1);
+    assert_eq!(until_ended[0]["reason"], json!("until"));
+    assert!(until_ended[0]["t"].as_u64() >= Some(ns(3.0)));
+}
+
+#[test]
+fn a_restart_whose_new_start_cannot_take_the_waiting_payload_is_refused() {
+    // R runs a start injected with a u32; a `restart` would begin it again
+    // on a version whose `start` takes a u64: refused, the old version goes
+    // on. A `drain` swap to the same version waits for nothing and is taken.
+    let system = virtual_system().plugin(test_response("R", 4, 1.0));
+    let report = run(system, 6, move |radar| {
+        radar.inject("R.start", json!(7))?;
+        radar.sleep(Duration::from_millis(1500))?;
+        let error = radar
+            .swap("R", plugins::BENCH_RESPONSE, SwapPolicy::Restart)
+            .expect_err("refused");
+        assert!(
+            error.to_string().contains("carry u32") && error.to_string().contains("takes u64"),
+            "{error}"
+        );
+        radar.swap("R", plugins::BENCH_RESPONSE, SwapPolicy::Drain)
+    });
+    assert_eq!(
+        report.program,
+        Some(Ok(())),
+        "the checks in the program held"
+    );
+    let trace = records(&report);
+    assert_eq!(
+        count(&trace, json!({"kind": "swap-refused", "plugin": "R"})),
+        1
+    );
+    assert_sequence(
+        &trace,
+        &[
+            json!({"kind": "log", "plugin": "R", "message": "count 4", "t": ns(4.0)}),
+            json!({"kind": "swap", "plugin": "R", "policy": "drain", "t": ns(4.0)}),
+        ],
     );
 }

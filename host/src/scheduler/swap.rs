@@ -52,9 +52,18 @@ impl std::str::FromStr for SwapPolicy {
     }
 }
 
+/// A new version of a plugin on its way to the scheduler: the compiled
+/// code and, when the caller could make it, an instance already made for
+/// this plugin (so the scheduler's thread only switches).
+pub(crate) struct NewVersion {
+    pub code: PluginCode,
+    pub instance: Option<Result<PluginInstance, Fault>>,
+}
+
 /// An accepted swap waiting for its safe point.
 pub(crate) struct PendingSwap {
     code: Rc<PluginCode>,
+    instance: Option<Result<PluginInstance, Fault>>,
     policy: SwapPolicy,
     /// An event's check was interrupted for it: its result is discarded.
     pub discard_check: bool,
@@ -74,18 +83,18 @@ impl State {
     pub(super) fn request_swap(
         &mut self,
         plugin: &str,
-        code: Result<Box<PluginCode>, (String, RadarError)>,
+        code: Result<Box<NewVersion>, (String, RadarError)>,
         policy: SwapPolicy,
     ) -> Result<(), RadarError> {
         let pid = self.plugin(plugin)?;
-        let code = match code {
-            Ok(code) => code,
+        let NewVersion { code, instance } = match code {
+            Ok(new) => *new,
             Err((version, error)) => {
                 self.refuse_swap(pid, &version, error.to_string());
                 return Err(error);
             }
         };
-        if let Err(cause) = self.check_swap(pid, &code.kind) {
+        if let Err(cause) = self.check_swap(pid, &code.kind, policy == SwapPolicy::Restart) {
             self.refuse_swap(pid, &code.version, cause.clone());
             return Err(RadarError::SwapRefused {
                 plugin: plugin.to_string(),
@@ -94,7 +103,8 @@ impl State {
         }
         let entry = &mut self.plugins[pid];
         let mut pending = PendingSwap {
-            code: Rc::new(*code),
+            code: Rc::new(code),
+            instance,
             policy,
             discard_check: false,
         };
@@ -108,12 +118,14 @@ impl State {
                     pending.discard_check = true;
                     entry.stop.request(StopReason::Deactivate);
                 }
-            } else if let (Some(activation), Phase::Running) = (&entry.activation, entry.phase) {
-                // Stopped as by an exit signal, then started again, first.
+            } else if let (Some(activation), Phase::Running) = (&mut entry.activation, entry.phase)
+            {
+                // Stopped as by an exit signal, then started again, first;
+                // a `once ... until` connection goes on serving the new run.
                 let again = StartRequest {
                     payload: activation.payload.clone(),
                     via: activation.via,
-                    until: None,
+                    until: activation.until.take(),
                 };
                 restarted = Some(again.via);
                 if let Some(next) = entry.next.replace(again) {
@@ -156,8 +168,10 @@ impl State {
     }
 
     /// Whether `kind` can take the place of plugin `pid`'s code under its
-    /// live connections; the error names the connection and both types.
-    pub(super) fn check_swap(&self, pid: usize, kind: &Kind) -> Result<(), String> {
+    /// live connections and with the starts waiting for it (`restart`: the
+    /// running activation will start again too); the error names the
+    /// connection, or the waiting starts, and both types.
+    pub(super) fn check_swap(&self, pid: usize, kind: &Kind, restart: bool) -> Result<(), String> {
         let entry = &self.plugins[pid];
         let new_is_event = matches!(kind, Kind::Event { .. });
         if new_is_event != entry.is_event() {
@@ -204,6 +218,24 @@ impl State {
                     type_text(&emits),
                     c.to_label,
                     type_text(&takes)
+                ));
+            }
+        }
+        // Starts accepted but not begun hold payloads made for the old
+        // `start` (an injection's was parsed for it): they must still fit,
+        // by the rule connections follow.
+        let rerun = restart && entry.phase == Phase::Running && entry.activation.is_some();
+        let waiting = entry.next.iter().count() + entry.queue.len() + usize::from(rerun);
+        if waiting > 0 && !entry.is_event() {
+            let old = entry.slot_type(Slot::Start).flatten();
+            let new = slot_type(kind, Slot::Start).flatten();
+            if fits(&old, &new).is_err() {
+                return Err(format!(
+                    "{waiting} start(s) waiting for `{}` carry {}, but the new version's \
+                     `start` takes {}",
+                    entry.name,
+                    type_text(&old),
+                    type_text(&new)
                 ));
             }
         }
@@ -308,12 +340,18 @@ impl Core {
             })
         };
         // Connections made since the request are checked too.
-        if let Err(cause) = self.with(|st| st.check_swap(pid, &pending.code.kind)) {
+        if let Err(cause) = self.with(|st| st.check_swap(pid, &pending.code.kind, false)) {
             self.with(|st| st.refuse_swap(pid, &version, cause));
             return;
         }
-        let setup = self.with(|st| st.setup(pid).1);
-        let mut fresh = match pending.code.instantiate(setup).await {
+        let made = match pending.instance {
+            Some(made) => made,
+            None => {
+                let setup = self.with(|st| st.setup(pid).1);
+                pending.code.instantiate(setup).await
+            }
+        };
+        let mut fresh = match made {
             Ok(fresh) => fresh,
             Err(fault) => {
                 rolled_back(format!("the new version cannot start: {}", fault.cause));
