@@ -62,6 +62,7 @@ use serde_json::Value as Json;
 
 use crate::clock::{ClockKind, TimeBase};
 use crate::error::RadarError;
+use crate::executor::block_on;
 use crate::payload::Payload;
 use crate::plugin::{default_cache_dir, InstanceSetup, Limits, Loader};
 use crate::scheduler::{
@@ -520,26 +521,6 @@ fn load_version(
             .unwrap_or_else(|_| "unreadable".into());
         (version, e)
     })
-}
-
-/// Runs a future to its end on the calling thread (a new version's
-/// instantiation, which yields only to let fuel be metered).
-fn block_on<F: std::future::Future>(future: F) -> F::Output {
-    struct Unpark(std::thread::Thread);
-    impl std::task::Wake for Unpark {
-        fn wake(self: Arc<Self>) {
-            self.0.unpark();
-        }
-    }
-    let waker = std::task::Waker::from(Arc::new(Unpark(std::thread::current())));
-    let mut cx = std::task::Context::from_waker(&waker);
-    let mut future = std::pin::pin!(future);
-    loop {
-        match future.as_mut().poll(&mut cx) {
-            std::task::Poll::Ready(out) => return out,
-            std::task::Poll::Pending => std::thread::park(),
-        }
-    }
 }
 
 fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {

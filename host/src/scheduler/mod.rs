@@ -31,7 +31,7 @@ use wasmtime::component::Val;
 
 use crate::clock::{ClockKind, StopFlag, StopReason, TimeBase};
 use crate::error::RadarError;
-use crate::executor::{Executor, LocalTask, TaskId};
+use crate::executor::{block_on, Executor, LocalTask, TaskId};
 use crate::payload::{json_to_val, val_to_json, Payload, PayloadType};
 use crate::plugin::{Fault, InstanceSetup, Kind, Limits, PluginCode, PluginInstance};
 use crate::trace::{Entry, Record, TraceSink};
@@ -752,8 +752,14 @@ impl Scheduler {
                 let injection = st.prepare_inject(&i.to, i.payload)?;
                 st.inject_at(&core, injection, Some(i.at));
             }
-            for swap in std::mem::take(&mut self.swaps) {
-                st.plugin(&swap.plugin)?;
+            for mut swap in std::mem::take(&mut self.swaps) {
+                let pid = st.plugin(&swap.plugin)?;
+                // Instantiated now, before anything runs, so that the swap
+                // itself only switches.
+                if let Ok(new) = swap.code.as_mut() {
+                    let setup = st.setup(pid).1;
+                    new.instance = Some(block_on(new.code.instantiate(setup)));
+                }
                 let core = core.clone();
                 let at = duration_nanos(swap.at);
                 st.spawn(Box::pin(async move {
