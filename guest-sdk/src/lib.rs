@@ -173,10 +173,29 @@ pub mod prelude {
 /// By default the `radar:reactive` WIT package is looked up at `../../wit`
 /// from the plugin's `Cargo.toml` (the layout of Radar's own `plugins/`);
 /// name another folder with `plugin!(wit: "path/to/wit", "...world...")`.
+///
+/// A world kept in a `.wit` file, so that plugins in other languages build
+/// from the same one, is named with `plugin!(world: "name", path:
+/// "path/to/folder")`: the folder holds the world's package, with
+/// `radar:reactive` under its `deps/` (a copy or a link of `wit/`). Paths
+/// are relative to the plugin's `Cargo.toml`.
 #[macro_export]
 macro_rules! plugin {
     ($world:literal) => {
         $crate::plugin!(wit: "../../wit", $world);
+    };
+    (world: $name:literal, path: $path:literal) => {
+        $crate::__wit_bindgen::generate!({
+            world: $name,
+            path: $path,
+            runtime_path: "::radar_guest::__wit_bindgen::rt",
+            with: {
+                "radar:reactive/types@0.1.0": ::radar_guest::__bindings::radar::reactive::types,
+                "radar:reactive/clock@0.1.0": ::radar_guest::__bindings::radar::reactive::clock,
+                "radar:reactive/logging@0.1.0": ::radar_guest::__bindings::radar::reactive::logging,
+                "radar:reactive/config@0.1.0": ::radar_guest::__bindings::radar::reactive::config,
+            },
+        });
     };
     (wit: $wit:literal, $world:literal) => {
         $crate::__wit_bindgen::generate!({

@@ -13,9 +13,9 @@ use std::task::{Context, Poll, Waker};
 use std::time::{Duration, Instant};
 
 use criterion::{black_box, Criterion};
-use radar::example::plugins;
 use radar::trace::{Entry, Record, TraceSink};
 use radar::{ClockKind, Plugin, System};
+use radar_fixtures::plugins;
 use wasmtime::component::{Component, Linker, Val};
 use wasmtime::{Config, Engine, Store};
 

@@ -13,9 +13,9 @@
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use radar::example::plugins;
 use radar::trace::{Entry, Record, TraceSink};
 use radar::{Busy, ClockKind, Link, Plugin, SwapPolicy, System};
+use radar_fixtures::plugins;
 
 /// Timestamps `swap` records; counts emissions and what reached `id`.
 #[derive(Clone, Default)]

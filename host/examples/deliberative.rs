@@ -4,13 +4,14 @@
 
 use std::time::Duration;
 
-use radar::{example::plugins, Busy, ClockKind, Link, Plugin, System};
+use radar::example::wasm;
+use radar::{Busy, ClockKind, Link, Plugin, System};
 
 fn main() -> anyhow::Result<()> {
     let system = System::builder()
         .clock(ClockKind::Virtual)
-        .plugin(Plugin::file("TestEvent", plugins::TEST_EVENT).config("count_to", 5))
-        .plugin(Plugin::file("TestResponse", plugins::TEST_RESPONSE))
+        .plugin(Plugin::bytes("TestEvent", wasm::TEST_EVENT).config("count_to", 5))
+        .plugin(Plugin::bytes("TestResponse", wasm::TEST_RESPONSE))
         .build()?; // errors name the plugin and the cause
     let report = system.run_with(Some(Duration::from_secs(30)), |radar| {
         // Ends with this scope: dropped when the program returns.

@@ -1,32 +1,53 @@
-//! The paper's examples, ready to run: the built-in system of `radar run`
-//! and the fixtures of the test suite.
+//! The paper's examples, ready to run: the built-in system of `radar run`.
 //!
-//! The plugins are built from `plugins/` by the host's build script; the
-//! deliberative parts are written with the native Rust API.
+//! The plugins are embedded in the library (and so in the `radar` binary),
+//! built from `plugins/`: the example runs from any directory, with no wasm
+//! toolchain. The test suite checks that they are the current builds of
+//! their sources (`UPDATE_EMBEDDED=1` refreshes them). The deliberative parts
+//! are written with the native Rust API.
 
 use std::time::Duration;
 
 use crate::error::RadarError;
 use crate::system::{Plugin, Radar, SystemBuilder};
 
-/// Paths of the example plugins, built for `wasm32-wasip2` at build time.
-pub mod plugins {
-    include!(concat!(env!("OUT_DIR"), "/plugins.rs"));
+/// The example plugins' components, built from `plugins/` for
+/// `wasm32-wasip2`.
+pub mod wasm {
+    /// `plugins/test-event`: TestEvent of Listing 2/3.
+    pub const TEST_EVENT: &[u8] = include_bytes!("../assets/test_event.wasm");
+    /// `plugins/test-response`: TestResponse of Listing 2/3.
+    pub const TEST_RESPONSE: &[u8] = include_bytes!("../assets/test_response.wasm");
+    /// `plugins/timer-event`: triggers `after_s` after each check begins.
+    pub const TIMER_EVENT: &[u8] = include_bytes!("../assets/timer_event.wasm");
+    /// `plugins/count-up`: CountUp of Listing 1.
+    pub const COUNT_UP: &[u8] = include_bytes!("../assets/count_up.wasm");
 }
 
 /// Listing 2/3 of the paper: TestEvent (counts to 5 at one count a second,
 /// then triggers), TestEvent2 (triggers 3 s after activation) and
 /// TestResponse (counts for 10 s, interruptible between counts).
 pub fn listing23(builder: SystemBuilder) -> SystemBuilder {
+    listing23_with(
+        builder,
+        Plugin::bytes("TestEvent", wasm::TEST_EVENT),
+        Plugin::bytes("TestResponse", wasm::TEST_RESPONSE),
+    )
+}
+
+/// Listing 2/3 with TestEvent and TestResponse from elsewhere (another
+/// build, another language): `test_event` and `test_response` must be named
+/// `TestEvent` and `TestResponse`; they get the example's configuration.
+pub fn listing23_with(
+    builder: SystemBuilder,
+    test_event: Plugin,
+    test_response: Plugin,
+) -> SystemBuilder {
     builder
+        .plugin(test_event.config("count_to", 5).config("interval_s", 1))
+        .plugin(Plugin::bytes("TestEvent2", wasm::TIMER_EVENT).config("after_s", 3))
         .plugin(
-            Plugin::file("TestEvent", plugins::TEST_EVENT)
-                .config("count_to", 5)
-                .config("interval_s", 1),
-        )
-        .plugin(Plugin::file("TestEvent2", plugins::TIMER_EVENT).config("after_s", 3))
-        .plugin(
-            Plugin::file("TestResponse", plugins::TEST_RESPONSE)
+            test_response
                 .config("count_for_s", 10)
                 .config("interval_s", 1),
         )
@@ -64,12 +85,12 @@ fn do_loop(radar: &Radar) -> Result<(), RadarError> {
 pub fn listing1(builder: SystemBuilder) -> SystemBuilder {
     builder
         .plugin(
-            Plugin::file("CountUp", plugins::COUNT_UP)
+            Plugin::bytes("CountUp", wasm::COUNT_UP)
                 .config("count_to", 10)
                 .config("interval_s", 0.5),
         )
-        .plugin(Plugin::file("StartEvent", plugins::TIMER_EVENT).config("after_s", 2))
-        .plugin(Plugin::file("EndEvent", plugins::TIMER_EVENT).config("after_s", 4))
+        .plugin(Plugin::bytes("StartEvent", wasm::TIMER_EVENT).config("after_s", 2))
+        .plugin(Plugin::bytes("EndEvent", wasm::TIMER_EVENT).config("after_s", 4))
 }
 
 /// The deliberative part of Listing 1, with CountUp's `on exit: restart`:

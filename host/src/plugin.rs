@@ -16,7 +16,9 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use sha2::{Digest, Sha256};
-use wasmtime::component::{types, Component, Func, InstancePre, Linker, ResourceTable, Val};
+use wasmtime::component::{
+    types, Component, ComponentExportIndex, Func, InstancePre, Linker, ResourceTable, Val,
+};
 use wasmtime::{Config, Engine, Store, StoreLimits, StoreLimitsBuilder, Trap, WasmBacktrace};
 use wasmtime_wasi::{WasiCtx, WasiCtxView, WasiView};
 
@@ -46,7 +48,10 @@ pub struct Limits {
     /// Bytes of linear memory the plugin may grow to.
     pub memory_bytes: usize,
     /// Fuel between two forced yields, so that compute-bound guests share the
-    /// scheduler's thread fairly.
+    /// scheduler's thread fairly under the real clock. Under the virtual
+    /// clock a call runs until it returns or waits: the order of a run must
+    /// not depend on how much computing each call needs (a Python plugin
+    /// burns far more fuel than the same plugin in Rust).
     pub fuel_yield_interval: u64,
 }
 
@@ -82,6 +87,34 @@ pub(crate) struct PluginCode {
     /// The first 12 hex digits of the component's sha256 (DESIGN §1.4).
     pub version: String,
     pre: InstancePre<PluginCtx>,
+    /// Where each of [`EXPORTS`] is, resolved once at load.
+    exports: Arc<[Option<ComponentExportIndex>; 6]>,
+}
+
+/// The functions Radar calls, in the order of `PluginCode::exports`.
+const EXPORTS: [&str; 6] = ["check", "start", "interrupt", "exit", "snapshot", "restore"];
+
+/// Whether an exported instance is the interface a plugin may put its
+/// functions in instead of the world's top level: `slots`, or an interface
+/// named `slots` in the plugin's own package (`pkg:name/slots[@version]`).
+/// componentize-py cannot export a top-level function named `exit` (it
+/// clashes with libc's `exit` when linking), so Python responses need it.
+fn is_slots_interface(name: &str) -> bool {
+    let name = name.split('@').next().unwrap_or(name);
+    name == "slots" || name.ends_with("/slots")
+}
+
+/// Where `name` is exported: at the top level, else in the slots interface
+/// called `slots`.
+fn export_index(
+    component: &Component,
+    slots: Option<&str>,
+    name: &str,
+) -> Option<ComponentExportIndex> {
+    component.get_export_index(None, name).or_else(|| {
+        let slots = component.get_export_index(None, slots?)?;
+        component.get_export_index(Some(&slots), name)
+    })
 }
 
 /// The per-store state of a plugin: what its host calls can reach.
@@ -283,6 +316,7 @@ fn describe_fault(err: &wasmtime::Error) -> String {
 
 impl PluginCode {
     pub async fn instantiate(&self, setup: InstanceSetup) -> Result<PluginInstance, Fault> {
+        let real_clock = setup.base.kind() == ClockKind::Real;
         let mut wasi = WasiCtx::builder();
         if setup.base.kind() == ClockKind::Virtual {
             let seed = name_seed(&setup.name, setup.seed);
@@ -308,7 +342,7 @@ impl PluginCode {
         store.limiter(|ctx| &mut ctx.limits);
         let fault = |e: wasmtime::Error| Fault::from_error(&e);
         store
-            .fuel_async_yield_interval(Some(setup.limits.fuel_yield_interval))
+            .fuel_async_yield_interval(real_clock.then_some(setup.limits.fuel_yield_interval))
             .map_err(fault)?;
         store.set_fuel(setup.limits.fuel_per_call).map_err(fault)?;
         let instance = self
@@ -316,12 +350,14 @@ impl PluginCode {
             .instantiate_async(&mut store)
             .await
             .map_err(fault)?;
-        let check = instance.get_func(&mut store, "check");
-        let start = instance.get_func(&mut store, "start");
-        let interrupt = instance.get_func(&mut store, "interrupt");
-        let exit = instance.get_func(&mut store, "exit");
-        let snapshot = instance.get_func(&mut store, "snapshot");
-        let restore = instance.get_func(&mut store, "restore");
+        let mut funcs = self.exports.iter().map(|index| {
+            index
+                .as_ref()
+                .and_then(|i| instance.get_func(&mut store, i))
+        });
+        let mut next = || funcs.next().flatten();
+        let (check, start, interrupt) = (next(), next(), next());
+        let (exit, snapshot, restore) = (next(), next(), next());
         Ok(PluginInstance {
             store,
             fuel_per_call: setup.limits.fuel_per_call,
@@ -566,10 +602,21 @@ impl Loader {
                 plugin: plugin.into(),
                 cause: format!("{e:#}"),
             })?;
+        let slots = component
+            .component_type()
+            .exports(&self.engine)
+            .find(|(name, item)| {
+                matches!(item.ty, types::ComponentItem::ComponentInstance(_))
+                    && is_slots_interface(name)
+            })
+            .map(|(name, _)| name.to_string());
+        let exports =
+            Arc::new(EXPORTS.map(|name| export_index(&component, slots.as_deref(), name)));
         let code = PluginCode {
             kind,
             version: digest[..12].to_string(),
             pre,
+            exports,
         };
         self.prepared.insert(digest, code.clone());
         Ok(code)
@@ -651,8 +698,19 @@ impl Loader {
         }
         let mut funcs = BTreeMap::new();
         for (name, item) in ty.exports(&self.engine) {
-            if let types::ComponentItem::ComponentFunc(f) = item.ty {
-                funcs.insert(name.to_string(), f);
+            match item.ty {
+                types::ComponentItem::ComponentFunc(f) => {
+                    funcs.insert(name.to_string(), f);
+                }
+                types::ComponentItem::ComponentInstance(slots) if is_slots_interface(name) => {
+                    for (name, item) in slots.exports(&self.engine) {
+                        if let types::ComponentItem::ComponentFunc(f) = item.ty {
+                            // The top level wins (as at instantiation).
+                            funcs.entry(name.to_string()).or_insert(f);
+                        }
+                    }
+                }
+                _ => {}
             }
         }
         let params =

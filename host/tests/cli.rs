@@ -4,7 +4,7 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-use radar::example::plugins;
+use radar_fixtures::plugins;
 
 fn radar(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_radar"))

@@ -7,8 +7,8 @@ mod common;
 use std::time::Duration;
 
 use common::*;
-use radar::example::plugins;
 use radar::{Limits, Plugin, RadarError, System};
+use radar_fixtures::plugins;
 use serde_json::json;
 
 fn build_error(plugin: Plugin) -> RadarError {

@@ -14,8 +14,8 @@ use std::fmt;
 use std::time::Duration;
 
 use proptest::prelude::*;
-use radar::example::plugins;
 use radar::{Busy, Limits, Link, Plugin, Radar, RadarError, SwapPolicy, SystemBuilder};
+use radar_fixtures::plugins;
 use serde_json::json;
 
 /// A fixture plugin and its configuration.

@@ -477,16 +477,21 @@ fn a_signal_is_delivered_to_its_connections_in_the_order_they_were_made() {
 }
 
 #[test]
-fn a_computing_guest_shares_the_thread_with_other_ready_tasks() {
+fn under_the_virtual_clock_a_computing_guest_is_not_cut_short_by_fuel_yields() {
     use radar::{Limits, Plugin};
-    // Spin computes without a host call until its fuel runs out; fuel
-    // yields let R's start, ready at the same instant, run in between.
+    // Spin computes without a host call until its fuel runs out. Under the
+    // virtual clock a call runs until it returns or waits (no forced fuel
+    // yields: the order of a run must not depend on how much computing a
+    // call needs, or the same plugin in Python and in Rust would give
+    // different traces), so R, ready at the same instant but later, begins
+    // only after Spin's call has ended. Under the real clock fuel yields
+    // let other tasks run in between.
     let limits = Limits {
         fuel_per_call: 2_000_000,
         ..Limits::default()
     };
     let system = virtual_system()
-        .plugin(Plugin::file("Spin", radar::example::plugins::SPIN_EVENT).limits(limits))
+        .plugin(Plugin::file("Spin", radar_fixtures::plugins::SPIN_EVENT).limits(limits))
         .plugin(test_response("R", 1, 1.0));
     let report = run(system, 2, |radar| {
         radar.whenever_do("Spin", |_| {})?.keep();
@@ -497,12 +502,10 @@ fn a_computing_guest_shares_the_thread_with_other_ready_tasks() {
     let r_began = position(&trace, 0, json!({"kind": "slot-begin", "plugin": "R"})).expect("R ran");
     let spin_fault =
         position(&trace, 0, json!({"kind": "fault", "plugin": "Spin"})).expect("Spin faulted");
-    assert!(
-        r_began < spin_fault,
-        "R began while Spin was still computing"
-    );
+    assert!(spin_fault < r_began, "Spin's call ran to its end first");
+    assert_eq!(trace[spin_fault]["t"], json!(0));
     assert_eq!(
-        trace[spin_fault]["t"],
+        trace[r_began]["t"],
         json!(0),
         "virtual time stood still while Spin computed"
     );
@@ -551,7 +554,7 @@ fn the_readme_hello_world_triggers_with_42_every_second() {
     let (tx, rx) = mpsc::channel();
     let system = virtual_system().plugin(radar::Plugin::file(
         "Hello",
-        radar::example::plugins::HELLO_EVENT,
+        radar_fixtures::plugins::HELLO_EVENT,
     ));
     run(system, 3, move |radar| {
         radar
@@ -565,7 +568,7 @@ fn the_readme_hello_world_triggers_with_42_every_second() {
 #[test]
 fn a_check_that_never_sleeps_is_polled_once_a_period() {
     let system = virtual_system().plugin(
-        radar::Plugin::file("Busy", radar::example::plugins::BENCH_EVENT)
+        radar::Plugin::file("Busy", radar_fixtures::plugins::BENCH_EVENT)
             .period(Duration::from_millis(10)),
     );
     let report = checked(
@@ -611,7 +614,7 @@ fn a_payload_returned_after_deactivation_is_discarded_and_recorded() {
 
 #[test]
 fn yield_and_interrupted_are_interruption_points_too() {
-    use radar::example::plugins;
+    use radar_fixtures::plugins;
     let system = virtual_system()
         .plugin(radar::Plugin::file("Free", plugins::YIELD_RESPONSE))
         .plugin(radar::Plugin::file("Stopped", plugins::YIELD_RESPONSE));
@@ -690,7 +693,7 @@ fn wasi_time_and_randomness_are_virtual_and_seeded_under_the_virtual_clock() {
     let observe = |seed: u64| {
         let system = virtual_system().seed(seed).plugin(radar::Plugin::file(
             "W",
-            radar::example::plugins::WASI_EVENT,
+            radar_fixtures::plugins::WASI_EVENT,
         ));
         let report = run(system, 2, |radar| {
             radar.whenever_do("W", |_| {})?.keep();
@@ -731,7 +734,7 @@ fn activations(trace: &[serde_json::Value], plugin: &str) -> Vec<(f64, u64)> {
 #[test]
 fn exited_connected_to_its_own_start_restarts_the_response() {
     // Listing 1's `on exit: restart`: CountUp counts for 5 s, then restarts.
-    let system = virtual_system().plugin(Plugin::file("R", radar::example::plugins::COUNT_UP));
+    let system = virtual_system().plugin(Plugin::file("R", radar_fixtures::plugins::COUNT_UP));
     let report = run(system, 12, |radar| {
         radar.whenever("R.exited", "R.start")?.keep();
         radar.inject("R.start", json!(null))
@@ -806,7 +809,7 @@ fn restart_goes_ahead_of_the_queue_and_queued_starts_keep_their_place() {
     let system = virtual_system()
         .plugin(timer_event("Q", 1.0))
         .plugin(timer_event("X", 2.0))
-        .plugin(Plugin::file("R", radar::example::plugins::COUNT_UP).config("count_to", 9));
+        .plugin(Plugin::file("R", radar_fixtures::plugins::COUNT_UP).config("count_to", 9));
     let report = run(system, 12, |radar| {
         radar
             .connect(Link::once("Q", "R.start").busy(Busy::Queue(2)))?
@@ -889,7 +892,7 @@ fn a_fault_drops_the_queued_starts_with_a_record() {
     // E triggers every 0.25 s into a queue of 2; R traps 1 s into start.
     let system = virtual_system()
         .plugin(test_event("E", 1).config("interval_s", 0.25))
-        .plugin(Plugin::file("R", radar::example::plugins::TRAP_RESPONSE).config("after_s", 1));
+        .plugin(Plugin::file("R", radar_fixtures::plugins::TRAP_RESPONSE).config("after_s", 1));
     let report = run(system, 2, |radar| {
         radar
             .connect(Link::whenever("E", "R.start").busy(Busy::Queue(2)))?
@@ -1084,7 +1087,7 @@ fn native_contexts_woken_together_take_turns_deterministically() {
 fn a_loop_of_connections_that_takes_no_time_stops_the_run_and_says_so() {
     // Each start restarts the response at once: virtual time would never
     // advance again.
-    let system = virtual_system().plugin(Plugin::file("R", radar::example::plugins::COUNT_UP));
+    let system = virtual_system().plugin(Plugin::file("R", radar_fixtures::plugins::COUNT_UP));
     let report = within_a_minute(|| {
         run(system, 10, |radar| {
             radar.sleep(Duration::from_secs(1))?;

@@ -7,8 +7,8 @@ mod common;
 use std::time::Duration;
 
 use common::*;
-use radar::example::plugins;
 use radar::{Busy, Link, Plugin, RadarError, SwapPolicy};
+use radar_fixtures::plugins;
 use serde_json::{json, Value as Json};
 
 fn counter(name: &str) -> Plugin {

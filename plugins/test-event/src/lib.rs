@@ -4,16 +4,8 @@
 use radar_guest::prelude::*;
 use std::sync::atomic::{AtomicU32, Ordering};
 
-radar_guest::plugin!(
-    r#"
-    package radar-examples:test-event;
-    world test-event {
-        include radar:reactive/event@0.1.0;
-        /// One count a call; triggers with the count reached.
-        export check: func() -> option<u32>;
-    }
-"#
-);
+// The world every language's TestEvent builds from.
+radar_guest::plugin!(world: "test-event", path: "../wit/test-event");
 
 static COUNT: AtomicU32 = AtomicU32::new(0);
 

@@ -3,21 +3,11 @@
 //! interrupted between counts. `start` returns the number of counts made.
 use radar_guest::prelude::*;
 
-radar_guest::plugin!(
-    r#"
-    package radar-examples:test-response;
-    world test-response {
-        include radar:reactive/response@0.1.0;
-        use radar:reactive/types@0.1.0.{interruption};
-        /// Starts counting; `trigger` is the count the event reached.
-        export start: func(trigger: u32) -> result<u32, interruption>;
-        /// Runs after an interrupted start.
-        export interrupt: func();
-        /// Always runs last.
-        export exit: func();
-    }
-"#
-);
+// The world every language's TestResponse builds from (its slots are in
+// the interface `slots`).
+radar_guest::plugin!(world: "test-response", path: "../wit/test-response");
+
+use exports::radar_examples::test_response::slots::Guest;
 
 struct TestResponse;
 

@@ -5,8 +5,8 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
-use radar::example::plugins;
 use radar::{ClockKind, Plugin, Radar, RadarError, RunReport, System, SystemBuilder};
+use radar_fixtures::plugins;
 use serde_json::Value as Json;
 
 /// A virtual-clock system builder.

@@ -1,0 +1,81 @@
+// Helpers for Radar plugins written in JavaScript (built with jco
+// componentize). The imports of `radar:reactive` are complete but low level:
+// nanoseconds, text-only configuration. These make the usual things short:
+//
+//     import { info, sleep, config } from './radar_guest.js';
+//     export function check() {
+//         sleep(config('interval_s', 1));   // throws when interrupted
+//         return 1;
+//     }
+//
+// `sleep` throws when the host asks the running slot to stop; left uncaught
+// in a slot that returns `result<_, interruption>`, the slot returns that
+// interruption as its error, as the Rust SDK's `?` does. `interrupted(e)`
+// tells such an error from a bug.
+import { now as hostNow, sleep as hostSleep, yield as hostYield, interrupted as hostInterrupted } from 'radar:reactive/clock@0.1.0';
+import { log as hostLog } from 'radar:reactive/logging@0.1.0';
+import { get, keys } from 'radar:reactive/config@0.1.0';
+
+/** Scheduler time in seconds since the system began to run. */
+export function now() {
+    return Number(hostNow()) / 1e9;
+}
+
+/** Seconds as whole nanoseconds (never negative). */
+export function nanos(seconds) {
+    return Math.max(0, Math.trunc(seconds * 1e9));
+}
+
+/** Waits `seconds` of scheduler time (virtual in tests); throws when interrupted. */
+export function sleep(seconds) {
+    hostSleep(nanos(seconds));
+}
+
+/** `sleep` in whole nanoseconds. */
+export function sleepNanos(n) {
+    hostSleep(n);
+}
+
+/** Lets every other task ready at this instant run first; throws when interrupted. */
+export function yieldNow() {
+    hostYield();
+}
+
+/** Why the host asked the running slot to stop (`'interrupt'`, `'exit'`, `'deactivate'`), or undefined. */
+export function stopRequested() {
+    return hostInterrupted();
+}
+
+/** Whether `error` is an interruption thrown by `sleep` or `yieldNow`. */
+export function interrupted(error) {
+    return error !== null && typeof error === 'object'
+        && ['interrupt', 'exit', 'deactivate'].includes(error.payload);
+}
+
+export function log(level, message) { hostLog(level, message); }
+export function trace(message) { hostLog('trace', message); }
+export function debug(message) { hostLog('debug', message); }
+export function info(message) { hostLog('info', message); }
+export function warn(message) { hostLog('warn', message); }
+export function error(message) { hostLog('error', message); }
+
+/**
+ * The configuration value `key`, parsed as the type of `fallback` (text if
+ * there is none); `fallback` if it is missing or does not parse.
+ */
+export function config(key, fallback) {
+    const text = get(key);
+    if (text === undefined || text === null) return fallback;
+    if (fallback === undefined || typeof fallback === 'string') return text;
+    if (typeof fallback === 'boolean') return ['true', '1', 'yes'].includes(text.trim().toLowerCase());
+    if (typeof fallback === 'number') {
+        const value = Number(text);
+        return Number.isNaN(value) ? fallback : value;
+    }
+    return text;
+}
+
+/** Every configured key, sorted. */
+export function configKeys() {
+    return keys();
+}

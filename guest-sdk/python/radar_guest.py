@@ -1,0 +1,104 @@
+"""Helpers for Radar plugins written in Python (built with componentize-py).
+
+The bindings componentize-py generates for a plugin's world are complete
+but low level: nanoseconds, `Err` exceptions, text-only configuration.
+These helpers make the usual things read like Python:
+
+    from radar_guest import Interrupted, sleep, info, config
+
+    class WitWorld(wit_world.WitWorld):
+        def start(self, trigger: int) -> int:
+            info(f"started with {trigger}")
+            sleep(config("interval_s", 1.0))   # raises Interrupted
+            return 1
+
+`sleep` raises `Interrupted` when the host asks the running slot to stop;
+left uncaught in a slot that returns `result<_, interruption>`, it becomes
+that slot's error, as the Rust SDK's `?` does.
+"""
+
+from componentize_py_types import Err
+from wit_world.imports import clock, config as host_config, logging, types
+
+#: Raised by `sleep` and `yield_now` when the host asks the running slot to
+#: stop; `.value` is the reason (`types.Interruption`).
+Interrupted = Err
+
+Level = types.Level
+
+
+def now() -> float:
+    """Scheduler time in seconds since the system began to run."""
+    return clock.now() / 1e9
+
+
+def sleep(seconds: float) -> None:
+    """Waits `seconds` of scheduler time (virtual in tests); raises
+    `Interrupted` if the host asks the running slot to stop."""
+    clock.sleep(nanos(seconds))
+
+
+def sleep_nanos(nanos_: int) -> None:
+    """`sleep` in whole nanoseconds."""
+    clock.sleep(nanos_)
+
+
+def yield_now() -> None:
+    """Lets every other task ready at this instant run first."""
+    clock.yield_()
+
+
+def interrupted():
+    """Why the host asked the running slot to stop, or None."""
+    return clock.interrupted()
+
+
+def nanos(seconds: float) -> int:
+    """Seconds as whole nanoseconds (never negative)."""
+    return max(0, int(seconds * 1_000_000_000))
+
+
+def log(level: types.Level, message: str) -> None:
+    """Records `message` in the system's trace."""
+    logging.log(level, message)
+
+
+def info(message: str) -> None:
+    logging.log(types.Level.INFO, message)
+
+
+def debug(message: str) -> None:
+    logging.log(types.Level.DEBUG, message)
+
+
+def warn(message: str) -> None:
+    logging.log(types.Level.WARN, message)
+
+
+def error(message: str) -> None:
+    logging.log(types.Level.ERROR, message)
+
+
+def config(key: str, default=None):
+    """The configuration value `key`, parsed as the type of `default` (text
+    if there is no default); `default` if it is missing or does not parse."""
+    text = host_config.get(key)
+    if text is None:
+        return default
+    if default is None or isinstance(default, str):
+        return text
+    try:
+        if isinstance(default, bool):
+            return text.strip().lower() in ("true", "1", "yes")
+        if isinstance(default, int):
+            return int(text)
+        if isinstance(default, float):
+            return float(text)
+    except ValueError:
+        return default
+    return text
+
+
+def config_keys() -> list:
+    """Every configured key, sorted."""
+    return host_config.keys()
