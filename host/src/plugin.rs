@@ -13,6 +13,7 @@
 use std::collections::{BTreeMap, HashMap};
 use std::hash::{Hash, Hasher};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicU64;
 use std::sync::Arc;
 
 use sha2::{Digest, Sha256};
@@ -245,6 +246,8 @@ pub(crate) struct InstanceSetup {
     pub config: Arc<BTreeMap<String, String>>,
     pub limits: Limits,
     pub seed: u64,
+    /// Fuel used by the plugin's calls so far, all instances together.
+    pub fuel_used: Arc<AtomicU64>,
 }
 
 /// How a call into a plugin ended badly.
@@ -282,6 +285,7 @@ impl Fault {
 pub(crate) struct PluginInstance {
     store: Store<PluginCtx>,
     fuel_per_call: u64,
+    fuel_used: Arc<AtomicU64>,
     check: Option<Func>,
     start: Option<Func>,
     interrupt: Option<Func>,
@@ -361,6 +365,7 @@ impl PluginCode {
         Ok(PluginInstance {
             store,
             fuel_per_call: setup.limits.fuel_per_call,
+            fuel_used: setup.fuel_used,
             check,
             start,
             interrupt,
@@ -386,9 +391,13 @@ impl PluginInstance {
         } else {
             &mut results[..0]
         };
-        func.call_async(&mut self.store, params, slots)
-            .await
-            .map_err(fault)?;
+        let called = func.call_async(&mut self.store, params, slots).await;
+        let left = self.store.get_fuel().unwrap_or(0);
+        self.fuel_used.fetch_add(
+            self.fuel_per_call.saturating_sub(left),
+            std::sync::atomic::Ordering::Relaxed,
+        );
+        called.map_err(fault)?;
         let [result] = results;
         Ok(has_result.then_some(result))
     }

@@ -356,6 +356,10 @@ pub struct RunReport {
     /// that form a loop taking no time, such as `R.started → R.start` with
     /// `restart`. The trace's last `log` line from `(radar)` says which.
     pub livelock: Option<Duration>,
+    /// Fuel (about one unit a wasm instruction) that each plugin's calls
+    /// used in the run, all its instances together, instantiation aside.
+    /// Deterministic for a given compiler: the same run uses the same fuel.
+    pub fuel: BTreeMap<String, u64>,
 }
 
 impl RunReport {
@@ -463,6 +467,7 @@ impl System {
             program: end.program_outcome,
             trace_errors: end.trace_errors,
             livelock: end.livelock.map(Duration::from_nanos),
+            fuel: end.fuel,
         })
     }
 }

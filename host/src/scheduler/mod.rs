@@ -334,6 +334,8 @@ struct PluginEntry {
     def: PluginDef,
     name: Arc<str>,
     stop: Arc<StopFlag>,
+    /// Fuel its calls have used (see [`InstanceSetup::fuel_used`]).
+    fuel_used: Arc<std::sync::atomic::AtomicU64>,
     lifecycle: Lifecycle,
     actor: Option<Waker>,
     reset_requested: bool,
@@ -586,6 +588,8 @@ pub(crate) struct RunEnd {
     /// The run was ended at this virtual time: signals kept flowing without
     /// time advancing.
     pub livelock: Option<u64>,
+    /// Fuel each plugin's calls used, by plugin name.
+    pub fuel: BTreeMap<String, u64>,
 }
 
 /// What a run is made of.
@@ -654,6 +658,7 @@ impl Scheduler {
                     name: Arc::from(def.name.as_str()),
                     def,
                     stop: Arc::new(StopFlag::default()),
+                    fuel_used: Arc::default(),
                     lifecycle,
                     actor: None,
                     reset_requested: false,
@@ -858,6 +863,15 @@ impl Scheduler {
         let ended_at = self.core.base.now();
         // End every wait so that blocked deliberative threads see the stop.
         let livelock = self.core.with(|st| st.instant.livelock);
+        let fuel = self.core.with(|st| {
+            st.plugins
+                .iter()
+                .map(|p| {
+                    let used = p.fuel_used.load(std::sync::atomic::Ordering::Relaxed);
+                    (p.name.to_string(), used)
+                })
+                .collect()
+        });
         let (trace, program_outcome, trace_errors) = self.core.with(|st| {
             st.record_logs();
             st.waiters.clear();
@@ -881,6 +895,7 @@ impl Scheduler {
             program_outcome,
             trace_errors,
             livelock,
+            fuel,
         }
     }
 

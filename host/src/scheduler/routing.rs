@@ -797,6 +797,7 @@ impl State {
                 config: entry.def.config.clone(),
                 limits: entry.def.limits.clone(),
                 seed: self.seed,
+                fuel_used: entry.fuel_used.clone(),
             },
         )
     }

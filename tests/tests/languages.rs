@@ -1,0 +1,147 @@
+//! Plugins in Python and JavaScript beside Rust (plugins/*-py, plugins/*-js,
+//! built from the same worlds in `plugins/wit/`): the paper's Listing 2/3
+//! with its event and response in different languages gives the all-Rust
+//! trace, and every language's fuel use is the same run to run.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::time::Duration;
+
+use common::*;
+use radar::{example, Plugin, RunReport};
+use radar_fixtures::plugins;
+use serde_json::json;
+
+/// Listing 2/3 for 30 s of virtual time with TestEvent and TestResponse
+/// from these component files.
+fn listing23(test_event: &str, test_response: &str) -> RunReport {
+    let builder = example::listing23_with(
+        virtual_system(),
+        Plugin::file("TestEvent", test_event),
+        Plugin::file("TestResponse", test_response),
+    );
+    checked(
+        builder
+            .build()
+            .expect("the system builds")
+            .run_with(Some(Duration::from_secs(30)), example::listing23_program)
+            .expect("the system runs"),
+    )
+}
+
+fn all_rust() -> RunReport {
+    listing23(plugins::TEST_EVENT, plugins::TEST_RESPONSE)
+}
+
+#[test]
+fn a_python_event_and_a_javascript_response_give_the_all_rust_trace() {
+    let mixed = listing23(plugins::TEST_EVENT_PY, plugins::TEST_RESPONSE_JS);
+    assert_eq!(mixed.trace_json_lines(), all_rust().trace_json_lines());
+    // The embedded example (what `radar run` runs) gives it too.
+    let embedded = checked(
+        example::listing23(virtual_system())
+            .build()
+            .expect("builds")
+            .run_with(Some(Duration::from_secs(30)), example::listing23_program)
+            .expect("runs"),
+    );
+    assert_eq!(mixed.trace_json_lines(), embedded.trace_json_lines());
+}
+
+#[test]
+fn a_javascript_event_and_a_python_response_give_the_all_rust_trace() {
+    let mixed = listing23(plugins::TEST_EVENT_JS, plugins::TEST_RESPONSE_PY);
+    assert_eq!(mixed.trace_json_lines(), all_rust().trace_json_lines());
+}
+
+/// TestResponse from `file`, started at 0 s and interrupted at 2.5 s.
+fn interrupted_response(file: &str) -> RunReport {
+    let system = virtual_system().plugin(
+        Plugin::file("TestResponse", file)
+            .config("count_for_s", 10)
+            .config("interval_s", 1),
+    );
+    run(system, 4, |radar| {
+        radar.inject("TestResponse.start", json!(7))?;
+        radar.sleep(Duration::from_millis(2500))?;
+        radar.inject("TestResponse.interrupt", json!(null))
+    })
+}
+
+#[test]
+fn an_interrupted_sleep_ends_start_with_its_error_in_every_language() {
+    let rust = interrupted_response(plugins::TEST_RESPONSE);
+    let trace = records(&rust);
+    assert_sequence(
+        &trace,
+        &[
+            json!({"kind": "slot-end", "plugin": "TestResponse", "slot": "start", "outcome": "interrupted"}),
+            json!({"kind": "slot-begin", "plugin": "TestResponse", "slot": "interrupt"}),
+            json!({"kind": "log", "plugin": "TestResponse", "message": "interrupted"}),
+            json!({"kind": "slot-begin", "plugin": "TestResponse", "slot": "exit"}),
+            json!({"kind": "signal", "plugin": "TestResponse", "signal": "exited", "payload": {"err": "interrupt"}}),
+        ],
+    );
+    for file in [plugins::TEST_RESPONSE_PY, plugins::TEST_RESPONSE_JS] {
+        assert_eq!(
+            interrupted_response(file).trace_json_lines(),
+            rust.trace_json_lines(),
+            "{file}"
+        );
+    }
+}
+
+#[test]
+fn fuel_per_plugin_is_the_same_run_to_run_in_every_language() {
+    let mut seen: BTreeMap<&str, BTreeMap<String, u64>> = BTreeMap::new();
+    for (name, event, response) in [
+        ("rust", plugins::TEST_EVENT, plugins::TEST_RESPONSE),
+        (
+            "python/js",
+            plugins::TEST_EVENT_PY,
+            plugins::TEST_RESPONSE_JS,
+        ),
+        (
+            "js/python",
+            plugins::TEST_EVENT_JS,
+            plugins::TEST_RESPONSE_PY,
+        ),
+    ] {
+        let first = listing23(event, response).fuel;
+        let second = listing23(event, response).fuel;
+        assert_eq!(first, second, "{name}: fuel differs between two runs");
+        assert!(first.values().all(|&f| f > 0), "{name}: {first:?}");
+        seen.insert(name, first);
+    }
+    // Interpreters burn far more fuel than compiled Rust for the same work.
+    assert!(seen["python/js"]["TestEvent"] > 10 * seen["rust"]["TestEvent"]);
+    println!("fuel used in 30 s of Listing 2/3: {seen:?}");
+}
+
+/// `host/assets/` holds the example plugins embedded in the `radar` binary;
+/// they must be the current builds of `plugins/`. `UPDATE_EMBEDDED=1`
+/// copies the fresh builds there.
+#[test]
+fn the_embedded_example_plugins_are_the_current_builds() {
+    let assets = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../host/assets");
+    for (file, built) in [
+        ("test_event.wasm", plugins::TEST_EVENT),
+        ("test_response.wasm", plugins::TEST_RESPONSE),
+        ("timer_event.wasm", plugins::TIMER_EVENT),
+        ("count_up.wasm", plugins::COUNT_UP),
+    ] {
+        let embedded = assets.join(file);
+        if std::env::var_os("UPDATE_EMBEDDED").is_some() {
+            std::fs::copy(built, &embedded).expect("copy the fresh build");
+        }
+        let fresh = std::fs::read(built).expect("the fixture build");
+        let kept = std::fs::read(&embedded).expect("the embedded copy");
+        assert!(
+            fresh == kept,
+            "host/assets/{file} is not the current build of its plugin: \
+             run the tests once with UPDATE_EMBEDDED=1 and commit the file"
+        );
+    }
+}
