@@ -22,6 +22,19 @@ pub mod wasm {
     pub const TIMER_EVENT: &[u8] = include_bytes!("../assets/timer_event.wasm");
     /// `plugins/count-up`: CountUp of Listing 1.
     pub const COUNT_UP: &[u8] = include_bytes!("../assets/count_up.wasm");
+
+    /// The names a manifest gives these as `wasm = "builtin:NAME"`.
+    pub const BUILTIN: [(&str, &[u8]); 4] = [
+        ("test-event", TEST_EVENT),
+        ("test-response", TEST_RESPONSE),
+        ("timer-event", TIMER_EVENT),
+        ("count-up", COUNT_UP),
+    ];
+
+    /// The component a manifest names `builtin:NAME`.
+    pub fn builtin(name: &str) -> Option<&'static [u8]> {
+        BUILTIN.iter().find(|(n, _)| *n == name).map(|(_, w)| *w)
+    }
 }
 
 /// Listing 2/3 of the paper: TestEvent (counts to 5 at one count a second,

@@ -19,6 +19,7 @@ pub(crate) mod executor;
 pub mod manifest;
 pub mod payload;
 pub mod plugin;
+pub mod scaffold;
 pub(crate) mod scheduler;
 pub mod system;
 pub mod timeline;

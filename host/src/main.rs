@@ -9,6 +9,7 @@ use std::time::Duration;
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use radar::manifest::{parse_duration, Manifest};
+use radar::scaffold;
 use radar::timeline::Timeline;
 use radar::trace::JsonLines;
 use radar::workspace::{self, WatchEvent};
@@ -31,6 +32,20 @@ enum Cmd {
     Build {
         /// The `radar.toml` (default: `radar.toml` here).
         manifest: Option<PathBuf>,
+    },
+    /// Makes a folder with a new plugin that builds and runs as it is:
+    /// its world, its code, its build, and a radar.toml to try it with.
+    New {
+        /// `event` or `response`.
+        kind: scaffold::Kind,
+        /// The plugin's name: lowercase words joined by `-`.
+        name: String,
+        /// `rust`, `python` or `js`.
+        #[arg(long, default_value = "rust")]
+        lang: scaffold::Language,
+        /// Where to make the folder (default: here).
+        #[arg(long, default_value = ".")]
+        dir: PathBuf,
     },
 }
 
@@ -123,6 +138,12 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Some(Cmd::Run(args)) => run(args),
         Some(Cmd::Build { manifest }) => build_all(manifest),
+        Some(Cmd::New {
+            kind,
+            name,
+            lang,
+            dir,
+        }) => new_plugin(&dir, kind, &name, lang),
         None => run(RunArgs::default()),
     };
     match result {
@@ -255,5 +276,25 @@ fn run(args: RunArgs) -> Result<()> {
             report.ended_at.as_secs_f64()
         ));
     }
+    Ok(())
+}
+
+/// `radar new`: the folder, then what to do next.
+fn new_plugin(
+    parent: &std::path::Path,
+    kind: scaffold::Kind,
+    name: &str,
+    language: scaffold::Language,
+) -> Result<()> {
+    let dir = scaffold::create(parent, kind, name, language)?;
+    let what = match kind {
+        scaffold::Kind::Event => "event",
+        scaffold::Kind::Response => "response",
+    };
+    println!("made {what} `{name}` ({language}) in {}", dir.display());
+    println!("next:");
+    println!("    cd {}", dir.display());
+    println!("    radar build                       # builds it (the first build installs the toolchain)");
+    println!("    radar run radar.toml --for 10s    # runs it with a built-in partner");
     Ok(())
 }

@@ -17,6 +17,10 @@
 //! until = "Stop.triggered"             # optional, with to = "X.start"
 //! ```
 //!
+//! `wasm = "builtin:test-response"` names one of the example plugins built
+//! into Radar (`test-event`, `test-response`, `timer-event`, `count-up`):
+//! a partner to try a new plugin with, needing no file.
+//!
 //! A plugin may say how its component is built, for `radar build` and
 //! `radar run --watch`:
 //!
@@ -58,7 +62,7 @@ pub struct Manifest {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PluginEntry {
-    /// The component file, relative to the manifest.
+    /// The component file, relative to the manifest, or `builtin:NAME`.
     pub wasm: PathBuf,
     /// Values the plugin reads through the `config` interface.
     #[serde(default)]
@@ -131,6 +135,11 @@ pub struct ConnectEntry {
     pub until: Option<String>,
 }
 
+/// `NAME` of a `wasm = "builtin:NAME"`.
+fn builtin_name(wasm: &Path) -> Option<&str> {
+    wasm.to_str()?.strip_prefix("builtin:")
+}
+
 fn config_text(value: &toml::Value) -> String {
     match value {
         toml::Value::String(s) => s.clone(),
@@ -173,6 +182,25 @@ impl Manifest {
         if manifest.plugins.is_empty() {
             return Err(bad("it defines no [plugins]".into()));
         }
+        for (name, entry) in &manifest.plugins {
+            if let Some(builtin) = builtin_name(&entry.wasm) {
+                if crate::example::wasm::builtin(builtin).is_none() {
+                    let known: Vec<&str> = crate::example::wasm::BUILTIN
+                        .iter()
+                        .map(|(n, _)| *n)
+                        .collect();
+                    return Err(bad(format!(
+                        "plugins.{name}.wasm: no built-in plugin `{builtin}` (there are: {})",
+                        known.join(", ")
+                    )));
+                }
+                if entry.build.is_some() {
+                    return Err(bad(format!(
+                        "plugins.{name}: a built-in plugin has no [build]"
+                    )));
+                }
+            }
+        }
         for c in &manifest.connect {
             manifest.link(c).map_err(bad)?;
         }
@@ -182,7 +210,11 @@ impl Manifest {
     /// Adds the manifest's plugins to a system builder.
     pub fn add_plugins(&self, mut builder: SystemBuilder) -> SystemBuilder {
         for (name, entry) in &self.plugins {
-            let mut plugin = Plugin::file(name, self.dir.join(&entry.wasm));
+            let builtin = builtin_name(&entry.wasm).and_then(crate::example::wasm::builtin);
+            let mut plugin = match builtin {
+                Some(wasm) => Plugin::bytes(name, wasm),
+                None => Plugin::file(name, self.dir.join(&entry.wasm)),
+            };
             for (key, value) in &entry.config {
                 plugin = plugin.config(key, config_text(value));
             }
@@ -201,10 +233,11 @@ impl Manifest {
     }
 
     /// Each plugin's component file and build (paths resolved), in name
-    /// order.
+    /// order; built-in plugins have neither.
     pub fn builds(&self) -> Vec<Build> {
         self.plugins
             .iter()
+            .filter(|(_, entry)| builtin_name(&entry.wasm).is_none())
             .map(|(name, entry)| {
                 let build = entry.build.as_ref();
                 Build {
