@@ -21,6 +21,7 @@ pub mod payload;
 pub mod plugin;
 pub mod scaffold;
 pub(crate) mod scheduler;
+mod stderr;
 pub mod system;
 pub mod timeline;
 pub mod trace;

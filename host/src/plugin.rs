@@ -26,6 +26,7 @@ use wasmtime_wasi::{WasiCtx, WasiCtxView, WasiView};
 use crate::clock::{ClockKind, StopFlag, StopReason, TimeBase, YieldNow};
 use crate::error::RadarError;
 use crate::payload::PayloadType;
+use crate::stderr::StderrTail;
 
 mod bindings {
     wasmtime::component::bindgen!({
@@ -286,6 +287,7 @@ pub(crate) struct PluginInstance {
     store: Store<PluginCtx>,
     fuel_per_call: u64,
     fuel_used: Arc<AtomicU64>,
+    stderr: StderrTail,
     check: Option<Func>,
     start: Option<Func>,
     interrupt: Option<Func>,
@@ -322,6 +324,8 @@ impl PluginCode {
     pub async fn instantiate(&self, setup: InstanceSetup) -> Result<PluginInstance, Fault> {
         let real_clock = setup.base.kind() == ClockKind::Real;
         let mut wasi = WasiCtx::builder();
+        let stderr = StderrTail::default();
+        wasi.stderr(stderr.clone());
         if setup.base.kind() == ClockKind::Virtual {
             let seed = name_seed(&setup.name, setup.seed);
             wasi.wall_clock(VirtualWasiClock(setup.base.clone()))
@@ -366,6 +370,7 @@ impl PluginCode {
             store,
             fuel_per_call: setup.limits.fuel_per_call,
             fuel_used: setup.fuel_used,
+            stderr,
             check,
             start,
             interrupt,
@@ -391,13 +396,21 @@ impl PluginInstance {
         } else {
             &mut results[..0]
         };
+        self.stderr.clear();
         let called = func.call_async(&mut self.store, params, slots).await;
         let left = self.store.get_fuel().unwrap_or(0);
         self.fuel_used.fetch_add(
             self.fuel_per_call.saturating_sub(left),
             std::sync::atomic::Ordering::Relaxed,
         );
-        called.map_err(fault)?;
+        called.map_err(|e| {
+            let mut fault = fault(e);
+            // An interpreter's uncaught exception: its message, then the trap.
+            if let Some(line) = self.stderr.last_line() {
+                fault.cause = format!("{line} ({})", fault.cause);
+            }
+            fault
+        })?;
         let [result] = results;
         Ok(has_result.then_some(result))
     }

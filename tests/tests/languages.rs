@@ -145,3 +145,41 @@ fn the_embedded_example_plugins_are_the_current_builds() {
         );
     }
 }
+
+#[test]
+fn an_uncaught_exception_faults_the_plugin_with_its_message() {
+    for (file, said) in [
+        (
+            plugins::FAIL_EVENT_PY,
+            "ValueError: no reading from the range sensor (trapped:",
+        ),
+        (
+            plugins::FAIL_EVENT_JS,
+            "Error: no reading from the range sensor (at check (/app.js:4:15)) (trapped:",
+        ),
+    ] {
+        // The failing event beside a working one: the fault names the
+        // exception, and the rest runs on.
+        let system = virtual_system()
+            .plugin(Plugin::file("Sensor", file))
+            .plugin(test_event("Ticker", 1));
+        let report = run(system, 3, |radar| {
+            radar.whenever_do("Sensor", |_| {})?.keep();
+            radar.whenever_do("Ticker", |_| {})?.keep();
+            Ok(())
+        });
+        let trace = records(&report);
+        let faults = find(&trace, json!({"kind": "fault", "plugin": "Sensor"}));
+        assert_eq!(faults.len(), 1, "{file}");
+        let error = faults[0]["error"].as_str().expect("error");
+        assert!(error.starts_with(said), "{error}");
+        assert!(!error.contains('\n'), "one line: {error}");
+        assert_eq!(
+            count(
+                &trace,
+                json!({"kind": "signal", "plugin": "Ticker", "signal": "triggered"})
+            ),
+            3
+        );
+    }
+}
