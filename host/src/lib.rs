@@ -19,7 +19,6 @@ pub(crate) mod executor;
 pub mod manifest;
 pub mod payload;
 pub mod plugin;
-pub mod scaffold;
 pub(crate) mod scheduler;
 mod stderr;
 pub mod system;

@@ -9,10 +9,9 @@ use std::time::Duration;
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use radar::manifest::{parse_duration, Manifest};
-use radar::scaffold;
 use radar::timeline::Timeline;
 use radar::trace::JsonLines;
-use radar::workspace::{self, WatchEvent};
+use radar::workspace::{self, scaffold, WatchEvent};
 use radar::{example, ClockKind, SwapPolicy, System};
 
 /// Runs robot reactive behaviours (RADAR events and responses) as

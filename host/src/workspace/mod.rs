@@ -1,6 +1,7 @@
 //! The project side of a system: building plugins from their sources
-//! (`[plugins.X.build]`, `radar build`) and rebuilding and swapping them in
-//! as they change (`radar run --watch`).
+//! (`[plugins.X.build]`, `radar build`), rebuilding and swapping them in as
+//! they change (`radar run --watch`), and making new ones (`radar new`,
+//! [`scaffold`]).
 //!
 //! A build is the plugin's own command, run with `sh -c` in its folder, so
 //! every language builds the same way; what it writes is the plugin's `wasm`
@@ -13,6 +14,7 @@ use std::time::{Duration, Instant};
 
 use crate::manifest::Build;
 
+pub mod scaffold;
 mod watch;
 
 pub use watch::{watch, WatchEvent};

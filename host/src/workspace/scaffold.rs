@@ -93,15 +93,15 @@ pub enum ScaffoldError {
     },
 }
 
-const REACTIVE_WIT: &str = include_str!("../../wit/reactive.wit");
-const GUEST_SDK: &str = include_str!("../../guest-sdk/src/lib.rs");
-const PYTHON_BUILD: &str = include_str!("../../guest-sdk/python/build");
-const PYTHON_PINS: &str = include_str!("../../guest-sdk/python/requirements.txt");
-const PYTHON_HELPERS: &str = include_str!("../../guest-sdk/python/radar_guest.py");
-const JS_BUILD: &str = include_str!("../../guest-sdk/js/build");
-const JS_PINS: &str = include_str!("../../guest-sdk/js/package.json");
-const JS_LOCK: &str = include_str!("../../guest-sdk/js/package-lock.json");
-const JS_HELPERS: &str = include_str!("../../guest-sdk/js/radar_guest.js");
+const REACTIVE_WIT: &str = include_str!("../../../wit/reactive.wit");
+const GUEST_SDK: &str = include_str!("../../../guest-sdk/src/lib.rs");
+const PYTHON_BUILD: &str = include_str!("../../../guest-sdk/python/build");
+const PYTHON_PINS: &str = include_str!("../../../guest-sdk/python/requirements.txt");
+const PYTHON_HELPERS: &str = include_str!("../../../guest-sdk/python/radar_guest.py");
+const JS_BUILD: &str = include_str!("../../../guest-sdk/js/build");
+const JS_PINS: &str = include_str!("../../../guest-sdk/js/package.json");
+const JS_LOCK: &str = include_str!("../../../guest-sdk/js/package-lock.json");
+const JS_HELPERS: &str = include_str!("../../../guest-sdk/js/radar_guest.js");
 
 /// Whether `name` can name a plugin, a WIT world and package, and a crate.
 fn valid_name(name: &str) -> bool {
