@@ -12,6 +12,7 @@
 //! under the virtual clock a run is deterministic, trace and all.
 #![warn(missing_docs)]
 
+mod capability;
 pub mod clock;
 pub mod error;
 pub mod example;

@@ -23,24 +23,15 @@ use wasmtime::component::{
 use wasmtime::{Config, Engine, Store, StoreLimits, StoreLimitsBuilder, Trap, WasmBacktrace};
 use wasmtime_wasi::{WasiCtx, WasiCtxView, WasiView};
 
-use crate::clock::{ClockKind, StopFlag, StopReason, TimeBase, YieldNow};
+use crate::capability::clock::{ClockState, VirtualWasiClock};
+use crate::capability::config::ConfigState;
+use crate::capability::logging::LogState;
+use crate::capability::{signals, TypesState};
+use crate::clock::{ClockKind, StopFlag, TimeBase};
 use crate::error::RadarError;
 use crate::payload::PayloadType;
+use crate::scheduler::SignalName;
 use crate::stderr::StderrTail;
-
-mod bindings {
-    wasmtime::component::bindgen!({
-        world: "plugin",
-        path: "../wit",
-        imports: {
-            "radar:reactive/clock.sleep": async,
-            "radar:reactive/clock.yield": async,
-        },
-    });
-}
-
-use bindings::radar::reactive::{clock, config, logging, types as wit_types};
-use wit_types::{Interruption, Level};
 
 /// Limits that bound every call into a plugin.
 #[derive(Clone, Debug)]
@@ -73,12 +64,25 @@ pub(crate) enum Kind {
     Event {
         /// The payload of `triggered`, if any.
         payload: Option<PayloadType>,
+        /// The signals it declares, with their payloads.
+        signals: Arc<[(SignalName, Option<PayloadType>)]>,
     },
     Response {
         start_param: Option<PayloadType>,
         start_result: Option<PayloadType>,
         interrupt_param: Option<PayloadType>,
+        /// The signals it declares, with their payloads.
+        signals: Arc<[(SignalName, Option<PayloadType>)]>,
     },
+}
+
+impl Kind {
+    /// The signals the plugin declares (beyond the built-in ones).
+    pub fn signals(&self) -> &[(SignalName, Option<PayloadType>)] {
+        match self {
+            Kind::Event { signals, .. } | Kind::Response { signals, .. } => signals,
+        }
+    }
 }
 
 /// A compiled, validated plugin component, ready to instantiate (cheap to
@@ -119,12 +123,13 @@ fn export_index(
     })
 }
 
-/// The per-store state of a plugin: what its host calls can reach.
+/// The per-store state of a plugin: each host interface's own part
+/// (see [`crate::capability`]), WASI's, and the store's limits.
 pub(crate) struct PluginCtx {
-    name: Arc<str>,
-    base: TimeBase,
-    stop: Arc<StopFlag>,
-    config: Arc<BTreeMap<String, String>>,
+    pub(crate) clock: ClockState,
+    pub(crate) log: LogState,
+    pub(crate) config: ConfigState,
+    pub(crate) types: TypesState,
     wasi: WasiCtx,
     table: ResourceTable,
     limits: StoreLimits,
@@ -136,83 +141,6 @@ impl WasiView for PluginCtx {
             ctx: &mut self.wasi,
             table: &mut self.table,
         }
-    }
-}
-
-fn interruption(reason: StopReason) -> Interruption {
-    match reason {
-        StopReason::Interrupt => Interruption::Interrupt,
-        StopReason::Exit => Interruption::Exit,
-        StopReason::Deactivate => Interruption::Deactivate,
-    }
-}
-
-impl wit_types::Host for PluginCtx {}
-
-impl clock::Host for PluginCtx {
-    fn now(&mut self) -> u64 {
-        self.base.now()
-    }
-
-    async fn sleep(&mut self, nanos: u64) -> Result<(), Interruption> {
-        let deadline = self.base.now().saturating_add(nanos);
-        self.base
-            .sleep_until(deadline, Some(self.stop.clone()))
-            .await
-            .map_err(interruption)
-    }
-
-    async fn yield_(&mut self) -> Result<(), Interruption> {
-        YieldNow::new(self.stop.clone()).await.map_err(interruption)
-    }
-
-    fn interrupted(&mut self) -> Option<Interruption> {
-        self.stop.get().map(interruption)
-    }
-}
-
-impl logging::Host for PluginCtx {
-    fn log(&mut self, level: Level, message: String) {
-        let level = match level {
-            Level::Trace => "trace",
-            Level::Debug => "debug",
-            Level::Info => "info",
-            Level::Warn => "warn",
-            Level::Error => "error",
-        };
-        self.base.push_log(&self.name, level, message);
-    }
-}
-
-impl config::Host for PluginCtx {
-    fn get(&mut self, key: String) -> Option<String> {
-        self.config.get(&key).cloned()
-    }
-
-    fn keys(&mut self) -> Vec<String> {
-        self.config.keys().cloned().collect()
-    }
-}
-
-/// The clocks WASI sees under the virtual clock: scheduler time, so that a
-/// guest reading `wasi:clocks` stays deterministic.
-struct VirtualWasiClock(TimeBase);
-
-impl wasmtime_wasi::HostMonotonicClock for VirtualWasiClock {
-    fn resolution(&self) -> u64 {
-        1
-    }
-    fn now(&self) -> u64 {
-        self.0.now()
-    }
-}
-
-impl wasmtime_wasi::HostWallClock for VirtualWasiClock {
-    fn resolution(&self) -> std::time::Duration {
-        std::time::Duration::from_nanos(1)
-    }
-    fn now(&self) -> std::time::Duration {
-        std::time::Duration::from_nanos(self.0.now())
     }
 }
 
@@ -335,10 +263,16 @@ impl PluginCode {
                 .insecure_random_seed(u128::from(seed));
         }
         let ctx = PluginCtx {
-            name: setup.name,
-            base: setup.base,
-            stop: setup.stop,
-            config: setup.config,
+            clock: ClockState {
+                base: setup.base.clone(),
+                stop: setup.stop,
+            },
+            log: LogState {
+                name: setup.name,
+                base: setup.base,
+            },
+            config: ConfigState(setup.config),
+            types: TypesState,
             wasi: wasi.build(),
             table: ResourceTable::new(),
             limits: StoreLimitsBuilder::new()
@@ -558,13 +492,8 @@ impl Loader {
         config.consume_fuel(true);
         let engine = Engine::new(&config).map_err(|e| RadarError::Engine(format!("{e:#}")))?;
         let mut linker = Linker::new(&engine);
-        wasmtime_wasi::p2::add_to_linker_async(&mut linker)
+        crate::capability::add_to_linker(&mut linker)
             .map_err(|e| RadarError::Engine(format!("{e:#}")))?;
-        bindings::Plugin::add_to_linker::<PluginCtx, wasmtime::component::HasSelf<PluginCtx>>(
-            &mut linker,
-            |ctx| ctx,
-        )
-        .map_err(|e| RadarError::Engine(format!("{e:#}")))?;
         let mut hasher = std::collections::hash_map::DefaultHasher::new();
         engine.precompile_compatibility_hash().hash(&mut hasher);
         Ok(Self {
@@ -616,14 +545,26 @@ impl Loader {
             return Ok(code.clone());
         }
         let component = self.compile(plugin, bytes, &digest)?;
-        let kind = self.validate(plugin, &component)?;
-        let pre = self
-            .linker
-            .instantiate_pre(&component)
-            .map_err(|e| RadarError::WrongWorld {
-                plugin: plugin.into(),
-                cause: format!("{e:#}"),
-            })?;
+        let wrong = |cause: String| RadarError::WrongWorld {
+            plugin: plugin.into(),
+            cause,
+        };
+        let declared = signals::declared(&self.engine, &component).map_err(wrong)?;
+        let kind = self.validate(
+            plugin,
+            &component,
+            declared.as_ref().map_or(&[][..], |(_, s)| s),
+        )?;
+        // A plugin's own signals are typed by its world: linked for it alone.
+        let pre = match &declared {
+            None => self.linker.instantiate_pre(&component),
+            Some((import, declared)) => {
+                let mut linker = self.linker.clone();
+                signals::link(&mut linker, import, declared)
+                    .and_then(|()| linker.instantiate_pre(&component))
+            }
+        }
+        .map_err(|e| wrong(format!("{e:#}")))?;
         let slots = component
             .component_type()
             .exports(&self.engine)
@@ -700,18 +641,19 @@ impl Loader {
         unsafe { Component::deserialize_file(&self.engine, path) }.ok()
     }
 
-    fn validate(&self, plugin: &str, component: &Component) -> Result<Kind, RadarError> {
+    fn validate(
+        &self,
+        plugin: &str,
+        component: &Component,
+        signals: &[(String, Option<PayloadType>)],
+    ) -> Result<Kind, RadarError> {
         let wrong = |cause: String| RadarError::WrongWorld {
             plugin: plugin.into(),
             cause,
         };
         let ty = component.component_type();
         for (name, _) in ty.imports(&self.engine) {
-            let provided = name.starts_with("wasi:")
-                || ["clock", "logging", "config", "types"]
-                    .iter()
-                    .any(|i| name == format!("radar:reactive/{i}@0.1.0"));
-            if !provided {
+            if !crate::capability::provides(name) && !signals::is_signals_interface(name) {
                 return Err(wrong(format!(
                     "it imports `{name}`, which Radar does not provide \
                      (plugins import radar:reactive@0.1.0 and WASI only)"
@@ -770,6 +712,10 @@ impl Loader {
                 ));
             }
         }
+        let signals: Arc<[(SignalName, Option<PayloadType>)]> = signals
+            .iter()
+            .map(|(name, payload)| (SignalName::intern(name), payload.clone()))
+            .collect();
         match (funcs.get("check"), funcs.get("start")) {
             (Some(_), Some(_)) => Err(wrong(
                 "it exports both `check` (event) and `start` (response); a plugin is one or the other".into(),
@@ -779,8 +725,14 @@ impl Loader {
                     return Err(wrong("`check` must take no parameters".into()));
                 }
                 match result(check) {
-                    Some(PayloadType::Option(t)) => Ok(Kind::Event { payload: Some(*t) }),
-                    Some(PayloadType::Bool) => Ok(Kind::Event { payload: None }),
+                    Some(PayloadType::Option(t)) => Ok(Kind::Event {
+                        payload: Some(*t),
+                        signals,
+                    }),
+                    Some(PayloadType::Bool) => Ok(Kind::Event {
+                        payload: None,
+                        signals,
+                    }),
                     other => Err(wrong(format!(
                         "`check` must return option<T> or bool, not {}",
                         other.map_or("nothing".to_string(), |t| t.to_string())
@@ -801,6 +753,7 @@ impl Loader {
                         Some(f) => params(f, "interrupt")?,
                         None => None,
                     },
+                    signals,
                 })
             }
             (None, None) => Err(wrong(format!(

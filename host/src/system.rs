@@ -638,6 +638,7 @@ impl Link {
 /// ended); [`Connection::close`] says so explicitly, [`Connection::keep`]
 /// leaves it for the rest of the run.
 #[must_use = "a connection ends when its guard is dropped"]
+#[derive(Debug)]
 pub struct Connection {
     ids: Vec<u64>,
     tx: Sender<Command>,

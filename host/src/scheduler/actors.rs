@@ -190,6 +190,7 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
                     start_param,
                     start_result,
                     interrupt_param,
+                    ..
                 } => (
                     start_result.is_some(),
                     start_param.is_some(),

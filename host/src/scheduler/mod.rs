@@ -231,6 +231,8 @@ pub(crate) enum Signal {
     Interrupted,
     Exited,
     Faulted,
+    /// One the plugin declares (see `capability::signals`).
+    Named(SignalName),
 }
 
 impl Signal {
@@ -241,8 +243,60 @@ impl Signal {
             Signal::Interrupted => "interrupted",
             Signal::Exited => "exited",
             Signal::Faulted => "faulted",
+            Signal::Named(name) => name.0,
         }
     }
+}
+
+/// The name of a declared signal, interned: copied and compared as cheaply
+/// as the built-in ones, the same for every version of a plugin.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub(crate) struct SignalName(&'static str);
+
+impl SignalName {
+    /// The one `SignalName` of `name` (each distinct name is allocated once
+    /// per process).
+    pub fn intern(name: &str) -> Self {
+        static NAMES: std::sync::Mutex<std::collections::BTreeSet<&'static str>> =
+            std::sync::Mutex::new(std::collections::BTreeSet::new());
+        let mut names = NAMES.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(known) = names.get(name) {
+            return Self(known);
+        }
+        let leaked: &'static str = Box::leak(name.to_string().into_boxed_str());
+        names.insert(leaked);
+        Self(leaked)
+    }
+
+    pub fn as_str(self) -> &'static str {
+        self.0
+    }
+}
+
+thread_local! {
+    /// The system running on this thread: plugins' host calls (which run on
+    /// the scheduler's thread, inside their actors) reach it here.
+    static RUNNING: RefCell<std::rc::Weak<Core>> = const { RefCell::new(std::rc::Weak::new()) };
+}
+
+/// A plugin emits one of its declared signals, from inside a call: routed
+/// at once, at the current instant, after the log lines it wrote before.
+pub(crate) fn emit_from_plugin(
+    plugin: &str,
+    signal: SignalName,
+    payload: Option<Val>,
+) -> wasmtime::Result<()> {
+    let core = RUNNING
+        .with(|r| r.borrow().upgrade())
+        .ok_or_else(|| wasmtime::format_err!("signal `{}` emitted outside a run", signal.0))?;
+    core.with(|st| {
+        let pid = st
+            .plugin(plugin)
+            .map_err(|e| wasmtime::format_err!("{e}"))?;
+        st.record_logs();
+        st.emit(pid, Signal::Named(signal), payload);
+        Ok(())
+    })
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -397,6 +451,11 @@ impl PluginEntry {
 fn signal_type(kind: &Kind, signal: Signal) -> Option<Option<PayloadType>> {
     match (kind, signal) {
         (_, Signal::Faulted) => Some(Some(PayloadType::String)),
+        (_, Signal::Named(name)) => kind
+            .signals()
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, payload)| payload.clone()),
         (Kind::Event { payload, .. }, Signal::Triggered) => Some(payload.clone()),
         (Kind::Response { start_param, .. }, Signal::Started) => Some(start_param.clone()),
         (
@@ -726,6 +785,7 @@ impl Scheduler {
     }
 
     pub fn run(mut self) -> Result<RunEnd, RadarError> {
+        RUNNING.with(|r| *r.borrow_mut() = Rc::downgrade(&self.core));
         let kind = self.core.base.kind();
         let count = self.core.with(|st| st.plugins.len());
         self.core.with(|st| {
@@ -860,6 +920,7 @@ impl Scheduler {
     }
 
     fn finish(self) -> RunEnd {
+        RUNNING.with(|r| *r.borrow_mut() = std::rc::Weak::new());
         let ended_at = self.core.base.now();
         // End every wait so that blocked deliberative threads see the stop.
         let livelock = self.core.with(|st| st.instant.livelock);

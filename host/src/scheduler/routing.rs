@@ -85,7 +85,17 @@ impl State {
             "interrupted" => Signal::Interrupted,
             "exited" => Signal::Exited,
             "faulted" => Signal::Faulted,
-            other => return Err(self.unknown_port(pid, "signal", other)),
+            other => match entry
+                .def
+                .code
+                .kind
+                .signals()
+                .iter()
+                .find(|(n, _)| n.as_str() == other)
+            {
+                Some((name, _)) => Signal::Named(*name),
+                None => return Err(self.unknown_port(pid, "signal", other)),
+            },
         };
         if entry.signal_type(signal).is_none() {
             return Err(self.unknown_port(pid, "signal", signal.as_str()));
@@ -111,21 +121,32 @@ impl State {
     pub(super) fn unknown_port(&self, pid: usize, what: &'static str, name: &str) -> RadarError {
         let entry = &self.plugins[pid];
         let known = if what == "signal" {
-            if entry.is_event() {
+            let built_in = if entry.is_event() {
                 "triggered, faulted"
             } else {
                 "started, interrupted, exited, faulted"
-            }
+            };
+            let declared = entry
+                .def
+                .code
+                .kind
+                .signals()
+                .iter()
+                .map(|(n, _)| n.as_str());
+            std::iter::once(built_in)
+                .chain(declared)
+                .collect::<Vec<_>>()
+                .join(", ")
         } else if entry.is_event() {
-            "none: an event has no slots"
+            "none: an event has no slots".to_string()
         } else {
-            "start, interrupt, exit"
+            "start, interrupt, exit".to_string()
         };
         RadarError::UnknownPort {
             plugin: entry.def.name.clone(),
             what,
             name: name.to_string(),
-            known: known.to_string(),
+            known,
         }
     }
 

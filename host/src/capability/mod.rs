@@ -1,0 +1,63 @@
+//! The host interfaces a plugin imports, one module each (the
+//! wasmtime-wasi pattern): each owns the part of a plugin's host state it
+//! needs and adds its functions to the linker with a narrow view of it, so
+//! an interface never reaches what it does not own.
+//!
+//! - [`clock`]: scheduler time, `sleep`, `yield`, interruption points;
+//! - [`logging`]: log lines into the trace;
+//! - [`config`]: the plugin's configuration values;
+//! - [`signals`]: the named signals a plugin declares and emits;
+//! - WASI (`wasmtime_wasi`), with virtual clocks and seeded randomness under
+//!   the virtual clock (see [`clock::VirtualWasiClock`]).
+
+use wasmtime::component::{HasSelf, Linker};
+
+use crate::plugin::PluginCtx;
+
+pub(crate) mod clock;
+pub(crate) mod config;
+pub(crate) mod logging;
+pub(crate) mod signals;
+
+/// The bindings of `radar:reactive`'s host interfaces.
+pub(crate) mod bindings {
+    wasmtime::component::bindgen!({
+        world: "plugin",
+        path: "../wit",
+        imports: {
+            "radar:reactive/clock.sleep": async,
+            "radar:reactive/clock.yield": async,
+        },
+    });
+}
+
+pub(crate) use bindings::radar::reactive::types::{Interruption, Level};
+
+/// `radar:reactive/types` has no functions: its host side holds nothing.
+#[derive(Default)]
+pub(crate) struct TypesState;
+
+impl bindings::radar::reactive::types::Host for TypesState {}
+
+/// Every interface every plugin may import. (A plugin's own `signals`
+/// interface is typed by its world: [`signals::link`] adds it per
+/// component.)
+pub(crate) fn add_to_linker(linker: &mut Linker<PluginCtx>) -> wasmtime::Result<()> {
+    wasmtime_wasi::p2::add_to_linker_async(linker)?;
+    bindings::radar::reactive::types::add_to_linker::<PluginCtx, HasSelf<TypesState>>(
+        linker,
+        |ctx| &mut ctx.types,
+    )?;
+    clock::add_to_linker(linker)?;
+    logging::add_to_linker(linker)?;
+    config::add_to_linker(linker)?;
+    Ok(())
+}
+
+/// Whether an import is one that [`add_to_linker`] provides.
+pub(crate) fn provides(import: &str) -> bool {
+    import.starts_with("wasi:")
+        || ["clock", "logging", "config", "types"]
+            .iter()
+            .any(|i| import == format!("radar:reactive/{i}@0.1.0"))
+}

@@ -1,0 +1,94 @@
+//! A plugin's own named signals (DESIGN §1.1). Its world imports an
+//! interface named `signals` (or `pkg:name/signals`) whose functions are
+//! the signals it declares: `obstacle: func(distance: f32)` declares
+//! `obstacle` with an `f32` payload, and calling it emits the signal at
+//! once, routed and recorded like the built-in ones (`Plugin.obstacle`).
+//! The types come from the plugin's world, so the interface is linked per
+//! component, from its own type information.
+
+use wasmtime::component::{types, Component, Linker};
+use wasmtime::Engine;
+
+use crate::payload::PayloadType;
+use crate::plugin::PluginCtx;
+use crate::scheduler::{emit_from_plugin, SignalName};
+
+/// The signals every plugin has already, which a plugin cannot declare.
+const BUILT_IN: [&str; 5] = ["triggered", "started", "interrupted", "exited", "faulted"];
+
+/// Whether an import is a plugin's signals interface.
+pub(crate) fn is_signals_interface(name: &str) -> bool {
+    let name = name.split('@').next().unwrap_or(name);
+    name == "signals" || name.ends_with("/signals")
+}
+
+/// The signals a component declares, with the import that declares them;
+/// an error says what is wrong with the declaration.
+pub(crate) fn declared(
+    engine: &Engine,
+    component: &Component,
+) -> Result<Option<(String, Vec<(String, Option<PayloadType>)>)>, String> {
+    let ty = component.component_type();
+    let Some((import, item)) = ty
+        .imports(engine)
+        .find(|(name, _)| is_signals_interface(name))
+    else {
+        return Ok(None);
+    };
+    let types::ComponentItem::ComponentInstance(interface) = item.ty else {
+        return Err(format!(
+            "its import `{import}` is not an interface of signals"
+        ));
+    };
+    let mut signals = Vec::new();
+    for (name, item) in interface.exports(engine) {
+        let types::ComponentItem::ComponentFunc(f) = item.ty else {
+            return Err(format!(
+                "its signals interface `{import}` exports `{name}`, which is not a function"
+            ));
+        };
+        if BUILT_IN.contains(&name) {
+            return Err(format!(
+                "it declares a signal `{name}`, which every plugin has already"
+            ));
+        }
+        if f.results().len() != 0 {
+            return Err(format!(
+                "its signal `{name}` returns something; a signal is `func()` or `func(payload: T)`"
+            ));
+        }
+        let params: Vec<_> = f
+            .params()
+            .map(|(_, t)| PayloadType::from_wasm(&t))
+            .collect();
+        let payload = match params.len() {
+            0 => None,
+            1 => params.into_iter().next(),
+            n => {
+                return Err(format!(
+                    "its signal `{name}` takes {n} parameters; a signal carries at most one payload"
+                ))
+            }
+        };
+        signals.push((name.to_string(), payload));
+    }
+    Ok(Some((import.to_string(), signals)))
+}
+
+/// Adds the functions of `import` (the component's signals interface) to
+/// `linker`: each emits its signal from the calling plugin.
+pub(crate) fn link(
+    linker: &mut Linker<PluginCtx>,
+    import: &str,
+    signals: &[(String, Option<PayloadType>)],
+) -> wasmtime::Result<()> {
+    let mut instance = linker.instance(import)?;
+    for (name, _) in signals {
+        let signal = SignalName::intern(name);
+        instance.func_new(name, move |store, _type, params, _results| {
+            let plugin = store.data().log.name.clone();
+            emit_from_plugin(&plugin, signal, params.first().cloned())
+        })?;
+    }
+    Ok(())
+}
