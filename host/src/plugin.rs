@@ -553,14 +553,14 @@ impl Loader {
         let kind = self.validate(
             plugin,
             &component,
-            declared.as_ref().map_or(&[][..], |(_, s)| s),
+            declared.as_ref().map_or(&[][..], |d| &d.signals),
         )?;
         // A plugin's own signals are typed by its world: linked for it alone.
         let pre = match &declared {
             None => self.linker.instantiate_pre(&component),
-            Some((import, declared)) => {
+            Some(declared) => {
                 let mut linker = self.linker.clone();
-                signals::link(&mut linker, import, declared)
+                signals::link(&mut linker, &declared.import, &declared.signals)
                     .and_then(|()| linker.instantiate_pre(&component))
             }
         }

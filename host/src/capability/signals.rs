@@ -22,12 +22,16 @@ pub(crate) fn is_signals_interface(name: &str) -> bool {
     name == "signals" || name.ends_with("/signals")
 }
 
-/// The signals a component declares, with the import that declares them;
+/// A component's signals interface: the import's name, and each signal's
+/// name and payload.
+pub(crate) struct Declared {
+    pub import: String,
+    pub signals: Vec<(String, Option<PayloadType>)>,
+}
+
+/// The signals a component declares, if it imports a signals interface;
 /// an error says what is wrong with the declaration.
-pub(crate) fn declared(
-    engine: &Engine,
-    component: &Component,
-) -> Result<Option<(String, Vec<(String, Option<PayloadType>)>)>, String> {
+pub(crate) fn declared(engine: &Engine, component: &Component) -> Result<Option<Declared>, String> {
     let ty = component.component_type();
     let Some((import, item)) = ty
         .imports(engine)
@@ -72,7 +76,10 @@ pub(crate) fn declared(
         };
         signals.push((name.to_string(), payload));
     }
-    Ok(Some((import.to_string(), signals)))
+    Ok(Some(Declared {
+        import: import.to_string(),
+        signals,
+    }))
 }
 
 /// Adds the functions of `import` (the component's signals interface) to
