@@ -74,8 +74,7 @@ fn a_payload_type_mismatch_is_refused_at_connect_naming_both_ends_and_types() {
     let report = run(system, 3, move |radar| {
         let err = radar
             .whenever("Text.triggered", "R.start")
-            .err()
-            .expect("refused");
+            .expect_err("refused");
         tx.send(err).expect("alive");
         Ok(())
     });
