@@ -94,6 +94,9 @@ pub enum RadarError {
         /// Why it does not fit.
         cause: String,
     },
+    /// A blackboard entry used without a grant, with two types, or unknown.
+    #[error("blackboard: {0}")]
+    Blackboard(String),
     /// A new version of a plugin that cannot take the old one's place.
     #[error("swap of `{plugin}` refused: {cause}")]
     SwapRefused {

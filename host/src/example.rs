@@ -23,12 +23,19 @@ pub mod wasm {
     /// `plugins/count-up`: CountUp of Listing 1.
     pub const COUNT_UP: &[u8] = include_bytes!("../assets/count_up.wasm");
 
+    /// `plugins/obstacle-event`: the blackboard example's event.
+    pub const OBSTACLE_EVENT: &[u8] = include_bytes!("../assets/obstacle_event.wasm");
+    /// `plugins/avoid-response`: the blackboard example's response.
+    pub const AVOID_RESPONSE: &[u8] = include_bytes!("../assets/avoid_response.wasm");
+
     /// The names a manifest gives these as `wasm = "builtin:NAME"`.
-    pub const BUILTIN: [(&str, &[u8]); 4] = [
+    pub const BUILTIN: [(&str, &[u8]); 6] = [
         ("test-event", TEST_EVENT),
         ("test-response", TEST_RESPONSE),
         ("timer-event", TIMER_EVENT),
         ("count-up", COUNT_UP),
+        ("obstacle-event", OBSTACLE_EVENT),
+        ("avoid-response", AVOID_RESPONSE),
     ];
 
     /// The component a manifest names `builtin:NAME`.
@@ -129,4 +136,51 @@ pub fn listing1_program(radar: Radar) -> Result<(), RadarError> {
     )?;
     radar.waitfor("CountUp.exited", Some(Duration::from_secs(20)))?;
     Ok(())
+}
+
+/// The blackboard example: Obstacle (reads the blackboard entry `range`
+/// every 0.1 s and triggers with it when something comes nearer than
+/// 0.5 m) and Avoid (turns away for 1 s, then writes how many obstacles it
+/// has avoided to the entry `avoided`).
+pub fn obstacle(builder: SystemBuilder) -> SystemBuilder {
+    builder
+        .plugin(
+            Plugin::bytes("Obstacle", wasm::OBSTACLE_EVENT)
+                .config("near_m", 0.5)
+                .grant_read(["range"]),
+        )
+        .plugin(Plugin::bytes("Avoid", wasm::AVOID_RESPONSE).grant_write(["avoided"]))
+}
+
+/// The range readings of [`obstacle_program`]'s simulated sensor, one
+/// every 0.5 s: two approaches, the first too close twice in a row.
+pub const RANGE_READINGS: [f32; 12] =
+    [2.0, 1.6, 1.1, 0.45, 0.3, 0.8, 1.5, 2.0, 1.2, 0.6, 0.35, 1.8];
+
+/// The blackboard example's deliberative part: `whenever Obstacle start
+/// Avoid`; a simulated range sensor (a driver thread, in a robot) writes a
+/// reading every 0.5 s; after each approach the program reads how many
+/// obstacles Avoid has handed back, and fails if the count is not what the
+/// readings make it.
+pub fn obstacle_program(radar: Radar) -> Result<(), RadarError> {
+    let _c = radar.whenever("Obstacle.triggered", "Avoid.start")?;
+    let sensor = radar.spawn(|radar: Radar| {
+        for reading in RANGE_READINGS {
+            radar.board_write("range", serde_json::json!(reading))?;
+            radar.sleep(Duration::from_millis(500))?;
+        }
+        Ok::<(), RadarError>(())
+    })?;
+    for expected in 1..=2u32 {
+        radar.waitfor("Avoid.exited", Some(Duration::from_secs(10)))?;
+        let avoided = radar.board_read("avoided")?.map(|p| p.to_json());
+        if avoided != Some(serde_json::json!(expected)) {
+            return Err(RadarError::Program(format!(
+                "Avoid handed back {avoided:?}, expected {expected}"
+            )));
+        }
+    }
+    sensor
+        .join()?
+        .map_err(|e| RadarError::Program(format!("the sensor driver failed: {e}")))
 }

@@ -71,11 +71,20 @@ struct RunArgs {
     /// `4.5s:TestResponse.interrupt` (repeatable).
     #[arg(long = "inject", value_parser = parse_injection)]
     injections: Vec<Injection>,
+    /// Write a blackboard entry at a given time, as a sensor driver would:
+    /// `AT:entry=JSON`, e.g. `2s:range=0.4` (repeatable).
+    #[arg(long = "write", value_parser = parse_write)]
+    writes: Vec<BoardWrite>,
     /// Replace a plugin by another component at a given time (hot swap,
     /// DESIGN §1.4): `AT:Plugin=PATH[:drain|restart]`, e.g.
     /// `3s:TestEvent=counter_v2.wasm:restart` (repeatable; drain by default).
     #[arg(long = "swap", value_parser = parse_swap)]
     swaps: Vec<Swap>,
+    /// Without a manifest, which built-in example runs: `listing23` (the
+    /// paper's Listing 2/3), `listing1` (Listing 1), or `obstacle` (the
+    /// blackboard: a range sensor, an obstacle event, an avoid response).
+    #[arg(long, default_value = "listing23")]
+    example: BuiltInExample,
     /// Real clock, with a manifest: when a plugin's component file changes,
     /// or one of the sources its `[plugins.X.build]` table watches (then it
     /// is rebuilt first), swap the new version in.
@@ -108,6 +117,37 @@ fn parse_swap(text: &str) -> Result<Swap, String> {
         plugin: plugin.to_string(),
         path: PathBuf::from(path),
         policy,
+    })
+}
+
+/// `radar run --example`.
+#[derive(Clone, Copy, Default, clap::ValueEnum)]
+enum BuiltInExample {
+    #[default]
+    Listing23,
+    Listing1,
+    Obstacle,
+}
+
+/// One `--write`.
+#[derive(Clone)]
+struct BoardWrite {
+    at: Duration,
+    entry: String,
+    value: serde_json::Value,
+}
+
+fn parse_write(text: &str) -> Result<BoardWrite, String> {
+    let shape = || format!("`{text}`: expected AT:entry=JSON");
+    let (at, rest) = text.split_once(':').ok_or_else(shape)?;
+    let (entry, value) = rest.split_once('=').ok_or_else(shape)?;
+    if entry.is_empty() {
+        return Err(shape());
+    }
+    Ok(BoardWrite {
+        at: parse_duration(at)?,
+        entry: entry.to_string(),
+        value: serde_json::from_str(value).map_err(|e| format!("`{value}` is not JSON: {e}"))?,
     })
 }
 
@@ -211,6 +251,9 @@ fn run(args: RunArgs) -> Result<()> {
             .with_context(|| format!("cannot create trace file {}", path.display()))?;
         builder = builder.trace_to(JsonLines::new(BufWriter::new(file)));
     }
+    for w in &args.writes {
+        builder = builder.write_at(w.at, &w.entry, w.value.clone());
+    }
     for i in &args.injections {
         builder = builder.inject_at(i.at, &i.slot, i.payload.clone());
     }
@@ -227,14 +270,31 @@ fn run(args: RunArgs) -> Result<()> {
     let report = match &args.manifest {
         None => {
             let limit = args.run_for.unwrap_or(Duration::from_secs(20));
+            let (what, build, program): (&str, fn(_) -> _, fn(_) -> _) = match args.example {
+                BuiltInExample::Listing23 => (
+                    "the paper's Listing 2/3 example",
+                    example::listing23,
+                    example::listing23_program,
+                ),
+                BuiltInExample::Listing1 => (
+                    "the paper's Listing 1 example",
+                    example::listing1,
+                    example::listing1_program,
+                ),
+                BuiltInExample::Obstacle => (
+                    "the blackboard example (range sensor, Obstacle, Avoid)",
+                    example::obstacle,
+                    example::obstacle_program,
+                ),
+            };
             if !args.quiet {
                 say(format_args!(
-                    "Radar: the paper's Listing 2/3 example, {clock} clock, {:.1} s\n",
+                    "Radar: {what}, {clock} clock, {:.1} s\n",
                     limit.as_secs_f64()
                 ));
             }
-            let system = example::listing23(builder).build()?;
-            system.run_with(Some(limit), example::listing23_program)?
+            let system = build(builder).build()?;
+            system.run_with(Some(limit), program)?
         }
         Some(path) => {
             if args.clock == ClockKind::Virtual && args.run_for.is_none() {

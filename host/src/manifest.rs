@@ -6,6 +6,7 @@
 //! config = { count_to = 5 }
 //! period_ms = 10                       # optional: an event's check period
 //! fuel = 200000000                     # optional: fuel per call
+//! board = { read = ["range"] }         # optional: blackboard grants (read, write)
 //!
 //! [[connect]]
 //! mode = "whenever"                    # once | whenever
@@ -75,6 +76,20 @@ pub struct PluginEntry {
     pub memory_bytes: Option<usize>,
     /// How to build the component (`radar build`, `radar run --watch`).
     pub build: Option<BuildEntry>,
+    /// What it may do with the blackboard: `{ read = [...], write = [...] }`.
+    pub board: Option<BoardGrantEntry>,
+}
+
+/// `[plugins.NAME] board = { read = [...], write = [...] }`.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoardGrantEntry {
+    /// Entries the plugin may read.
+    #[serde(default)]
+    pub read: Vec<String>,
+    /// Entries the plugin may write.
+    #[serde(default)]
+    pub write: Vec<String>,
 }
 
 /// `[plugins.NAME.build]` (DESIGN §3.2).
@@ -217,6 +232,11 @@ impl Manifest {
             };
             for (key, value) in &entry.config {
                 plugin = plugin.config(key, config_text(value));
+            }
+            if let Some(board) = &entry.board {
+                plugin = plugin
+                    .grant_read(board.read.iter().cloned())
+                    .grant_write(board.write.iter().cloned());
             }
             if let Some(ms) = entry.period_ms {
                 plugin = plugin.period(Duration::from_millis(ms));

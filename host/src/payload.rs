@@ -210,7 +210,11 @@ pub fn val_to_json(val: &Val) -> Json {
         Val::U32(n) => json!(n),
         Val::S64(n) => json!(n),
         Val::U64(n) => json!(n),
-        Val::Float32(x) => num(Number::from_f64(f64::from(*x))),
+        // The shortest decimal that reads back as the same f32 (0.4, not
+        // 0.4000000059604645).
+        Val::Float32(x) => num(Number::from_f64(
+            x.to_string().parse::<f64>().unwrap_or(f64::from(*x)),
+        )),
         Val::Float64(x) => num(Number::from_f64(*x)),
         Val::Char(c) => json!(c.to_string()),
         Val::String(s) => json!(s),
@@ -404,6 +408,12 @@ mod tests {
         let input = json!({"count": 3, "label": "x", "state": {"at": 1.5}});
         let val = json_to_val(&input, &ty).expect("parses");
         assert_eq!(val_to_json(&val), input);
+    }
+
+    #[test]
+    fn an_f32_renders_as_its_shortest_decimal() {
+        let val = json_to_val(&json!(0.4), &PayloadType::F32).expect("parses");
+        assert_eq!(val_to_json(&val), json!(0.4));
     }
 
     #[test]

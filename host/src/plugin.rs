@@ -23,6 +23,7 @@ use wasmtime::component::{
 use wasmtime::{Config, Engine, Store, StoreLimits, StoreLimitsBuilder, Trap, WasmBacktrace};
 use wasmtime_wasi::{WasiCtx, WasiCtxView, WasiView};
 
+use crate::capability::board::{self, BoardPort};
 use crate::capability::clock::{ClockState, VirtualWasiClock};
 use crate::capability::config::ConfigState;
 use crate::capability::logging::LogState;
@@ -93,6 +94,8 @@ pub(crate) struct PluginCode {
     /// The first 12 hex digits of the component's sha256 (DESIGN §1.4).
     pub version: String,
     pre: InstancePre<PluginCtx>,
+    /// The blackboard entries it reads and writes.
+    pub board: Arc<[BoardPort]>,
     /// Where each of [`EXPORTS`] is, resolved once at load.
     exports: Arc<[Option<ComponentExportIndex>; 6]>,
 }
@@ -555,14 +558,24 @@ impl Loader {
             &component,
             declared.as_ref().map_or(&[][..], |d| &d.signals),
         )?;
-        // A plugin's own signals are typed by its world: linked for it alone.
-        let pre = match &declared {
-            None => self.linker.instantiate_pre(&component),
-            Some(declared) => {
-                let mut linker = self.linker.clone();
-                signals::link(&mut linker, &declared.import, &declared.signals)
-                    .and_then(|()| linker.instantiate_pre(&component))
-            }
+        let board_ports = board::declared(&self.engine, &component).map_err(wrong)?;
+        // A plugin's own signals and blackboard entries are typed by its
+        // world: linked for it alone.
+        let pre = if declared.is_none() && board_ports.is_none() {
+            self.linker.instantiate_pre(&component)
+        } else {
+            let mut linker = self.linker.clone();
+            let linked = declared
+                .as_ref()
+                .map_or(Ok(()), |d| {
+                    signals::link(&mut linker, &d.import, &d.signals)
+                })
+                .and_then(|()| {
+                    board_ports
+                        .as_ref()
+                        .map_or(Ok(()), |b| board::link(&mut linker, b))
+                });
+            linked.and_then(|()| linker.instantiate_pre(&component))
         }
         .map_err(|e| wrong(format!("{e:#}")))?;
         let slots = component
@@ -579,6 +592,7 @@ impl Loader {
             kind,
             version: digest[..12].to_string(),
             pre,
+            board: board_ports.map(|b| b.ports).unwrap_or_default().into(),
             exports,
         };
         self.prepared.insert(digest, code.clone());
@@ -653,7 +667,9 @@ impl Loader {
         };
         let ty = component.component_type();
         for (name, _) in ty.imports(&self.engine) {
-            if !crate::capability::provides(name) && !signals::is_signals_interface(name) {
+            let typed_by_world =
+                signals::is_signals_interface(name) || board::is_board_interface(name);
+            if !crate::capability::provides(name) && !typed_by_world {
                 return Err(wrong(format!(
                     "it imports `{name}`, which Radar does not provide \
                      (plugins import radar:reactive@0.1.0 and WASI only)"

@@ -66,9 +66,9 @@ use crate::executor::block_on;
 use crate::payload::Payload;
 use crate::plugin::{default_cache_dir, InstanceSetup, Limits, Loader};
 use crate::scheduler::{
-    duration_nanos, AnonymousJob, AnonymousSlot, Busy, Command, LinkSpec, LinkTarget, Mode,
+    duration_nanos, AnonymousJob, AnonymousSlot, Busy, Command, Grants, LinkSpec, LinkTarget, Mode,
     NewVersion, PluginDef, ProgramFailure, RunSetup, Scheduler, StaticInjection, StaticSwap,
-    SwapPolicy, TraceOut,
+    StaticWrite, SwapPolicy, TraceOut,
 };
 
 /// What a new instance of each plugin needs, published when the run
@@ -101,6 +101,7 @@ pub struct Plugin {
     config: BTreeMap<String, String>,
     period: Option<Duration>,
     limits: Option<Limits>,
+    grants: Grants,
 }
 
 impl Plugin {
@@ -121,7 +122,22 @@ impl Plugin {
             config: BTreeMap::new(),
             period: None,
             limits: None,
+            grants: Grants::default(),
         }
+    }
+
+    /// Lets the plugin read blackboard `entries` (nothing by default).
+    pub fn grant_read<S: Into<String>>(mut self, entries: impl IntoIterator<Item = S>) -> Self {
+        self.grants.read.extend(entries.into_iter().map(Into::into));
+        self
+    }
+
+    /// Lets the plugin write blackboard `entries` (nothing by default).
+    pub fn grant_write<S: Into<String>>(mut self, entries: impl IntoIterator<Item = S>) -> Self {
+        self.grants
+            .write
+            .extend(entries.into_iter().map(Into::into));
+        self
     }
 
     /// A configuration value the plugin reads through the `config` interface.
@@ -156,6 +172,7 @@ pub struct SystemBuilder {
     links: Vec<Link>,
     injections: Vec<StaticInjection>,
     swaps: Vec<(Duration, String, PathBuf, SwapPolicy)>,
+    writes: Vec<StaticWrite>,
     sinks: Vec<Box<dyn TraceSink>>,
     keep_trace: bool,
     cache_dir: Option<PathBuf>,
@@ -172,6 +189,7 @@ impl Default for SystemBuilder {
             links: Vec::new(),
             injections: Vec::new(),
             swaps: Vec::new(),
+            writes: Vec::new(),
             sinks: Vec::new(),
             keep_trace: true,
             cache_dir: default_cache_dir(),
@@ -210,6 +228,19 @@ impl SystemBuilder {
             at,
             to: slot.into(),
             payload,
+        });
+        self
+    }
+
+    /// Writes `value` into blackboard `entry` at `at` of the run's time
+    /// (`radar run --write`), as deliberative code would: a driver's
+    /// reading, a test's input. A value that does not fit the entry's type
+    /// fails the run before anything runs.
+    pub fn write_at(mut self, at: Duration, entry: impl Into<String>, value: Json) -> Self {
+        self.writes.push(StaticWrite {
+            at,
+            entry: entry.into(),
+            value,
         });
         self
     }
@@ -288,9 +319,11 @@ impl SystemBuilder {
                 config: Arc::new(p.config),
                 limits: p.limits.unwrap_or_else(|| self.limits.clone()),
                 period: duration_nanos(p.period.unwrap_or(self.period)),
+                grants: Arc::new(p.grants),
                 name: p.name,
             });
         }
+        let board = crate::scheduler::board::plan(&defs)?;
         let swaps = self
             .swaps
             .into_iter()
@@ -311,6 +344,8 @@ impl SystemBuilder {
             plugins: defs,
             links: self.links.into_iter().map(|l| l.spec).collect(),
             injections: self.injections,
+            board,
+            writes: self.writes,
             sinks: self.sinks,
             keep_trace: self.keep_trace,
             seed: self.seed,
@@ -331,6 +366,8 @@ pub struct System {
     plugins: Vec<PluginDef>,
     links: Vec<LinkSpec>,
     injections: Vec<StaticInjection>,
+    board: BTreeMap<String, crate::payload::PayloadType>,
+    writes: Vec<StaticWrite>,
     sinks: Vec<Box<dyn TraceSink>>,
     keep_trace: bool,
     seed: u64,
@@ -450,6 +487,8 @@ impl System {
             links: self.links,
             injections: self.injections,
             swaps: self.swaps,
+            board: self.board,
+            writes: self.writes,
         });
         *self.setups.lock().unwrap_or_else(|e| e.into_inner()) = scheduler.instance_setups();
         let end = scheduler.run();
@@ -792,6 +831,26 @@ impl Radar {
             to: slot.to_string(),
             payload,
             at: Some(at),
+            reply,
+        })?
+    }
+
+    /// Writes `value` into blackboard `entry` now (checked against the
+    /// entry's type, recorded as a `board-write` by `(native)`): how a driver
+    /// thread publishes a sensor reading.
+    pub fn board_write(&self, entry: &str, value: Json) -> Result<(), RadarError> {
+        self.ask(|reply| Command::BoardWrite {
+            entry: entry.to_string(),
+            value,
+            reply,
+        })?
+    }
+
+    /// The value of blackboard `entry`, if anything has written it: how
+    /// deliberative code reads what a response handed back.
+    pub fn board_read(&self, entry: &str) -> Result<Option<Payload>, RadarError> {
+        self.ask(|reply| Command::BoardRead {
+            entry: entry.to_string(),
             reply,
         })?
     }

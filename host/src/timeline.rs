@@ -181,6 +181,7 @@ impl<W: Write + Send> Timeline<W> {
                 message,
             } => format!("  {plugin} [{level}] {message}"),
             Entry::Inject { to, payload } => format!("inject {payload} → {to}"),
+            Entry::BoardWrite { entry, by, value } => format!("board {entry} = {value} (by {by})"),
             Entry::SwapRequest {
                 plugin,
                 version,

@@ -453,3 +453,71 @@ fn watch_swaps_a_component_file_that_is_replaced() {
         radar::trace::Entry::Swap { plugin, state, .. } if plugin.as_ref() == "E" && state == "moved"
     )));
 }
+
+#[test]
+fn write_feeds_the_blackboard_and_the_obstacle_example_runs() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let manifest = dir.path().join("radar.toml");
+    std::fs::write(
+        &manifest,
+        r#"
+[plugins.Obstacle]
+wasm = "builtin:obstacle-event"
+board = { read = ["range"] }
+
+[plugins.Avoid]
+wasm = "builtin:avoid-response"
+board = { write = ["avoided"] }
+
+[[connect]]
+mode = "whenever"
+from = "Obstacle.triggered"
+to = "Avoid.start"
+"#,
+    )
+    .expect("manifest written");
+    let trace = dir.path().join("t.jsonl");
+    let out = radar(&[
+        "run",
+        manifest.to_str().expect("utf-8"),
+        "--for",
+        "3s",
+        "-q",
+        "--write",
+        "0.5s:range=2.0",
+        "--write",
+        "1s:range=0.3",
+        "--trace",
+        trace.to_str().expect("utf-8"),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let (text_trace, _) = lawful_trace(&trace);
+    assert!(
+        text_trace
+            .contains(r#""kind":"signal","plugin":"Obstacle","signal":"triggered","payload":0.3"#),
+        "{text_trace}"
+    );
+    assert!(
+        text_trace.contains(r#""kind":"board-write","entry":"avoided","by":"Avoid","value":1"#),
+        "{text_trace}"
+    );
+    // A value of the wrong type fails at once, naming the entry.
+    let out = radar(&[
+        "run",
+        manifest.to_str().expect("utf-8"),
+        "--for",
+        "1s",
+        "--write",
+        "0.5s:range=\"far\"",
+    ]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains("entry `range` is f32"),
+        "{}",
+        text(&out.stderr)
+    );
+    // And the built-in blackboard example.
+    let out = radar(&["run", "--example", "obstacle", "--for", "8s"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(text(&out.stdout).contains("board avoided = 2 (by Avoid)"));
+}

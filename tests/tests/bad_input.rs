@@ -180,7 +180,11 @@ fn a_trapping_response_goes_to_error_skips_exit_and_can_be_reset() {
     let fault = &find(&trace, json!({"kind": "fault", "plugin": "Trap"}))[0];
     let error = fault["error"].as_str().expect("error text");
     assert!(!error.contains('\n'), "one line: {error:?}");
-    assert!(error.starts_with("trapped: "), "{error}");
+    // What the plugin said last (its panic message) comes first.
+    assert!(
+        error.starts_with("the fixture traps on purpose (trapped: "),
+        "{error}"
+    );
     assert!(
         fault["backtrace"]
             .as_str()

@@ -131,6 +131,8 @@ fn the_embedded_example_plugins_are_the_current_builds() {
         ("test_response.wasm", plugins::TEST_RESPONSE),
         ("timer_event.wasm", plugins::TIMER_EVENT),
         ("count_up.wasm", plugins::COUNT_UP),
+        ("obstacle_event.wasm", plugins::OBSTACLE_EVENT),
+        ("avoid_response.wasm", plugins::AVOID_RESPONSE),
     ] {
         let embedded = assets.join(file);
         if std::env::var_os("UPDATE_EMBEDDED").is_some() {

@@ -290,7 +290,8 @@ fn a_restore_that_fails_or_traps_rolls_back_and_the_old_version_keeps_its_state(
         ),
         (
             "restore_traps",
-            "restore trapped: trapped: wasm `unreachable` instruction executed",
+            "restore trapped: the fixture's restore traps on purpose \
+             (trapped: wasm `unreachable` instruction executed)",
         ),
     ] {
         let (result, trace) = refused(

@@ -7,6 +7,7 @@
 //! - [`logging`]: log lines into the trace;
 //! - [`config`]: the plugin's configuration values;
 //! - [`signals`]: the named signals a plugin declares and emits;
+//! - [`board`]: the blackboard entries a plugin reads and writes;
 //! - WASI (`wasmtime_wasi`), with virtual clocks and seeded randomness under
 //!   the virtual clock (see [`clock::VirtualWasiClock`]).
 
@@ -14,6 +15,7 @@ use wasmtime::component::{HasSelf, Linker};
 
 use crate::plugin::PluginCtx;
 
+pub(crate) mod board;
 pub(crate) mod clock;
 pub(crate) mod config;
 pub(crate) mod logging;
@@ -39,9 +41,9 @@ pub(crate) struct TypesState;
 
 impl bindings::radar::reactive::types::Host for TypesState {}
 
-/// Every interface every plugin may import. (A plugin's own `signals`
-/// interface is typed by its world: [`signals::link`] adds it per
-/// component.)
+/// Every interface every plugin may import. (A plugin's own `signals` and
+/// `board` interfaces are typed by its world: [`signals::link`] and
+/// [`board::link`] add them per component.)
 pub(crate) fn add_to_linker(linker: &mut Linker<PluginCtx>) -> wasmtime::Result<()> {
     wasmtime_wasi::p2::add_to_linker_async(linker)?;
     bindings::radar::reactive::types::add_to_linker::<PluginCtx, HasSelf<TypesState>>(

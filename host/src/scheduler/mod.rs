@@ -37,10 +37,12 @@ use crate::plugin::{Fault, InstanceSetup, Kind, Limits, PluginCode, PluginInstan
 use crate::trace::{Entry, Record, TraceSink};
 
 mod actors;
+pub(crate) mod board;
 mod routing;
 mod swap;
 mod turns;
 
+pub(crate) use board::{board_read_from_plugin, board_write_from_plugin, Grants};
 pub(crate) use swap::NewVersion;
 pub use swap::SwapPolicy;
 
@@ -149,6 +151,17 @@ pub(crate) enum Command {
         slot: u64,
         closure: AnonymousSlot,
         panicked: bool,
+    },
+    /// Deliberative code writes a blackboard entry.
+    BoardWrite {
+        entry: String,
+        value: Json,
+        reply: Sender<Result<(), RadarError>>,
+    },
+    /// Deliberative code reads a blackboard entry.
+    BoardRead {
+        entry: String,
+        reply: Sender<Result<Option<Payload>, RadarError>>,
     },
     /// A new version of a plugin (compiled by the caller, off the
     /// scheduler's thread), or why it could not be loaded.
@@ -382,6 +395,8 @@ pub(crate) struct PluginDef {
     pub limits: Limits,
     /// An event's check period (DESIGN §1.1), in nanoseconds.
     pub period: u64,
+    /// What it may do with the blackboard.
+    pub grants: Arc<Grants>,
 }
 
 struct PluginEntry {
@@ -576,6 +591,7 @@ pub(crate) struct State {
     native_tasks: HashMap<u64, NativeTask>,
     next_native_task: u64,
     route_buffer: Vec<u64>,
+    board: board::Blackboard,
 }
 
 /// A spawned native context, running or ended.
@@ -666,6 +682,17 @@ pub(crate) struct RunSetup {
     pub links: Vec<LinkSpec>,
     pub injections: Vec<StaticInjection>,
     pub swaps: Vec<StaticSwap>,
+    /// The blackboard's entries and their types (see [`board::plan`]).
+    pub board: BTreeMap<String, PayloadType>,
+    pub writes: Vec<StaticWrite>,
+}
+
+/// A blackboard write given when the system was built (`radar run
+/// --write`).
+pub(crate) struct StaticWrite {
+    pub at: Duration,
+    pub entry: String,
+    pub value: Json,
 }
 
 /// Under the real clock, how long before a deadline the scheduler stops
@@ -684,6 +711,7 @@ pub(crate) struct Scheduler {
     links: Vec<LinkSpec>,
     injections: Vec<StaticInjection>,
     swaps: Vec<StaticSwap>,
+    writes: Vec<StaticWrite>,
 }
 
 impl Scheduler {
@@ -700,6 +728,8 @@ impl Scheduler {
             links,
             injections,
             swaps,
+            board,
+            writes,
         } = setup;
         let mut by_name = BTreeMap::new();
         let plugin_count = plugins.len();
@@ -756,7 +786,10 @@ impl Scheduler {
             native_tasks: HashMap::new(),
             next_native_task: 0,
             route_buffer: Vec::new(),
+            board: board::Blackboard::default(),
         };
+        let mut state = state;
+        state.set_board(board);
         Self {
             core: Rc::new(Core {
                 base,
@@ -768,12 +801,10 @@ impl Scheduler {
             links,
             injections,
             swaps,
+            writes,
         }
     }
 
-    /// Runs until the time limit, a `Stop` command, or (virtual clock) until
-    /// nothing can ever happen again. A static connection or injection that
-    /// does not fit the system fails the run before anything runs.
     /// What a new instance of each plugin needs besides its code, by name:
     /// lets `Radar::swap` make the new version's instance on its own thread.
     pub fn instance_setups(&self) -> HashMap<String, InstanceSetup> {
@@ -784,6 +815,10 @@ impl Scheduler {
         })
     }
 
+    /// Runs until the time limit, a `Stop` command, or (virtual clock) until
+    /// nothing can ever happen again. A static connection, injection or
+    /// blackboard write that does not fit the system fails the run before
+    /// anything runs.
     pub fn run(mut self) -> Result<RunEnd, RadarError> {
         RUNNING.with(|r| *r.borrow_mut() = Rc::downgrade(&self.core));
         let kind = self.core.base.kind();
@@ -816,6 +851,18 @@ impl Scheduler {
             for i in std::mem::take(&mut self.injections) {
                 let injection = st.prepare_inject(&i.to, i.payload)?;
                 st.inject_at(&core, injection, Some(i.at));
+            }
+            for write in std::mem::take(&mut self.writes) {
+                let ty = st.board_type(&write.entry)?;
+                let value = json_to_val(&write.value, &ty).map_err(|cause| {
+                    RadarError::Blackboard(format!("entry `{}` is {ty}: {cause}", write.entry))
+                })?;
+                let core = core.clone();
+                let at = duration_nanos(write.at);
+                st.spawn(Box::pin(async move {
+                    let _ = core.base.sleep_until(at, None).await;
+                    core.with(|st| st.board_write("(native)", &write.entry, value));
+                }));
             }
             for mut swap in std::mem::take(&mut self.swaps) {
                 let pid = st.plugin(&swap.plugin)?;
@@ -1103,6 +1150,19 @@ impl Scheduler {
                 closure,
                 panicked,
             } => core.with(|st| st.anonymous_done(slot, closure, panicked)),
+            Command::BoardWrite {
+                entry,
+                value,
+                reply,
+            } => {
+                let _ = reply.send(core.with(|st| st.board_write_json(&entry, &value)));
+            }
+            Command::BoardRead { entry, reply } => {
+                let _ = reply.send(core.with(|st| {
+                    st.board_type(&entry)?;
+                    Ok(st.board_read(&entry).map(|v| Payload(Some(v))))
+                }));
+            }
             Command::Swap {
                 plugin,
                 code,

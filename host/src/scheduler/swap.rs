@@ -94,7 +94,7 @@ impl State {
                 return Err(error);
             }
         };
-        if let Err(cause) = self.check_swap(pid, &code.kind, policy == SwapPolicy::Restart) {
+        if let Err(cause) = self.check_swap(pid, &code, policy == SwapPolicy::Restart) {
             self.refuse_swap(pid, &code.version, cause.clone());
             return Err(RadarError::SwapRefused {
                 plugin: plugin.to_string(),
@@ -171,7 +171,14 @@ impl State {
     /// live connections and with the starts waiting for it (`restart`: the
     /// running activation will start again too); the error names the
     /// connection, or the waiting starts, and both types.
-    pub(super) fn check_swap(&self, pid: usize, kind: &Kind, restart: bool) -> Result<(), String> {
+    pub(super) fn check_swap(
+        &self,
+        pid: usize,
+        code: &PluginCode,
+        restart: bool,
+    ) -> Result<(), String> {
+        let kind = &code.kind;
+        self.check_board(pid, &code.board)?;
         let entry = &self.plugins[pid];
         let new_is_event = matches!(kind, Kind::Event { .. });
         if new_is_event != entry.is_event() {
@@ -340,7 +347,7 @@ impl Core {
             })
         };
         // Connections made since the request are checked too.
-        if let Err(cause) = self.with(|st| st.check_swap(pid, &pending.code.kind, false)) {
+        if let Err(cause) = self.with(|st| st.check_swap(pid, &pending.code, false)) {
             self.with(|st| st.refuse_swap(pid, &version, cause));
             return;
         }

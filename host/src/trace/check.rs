@@ -417,6 +417,7 @@ impl Checker {
                 self.faulted.remove(plugin.as_ref());
             }
             Entry::Discarded { .. }
+            | Entry::BoardWrite { .. }
             | Entry::Log { .. }
             | Entry::ProgramEnd { .. }
             | Entry::SwapRequest { .. }

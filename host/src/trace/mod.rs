@@ -151,6 +151,12 @@ pub enum Entry {
     },
     /// A payload was sent straight into a slot.
     Inject { to: Arc<str>, payload: Json },
+    /// A blackboard entry was written, `by` a plugin or `(native)`.
+    BoardWrite {
+        entry: String,
+        by: Arc<str>,
+        value: Json,
+    },
     /// Deliberative code finished: `outcome` is `ok`, `error` (with the
     /// error) or `panicked`.
     ProgramEnd {
