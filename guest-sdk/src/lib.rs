@@ -119,6 +119,9 @@ fn saturating_nanos(duration: Duration) -> u64 {
     u64::try_from(duration.as_nanos()).unwrap_or(u64::MAX)
 }
 
+#[cfg(feature = "deliberative")]
+pub mod deliberative;
+
 /// A plugin's state across a hot swap (DESIGN §1.4), as serde values: the
 /// plugin's `snapshot` and `restore` exports become two short functions.
 ///

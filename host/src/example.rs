@@ -28,14 +28,19 @@ pub mod wasm {
     /// `plugins/avoid-response`: the blackboard example's response.
     pub const AVOID_RESPONSE: &[u8] = include_bytes!("../assets/avoid_response.wasm");
 
+    /// `plugins/listing23-program`: Listing 2/3's deliberative part as a
+    /// component.
+    pub const LISTING23_PROGRAM: &[u8] = include_bytes!("../assets/listing23_program.wasm");
+
     /// The names a manifest gives these as `wasm = "builtin:NAME"`.
-    pub const BUILTIN: [(&str, &[u8]); 6] = [
+    pub const BUILTIN: [(&str, &[u8]); 7] = [
         ("test-event", TEST_EVENT),
         ("test-response", TEST_RESPONSE),
         ("timer-event", TIMER_EVENT),
         ("count-up", COUNT_UP),
         ("obstacle-event", OBSTACLE_EVENT),
         ("avoid-response", AVOID_RESPONSE),
+        ("listing23-program", LISTING23_PROGRAM),
     ];
 
     /// The component a manifest names `builtin:NAME`.
@@ -71,6 +76,37 @@ pub fn listing23_with(
                 .config("count_for_s", 10)
                 .config("interval_s", 1),
         )
+}
+
+/// Listing 2/3 as a manifest whose deliberative program is a component
+/// (`plugins/listing23-program`, built in): what `radar run` runs. Its
+/// trace is the same, record for record, as [`listing23`] with
+/// [`listing23_program`] (tested).
+pub const LISTING23_MANIFEST: &str = r#"# The paper's Listing 2/3 (radar run's built-in example).
+[plugins.TestEvent]
+wasm = "builtin:test-event"
+config = { count_to = 5, interval_s = 1 }
+
+[plugins.TestEvent2]
+wasm = "builtin:timer-event"
+config = { after_s = 3 }
+
+[plugins.TestResponse]
+wasm = "builtin:test-response"
+config = { count_for_s = 10, interval_s = 1 }
+
+[deliberative]
+wasm = "builtin:listing23-program"
+"#;
+
+/// [`LISTING23_MANIFEST`], parsed.
+pub fn listing23_manifest() -> crate::manifest::Manifest {
+    crate::manifest::Manifest::parse(
+        LISTING23_MANIFEST,
+        std::path::Path::new("(built in)"),
+        std::path::Path::new("."),
+    )
+    .expect("the built-in manifest is valid")
 }
 
 /// The deliberative part of Listing 2/3:

@@ -33,5 +33,6 @@ pub use payload::{Payload, PayloadType};
 pub use plugin::Limits;
 pub use scheduler::{AnonymousSlot, Busy, Mode, ProgramFailure, SwapPolicy};
 pub use system::{
-    Connection, Link, Plugin, PreparedVersion, Radar, RunReport, System, SystemBuilder, Task,
+    Connection, Deliberative, Link, Plugin, PreparedVersion, Radar, RunReport, System,
+    SystemBuilder, Task,
 };

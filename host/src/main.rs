@@ -293,8 +293,15 @@ fn run(args: RunArgs) -> Result<()> {
                     limit.as_secs_f64()
                 ));
             }
-            let system = build(builder).build()?;
-            system.run_with(Some(limit), program)?
+            match args.example {
+                // The built-in example is a manifest whose deliberative
+                // program is a component (its trace is the native one's).
+                BuiltInExample::Listing23 => {
+                    let manifest = example::listing23_manifest();
+                    manifest.add_plugins(builder).build()?.run(Some(limit))?
+                }
+                _ => build(builder).build()?.run_with(Some(limit), program)?,
+            }
         }
         Some(path) => {
             if args.clock == ClockKind::Virtual && args.run_for.is_none() {

@@ -41,7 +41,7 @@ use serde::Deserialize;
 use crate::error::RadarError;
 use crate::plugin::Limits;
 use crate::scheduler::Busy;
-use crate::system::{Link, Plugin, SystemBuilder};
+use crate::system::{Deliberative, Link, Plugin, SystemBuilder};
 
 /// A parsed manifest.
 #[derive(Debug, Deserialize)]
@@ -122,12 +122,20 @@ pub struct Build {
     pub watch: Vec<String>,
 }
 
-/// `[deliberative]`.
+/// `[deliberative]`: the system's deliberative program, a component of
+/// the `radar:reactive/deliberative` world.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DeliberativeEntry {
-    /// The deliberative component.
+    /// The component file, relative to the manifest, or `builtin:NAME`.
     pub wasm: PathBuf,
+    /// Values the program reads through the `config` interface.
+    #[serde(default)]
+    pub config: BTreeMap<String, toml::Value>,
+    /// Fuel for the program's computing, all of `run` together.
+    pub fuel: Option<u64>,
+    /// Memory limit in bytes.
+    pub memory_bytes: Option<usize>,
 }
 
 /// `[[connect]]`.
@@ -165,18 +173,9 @@ fn config_text(value: &toml::Value) -> String {
 impl Manifest {
     /// Reads and checks a manifest file.
     pub fn load(path: &Path) -> Result<Self, RadarError> {
-        let bad = |cause: String| RadarError::Manifest {
+        let text = std::fs::read_to_string(path).map_err(|e| RadarError::Manifest {
             path: path.to_path_buf(),
-            cause,
-        };
-        let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
-        let mut manifest: Manifest = toml::from_str(&text).map_err(|e| {
-            // toml's own rendering spans several lines; the CLI promises one.
-            let line = e.span().map(|s| text[..s.start].lines().count().max(1));
-            bad(match line {
-                Some(line) => format!("line {line}: {}", e.message()),
-                None => e.message().to_string(),
-            })
+            cause: e.to_string(),
         })?;
         // Absolute, so that paths built from it compare with what a file
         // watcher reports.
@@ -186,13 +185,36 @@ impl Manifest {
         } else {
             dir
         };
-        manifest.dir = std::fs::canonicalize(&dir).unwrap_or(dir);
-        if manifest.deliberative.is_some() {
-            return Err(bad(
-                "[deliberative] components are not supported yet; wire the system with [[connect]] \
-                 or the native Rust API"
-                    .into(),
-            ));
+        let dir = std::fs::canonicalize(&dir).unwrap_or(dir);
+        Self::parse(&text, path, &dir)
+    }
+
+    /// Parses and checks a manifest's text; `path` names it in errors,
+    /// `dir` is what its paths are relative to.
+    pub fn parse(text: &str, path: &Path, dir: &Path) -> Result<Self, RadarError> {
+        let bad = |cause: String| RadarError::Manifest {
+            path: path.to_path_buf(),
+            cause,
+        };
+        let mut manifest: Manifest = toml::from_str(text).map_err(|e| {
+            // toml's own rendering spans several lines; the CLI promises one.
+            let line = e.span().map(|s| text[..s.start].lines().count().max(1));
+            bad(match line {
+                Some(line) => format!("line {line}: {}", e.message()),
+                None => e.message().to_string(),
+            })
+        })?;
+        manifest.dir = dir.to_path_buf();
+        if let Some(builtin) = manifest
+            .deliberative
+            .as_ref()
+            .and_then(|d| builtin_name(&d.wasm))
+        {
+            if crate::example::wasm::builtin(builtin).is_none() {
+                return Err(bad(format!(
+                    "deliberative.wasm: no built-in program `{builtin}`"
+                )));
+            }
         }
         if manifest.plugins.is_empty() {
             return Err(bad("it defines no [plugins]".into()));
@@ -222,8 +244,25 @@ impl Manifest {
         Ok(manifest)
     }
 
-    /// Adds the manifest's plugins to a system builder.
+    /// Adds the manifest's plugins, and its deliberative program if it has
+    /// one, to a system builder.
     pub fn add_plugins(&self, mut builder: SystemBuilder) -> SystemBuilder {
+        if let Some(d) = &self.deliberative {
+            let mut program = match builtin_name(&d.wasm).and_then(crate::example::wasm::builtin) {
+                Some(wasm) => Deliberative::bytes(wasm),
+                None => Deliberative::file(self.dir.join(&d.wasm)),
+            };
+            for (key, value) in &d.config {
+                program = program.config(key, config_text(value));
+            }
+            if let Some(fuel) = d.fuel {
+                program = program.fuel(fuel);
+            }
+            if let Some(bytes) = d.memory_bytes {
+                program = program.memory_bytes(bytes);
+            }
+            builder = builder.deliberative(program);
+        }
         for (name, entry) in &self.plugins {
             let builtin = builtin_name(&entry.wasm).and_then(crate::example::wasm::builtin);
             let mut plugin = match builtin {

@@ -229,7 +229,7 @@ pub(crate) struct PluginInstance {
 
 /// One line: the trap or the error chain, without the wasm backtrace
 /// (which the engine attaches as context and [`Fault`] keeps apart).
-fn describe_fault(err: &wasmtime::Error) -> String {
+pub(crate) fn describe_fault(err: &wasmtime::Error) -> String {
     if let Some(Trap::OutOfFuel) = err.downcast_ref::<Trap>() {
         return "fuel exhausted (the call ran too long without returning)".into();
     }
@@ -531,6 +531,24 @@ impl Loader {
             self.hashed.insert(path.to_path_buf(), (stamp, digest));
         }
         Ok(code)
+    }
+
+    /// Reads, compiles (or fetches from the cache) and checks a deliberative
+    /// component.
+    pub fn load_program(
+        &mut self,
+        name: &str,
+        bytes: &[u8],
+    ) -> Result<wasmtime::component::Component, RadarError> {
+        let digest = format!("{:x}", Sha256::digest(bytes));
+        let component = self.compile(name, bytes, &digest)?;
+        crate::capability::system::validate(&self.engine, &component).map_err(|cause| {
+            RadarError::WrongWorld {
+                plugin: name.into(),
+                cause,
+            }
+        })?;
+        Ok(component)
     }
 
     pub fn load_bytes(&mut self, plugin: &str, bytes: &[u8]) -> Result<PluginCode, RadarError> {

@@ -60,6 +60,7 @@ use std::time::Duration;
 use crossbeam_channel::{bounded, unbounded, Receiver, Sender};
 use serde_json::Value as Json;
 
+use crate::capability::system::ProgramCode;
 use crate::clock::{ClockKind, TimeBase};
 use crate::error::RadarError;
 use crate::executor::block_on;
@@ -165,6 +166,61 @@ impl Plugin {
     }
 }
 
+/// A system's deliberative program as a component (the
+/// `radar:reactive/deliberative` world): it runs when the system runs, on a
+/// thread of its own, as a native program would.
+#[derive(Clone, Debug)]
+pub struct Deliberative {
+    source: Source,
+    config: BTreeMap<String, String>,
+    fuel: u64,
+    memory_bytes: usize,
+}
+
+impl Deliberative {
+    /// The component at `path`.
+    pub fn file(path: impl Into<PathBuf>) -> Self {
+        Self::new(Source::File(path.into()))
+    }
+
+    /// The component `bytes`.
+    pub fn bytes(bytes: impl Into<Vec<u8>>) -> Self {
+        Self::new(Source::Bytes(bytes.into()))
+    }
+
+    fn new(source: Source) -> Self {
+        Self {
+            source,
+            config: BTreeMap::new(),
+            fuel: 1_000_000_000_000,
+            memory_bytes: 64 << 20,
+        }
+    }
+
+    /// A configuration value the program reads through `config`.
+    pub fn config(mut self, key: impl Into<String>, value: impl Display) -> Self {
+        self.config.insert(key.into(), value.to_string());
+        self
+    }
+
+    /// Fuel for the program's computing, all of `run` together (waiting
+    /// costs none; default 10^12): a program that loops without waiting is
+    /// stopped with an error instead of holding the system.
+    pub fn fuel(mut self, fuel: u64) -> Self {
+        self.fuel = fuel;
+        self
+    }
+
+    /// Bytes of linear memory the program may grow to (default 64 MiB).
+    pub fn memory_bytes(mut self, bytes: usize) -> Self {
+        self.memory_bytes = bytes;
+        self
+    }
+}
+
+/// The name a deliberative component has in the trace (its log lines).
+const PROGRAM_NAME: &str = "(deliberative)";
+
 /// Builds a [`System`]; see the module docs.
 pub struct SystemBuilder {
     clock: ClockKind,
@@ -173,6 +229,7 @@ pub struct SystemBuilder {
     injections: Vec<StaticInjection>,
     swaps: Vec<(Duration, String, PathBuf, SwapPolicy)>,
     writes: Vec<StaticWrite>,
+    deliberative: Option<Deliberative>,
     sinks: Vec<Box<dyn TraceSink>>,
     keep_trace: bool,
     cache_dir: Option<PathBuf>,
@@ -190,6 +247,7 @@ impl Default for SystemBuilder {
             injections: Vec::new(),
             swaps: Vec::new(),
             writes: Vec::new(),
+            deliberative: None,
             sinks: Vec::new(),
             keep_trace: true,
             cache_dir: default_cache_dir(),
@@ -229,6 +287,13 @@ impl SystemBuilder {
             to: slot.into(),
             payload,
         });
+        self
+    }
+
+    /// The system's deliberative program, as a component: `System::run`
+    /// runs it (a manifest's `[deliberative]`).
+    pub fn deliberative(mut self, program: Deliberative) -> Self {
+        self.deliberative = Some(program);
         self
     }
 
@@ -324,6 +389,27 @@ impl SystemBuilder {
             });
         }
         let board = crate::scheduler::board::plan(&defs)?;
+        let program = match self.deliberative {
+            None => None,
+            Some(d) => {
+                let bytes = match &d.source {
+                    Source::File(path) => {
+                        std::fs::read(path).map_err(|cause| RadarError::Read {
+                            plugin: PROGRAM_NAME.into(),
+                            path: path.clone(),
+                            cause,
+                        })?
+                    }
+                    Source::Bytes(bytes) => bytes.clone(),
+                };
+                Some(ProgramCode {
+                    component: loader.load_program(PROGRAM_NAME, &bytes)?,
+                    config: Arc::new(d.config),
+                    fuel: d.fuel,
+                    memory_bytes: d.memory_bytes,
+                })
+            }
+        };
         let swaps = self
             .swaps
             .into_iter()
@@ -346,6 +432,7 @@ impl SystemBuilder {
             injections: self.injections,
             board,
             writes: self.writes,
+            program,
             sinks: self.sinks,
             keep_trace: self.keep_trace,
             seed: self.seed,
@@ -368,6 +455,7 @@ pub struct System {
     injections: Vec<StaticInjection>,
     board: BTreeMap<String, crate::payload::PayloadType>,
     writes: Vec<StaticWrite>,
+    program: Option<ProgramCode>,
     sinks: Vec<Box<dyn TraceSink>>,
     keep_trace: bool,
     seed: u64,
@@ -457,8 +545,32 @@ impl System {
         self.run_inner(limit, 1)
     }
 
-    fn run_inner(self, limit: Option<Duration>, programs: u32) -> Result<RunReport, RadarError> {
+    fn run_inner(
+        mut self,
+        limit: Option<Duration>,
+        mut programs: u32,
+    ) -> Result<RunReport, RadarError> {
         let base = TimeBase::new(self.clock);
+        if let Some(code) = self.program.take() {
+            let (clock, seed) = (base.clone(), self.seed);
+            native_thread(
+                "radar-deliberative-component",
+                self.handle(),
+                None,
+                move |radar| {
+                    crate::capability::system::run(
+                        radar,
+                        code,
+                        Arc::from(PROGRAM_NAME),
+                        clock,
+                        seed,
+                    )
+                },
+                |outcome| Command::ProgramDone { outcome },
+            )
+            .map_err(|e| RadarError::Program(format!("cannot start its thread: {e}")))?;
+            programs += 1;
+        }
         let (job_tx, job_rx) = unbounded::<AnonymousJob>();
         let runner_tx = self.tx.clone();
         let system = self.id;
@@ -690,6 +802,11 @@ impl Connection {
         &self.ids
     }
 
+    /// Leaves the connection for the rest of the run, keeping the guard.
+    pub(crate) fn disarm(&mut self) {
+        self.armed = false;
+    }
+
     /// Ends the connection now (recorded with reason `closed`).
     pub fn close(mut self) {
         self.armed = false;
@@ -862,6 +979,15 @@ impl Radar {
             lockstep: self.lockstep(),
             reply,
         })
+    }
+
+    /// A plugin's state: `inactive`, `active` (events), `idle`, `running`,
+    /// `interrupting`, `exiting` (responses), or `error`.
+    pub fn plugin_state(&self, plugin: &str) -> Result<&'static str, RadarError> {
+        self.ask(|reply| Command::PluginState {
+            plugin: plugin.to_string(),
+            reply,
+        })?
     }
 
     /// The system's time since the run began.

@@ -521,3 +521,37 @@ to = "Avoid.start"
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert!(text(&out.stdout).contains("board avoided = 2 (by Avoid)"));
 }
+
+#[test]
+fn a_manifests_deliberative_program_runs_and_its_errors_name_the_key() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let manifest = dir.path().join("radar.toml");
+    let write = |deliberative: &str| {
+        std::fs::write(
+            &manifest,
+            format!(
+                "[plugins.TestEvent]\nwasm = \"builtin:test-event\"\n\n\
+                 [plugins.TestEvent2]\nwasm = \"builtin:timer-event\"\nconfig = {{ after_s = 3 }}\n\n\
+                 [plugins.TestResponse]\nwasm = \"builtin:test-response\"\n\n\
+                 [deliberative]\n{deliberative}\n"
+            ),
+        )
+        .expect("manifest written");
+    };
+    write("wasm = \"builtin:listing23-program\"");
+    let path = manifest.to_str().expect("utf-8");
+    let out = radar(&["run", path, "--for", "6s"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stdout).contains("connect #1: whenever TestEvent.triggered → TestResponse.start")
+    );
+    write("wasm = \"builtin:nope\"");
+    let out = radar(&["run", path, "--for", "6s"]);
+    assert!(!out.status.success());
+    assert!(text(&out.stderr).contains("deliberative.wasm: no built-in program `nope`"));
+    write("wasm = \"builtin:listing23-program\"\nspeed = 3");
+    let out = radar(&["run", path, "--for", "6s"]);
+    assert!(!out.status.success());
+    let err = text(&out.stderr);
+    assert!(err.contains("speed") && err.lines().count() == 1, "{err}");
+}

@@ -133,6 +133,7 @@ fn the_embedded_example_plugins_are_the_current_builds() {
         ("count_up.wasm", plugins::COUNT_UP),
         ("obstacle_event.wasm", plugins::OBSTACLE_EVENT),
         ("avoid_response.wasm", plugins::AVOID_RESPONSE),
+        ("listing23_program.wasm", plugins::LISTING23_PROGRAM),
     ] {
         let embedded = assets.join(file);
         if std::env::var_os("UPDATE_EMBEDDED").is_some() {

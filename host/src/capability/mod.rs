@@ -8,6 +8,7 @@
 //! - [`config`]: the plugin's configuration values;
 //! - [`signals`]: the named signals a plugin declares and emits;
 //! - [`board`]: the blackboard entries a plugin reads and writes;
+//! - [`system`]: what a deliberative component wires the system with;
 //! - WASI (`wasmtime_wasi`), with virtual clocks and seeded randomness under
 //!   the virtual clock (see [`clock::VirtualWasiClock`]).
 
@@ -20,6 +21,7 @@ pub(crate) mod clock;
 pub(crate) mod config;
 pub(crate) mod logging;
 pub(crate) mod signals;
+pub(crate) mod system;
 
 /// The bindings of `radar:reactive`'s host interfaces.
 pub(crate) mod bindings {

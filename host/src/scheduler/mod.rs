@@ -158,6 +158,11 @@ pub(crate) enum Command {
         value: Json,
         reply: Sender<Result<(), RadarError>>,
     },
+    /// A plugin's state, as deliberative code sees it.
+    PluginState {
+        plugin: String,
+        reply: Sender<Result<&'static str, RadarError>>,
+    },
     /// Deliberative code reads a blackboard entry.
     BoardRead {
         entry: String,
@@ -1128,6 +1133,17 @@ impl Scheduler {
                     Ok(())
                 });
                 let _ = reply.send(result);
+            }
+            Command::PluginState { plugin, reply } => {
+                let _ = reply.send(core.with(|st| {
+                    let entry = &st.plugins[st.plugin(&plugin)?];
+                    Ok(match (entry.lifecycle, entry.is_event()) {
+                        (Lifecycle::Error, _) => "error",
+                        (Lifecycle::Inactive, _) => "inactive",
+                        (Lifecycle::Active, true) => "active",
+                        (Lifecycle::Active, false) => entry.phase.as_str(),
+                    })
+                }));
             }
             Command::Now { reply } => {
                 let _ = reply.send(Duration::from_nanos(core.base.now()));

@@ -1,0 +1,278 @@
+//! `radar:reactive/system`: the host side of a deliberative component
+//! (the `deliberative` world). The program runs on a thread of its own, a
+//! native context of the run like a native Rust program, and every import
+//! is one of the scheduler's deliberative operations reached through a
+//! [`Radar`] handle: so a component and native code wire a system the same
+//! way, with the same trace, and under the virtual clock the program takes
+//! turns deterministically. Payloads cross as JSON text.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::time::Duration;
+
+use wasmtime::component::types::ComponentItem;
+use wasmtime::component::{Component, HasSelf, Linker, Resource, ResourceTable};
+use wasmtime::{Engine, Store, StoreLimits, StoreLimitsBuilder};
+use wasmtime_wasi::{WasiCtx, WasiCtxView, WasiView};
+
+use super::clock::VirtualWasiClock;
+use super::config::ConfigState;
+use super::logging::LogState;
+use super::Level;
+use crate::clock::{ClockKind, TimeBase};
+use crate::executor::block_on;
+use crate::system::{Connection, Link, Radar};
+use crate::{Busy, RadarError};
+
+mod bindings {
+    wasmtime::component::bindgen!({
+        world: "deliberative",
+        path: "../wit",
+        exports: { default: async },
+        with: {
+            "radar:reactive/system.connection": crate::system::Connection,
+            "radar:reactive/types": crate::capability::bindings::radar::reactive::types,
+            "radar:reactive/logging": crate::capability::bindings::radar::reactive::logging,
+            "radar:reactive/config": crate::capability::bindings::radar::reactive::config,
+        },
+    });
+}
+
+use bindings::radar::reactive::system::{self, Busy as WitBusy, Host, Mode};
+
+/// A deliberative component, compiled and checked.
+#[derive(Clone)]
+pub(crate) struct ProgramCode {
+    pub component: Component,
+    pub config: Arc<BTreeMap<String, String>>,
+    /// Fuel for the whole of `run` (compute between calls; waiting is free).
+    pub fuel: u64,
+    pub memory_bytes: usize,
+}
+
+/// Checks that a component is a deliberative program: it exports `run`
+/// (checked first: an event or a response given as a program says so) and
+/// imports only what a program gets.
+pub(crate) fn validate(engine: &Engine, component: &Component) -> Result<(), String> {
+    let ty = component.component_type();
+    let run = ty.exports(engine).find(|(name, _)| *name == "run");
+    if !matches!(run, Some((_, item)) if matches!(item.ty, ComponentItem::ComponentFunc(_))) {
+        let plugin = ty
+            .exports(engine)
+            .any(|(name, _)| name == "check" || name == "start");
+        return Err(format!(
+            "it does not export `run: func() -> result<_, string>` (world \
+             radar:reactive/deliberative){}",
+            if plugin {
+                "; it looks like an event or a response: list it under [plugins]"
+            } else {
+                ""
+            }
+        ));
+    }
+    for (name, _) in ty.imports(engine) {
+        let provided = name.starts_with("wasi:")
+            || ["system", "logging", "config", "types"]
+                .iter()
+                .any(|i| name == format!("radar:reactive/{i}@0.1.0"));
+        if !provided {
+            return Err(format!(
+                "it imports `{name}`, which a deliberative program does not get \
+                 (it imports radar:reactive system, logging, config, and WASI)"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The store's state of a deliberative component.
+pub(crate) struct ProgramCtx {
+    radar: Radar,
+    log: LogState,
+    config: ConfigState,
+    table: ResourceTable,
+    wasi: WasiCtx,
+    limits: StoreLimits,
+}
+
+impl WasiView for ProgramCtx {
+    fn ctx(&mut self) -> WasiCtxView<'_> {
+        WasiCtxView {
+            ctx: &mut self.wasi,
+            table: &mut self.table,
+        }
+    }
+}
+
+impl system::HostConnection for ProgramCtx {
+    fn ids(&mut self, connection: Resource<Connection>) -> Vec<u64> {
+        self.table
+            .get(&connection)
+            .map(|c| c.ids().to_vec())
+            .unwrap_or_default()
+    }
+
+    fn keep(&mut self, connection: Resource<Connection>) {
+        if let Ok(c) = self.table.get_mut(&connection) {
+            c.disarm();
+        }
+    }
+
+    fn drop(&mut self, connection: Resource<Connection>) -> wasmtime::Result<()> {
+        // Dropping the connection's guard ends it, unless kept.
+        drop(self.table.delete(connection)?);
+        Ok(())
+    }
+}
+
+fn text(e: RadarError) -> String {
+    e.to_string()
+}
+
+fn parse_json(what: &str, text: &str) -> Result<serde_json::Value, String> {
+    serde_json::from_str(text).map_err(|e| format!("{what} `{text}` is not JSON: {e}"))
+}
+
+impl Host for ProgramCtx {
+    fn connect(&mut self, link: system::Link) -> Result<Resource<Connection>, String> {
+        let mut spec = match link.mode {
+            Mode::Once => Link::once(&link.source, &link.target),
+            Mode::Whenever => Link::whenever(&link.source, &link.target),
+        };
+        spec = spec.busy(match link.busy {
+            WitBusy::Drop => Busy::Drop,
+            WitBusy::Queue => Busy::Queue(link.queue_length.max(1) as usize),
+            WitBusy::Restart => Busy::Restart,
+        });
+        if let Some(until) = &link.until {
+            spec = spec.until(until);
+        }
+        if let Some(ns) = link.min_interval_ns {
+            spec = spec.min_interval(Duration::from_nanos(ns));
+        }
+        let connection = self.radar.connect(spec).map_err(text)?;
+        self.table.push(connection).map_err(|e| e.to_string())
+    }
+
+    fn waitfor(
+        &mut self,
+        signal: String,
+        timeout_ns: Option<u64>,
+    ) -> Result<Option<String>, String> {
+        let payload = self
+            .radar
+            .waitfor(&signal, timeout_ns.map(Duration::from_nanos))
+            .map_err(text)?;
+        Ok(payload.map(|p| p.to_json().to_string()))
+    }
+
+    fn sleep(&mut self, nanos: u64) -> Result<(), String> {
+        self.radar.sleep(Duration::from_nanos(nanos)).map_err(text)
+    }
+
+    fn now(&mut self) -> u64 {
+        self.radar
+            .now()
+            .map(|d| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))
+            .unwrap_or(0)
+    }
+
+    fn inject(&mut self, slot: String, payload: String) -> Result<(), String> {
+        let payload = parse_json("payload", &payload)?;
+        self.radar.inject(&slot, payload).map_err(text)
+    }
+
+    fn plugin_state(&mut self, plugin: String) -> Result<String, String> {
+        self.radar
+            .plugin_state(&plugin)
+            .map(str::to_string)
+            .map_err(text)
+    }
+
+    fn board_read(&mut self, entry: String) -> Result<Option<String>, String> {
+        let value = self.radar.board_read(&entry).map_err(text)?;
+        Ok(value.map(|p| p.to_json().to_string()))
+    }
+
+    fn board_write(&mut self, entry: String, value: String) -> Result<(), String> {
+        let value = parse_json("value", &value)?;
+        self.radar.board_write(&entry, value).map_err(text)
+    }
+}
+
+impl super::bindings::radar::reactive::logging::Host for ProgramCtx {
+    fn log(&mut self, level: Level, message: String) {
+        super::bindings::radar::reactive::logging::Host::log(&mut self.log, level, message)
+    }
+}
+
+impl super::bindings::radar::reactive::config::Host for ProgramCtx {
+    fn get(&mut self, key: String) -> Option<String> {
+        self.config.0.get(&key).cloned()
+    }
+
+    fn keys(&mut self) -> Vec<String> {
+        self.config.0.keys().cloned().collect()
+    }
+}
+
+impl super::bindings::radar::reactive::types::Host for ProgramCtx {}
+
+/// Runs a deliberative component's `run` on the calling thread (a native
+/// context of the run), as `name`; its error or trap is the program's.
+pub(crate) fn run(
+    radar: Radar,
+    code: ProgramCode,
+    name: Arc<str>,
+    base: TimeBase,
+    seed: u64,
+) -> Result<(), String> {
+    let engine = code.component.engine().clone();
+    let mut linker: Linker<ProgramCtx> = Linker::new(&engine);
+    let linked = wasmtime_wasi::p2::add_to_linker_async(&mut linker).and_then(|()| {
+        bindings::Deliberative::add_to_linker::<ProgramCtx, HasSelf<ProgramCtx>>(
+            &mut linker,
+            |ctx| ctx,
+        )
+    });
+    linked.map_err(|e| format!("cannot link the program: {e:#}"))?;
+    let mut wasi = WasiCtx::builder();
+    if base.kind() == ClockKind::Virtual {
+        wasi.wall_clock(VirtualWasiClock(base.clone()))
+            .monotonic_clock(VirtualWasiClock(base.clone()))
+            .secure_random(wasmtime_wasi::Deterministic::new(
+                seed.to_le_bytes().repeat(512),
+            ))
+            .insecure_random(wasmtime_wasi::Deterministic::new(
+                (!seed).to_le_bytes().repeat(512),
+            ))
+            .insecure_random_seed(u128::from(seed));
+    }
+    let ctx = ProgramCtx {
+        radar,
+        log: LogState { name, base },
+        config: ConfigState(code.config.clone()),
+        table: ResourceTable::new(),
+        wasi: wasi.build(),
+        limits: StoreLimitsBuilder::new()
+            .memory_size(code.memory_bytes)
+            .trap_on_grow_failure(true)
+            .build(),
+    };
+    let mut store = Store::new(&engine, ctx);
+    store.limiter(|ctx| &mut ctx.limits);
+    store.set_fuel(code.fuel).map_err(|e| format!("{e:#}"))?;
+    let program = block_on(bindings::Deliberative::instantiate_async(
+        &mut store,
+        &code.component,
+        &linker,
+    ))
+    .map_err(|e| format!("cannot start: {e:#}"))?;
+    let outcome = block_on(program.call_run(&mut store));
+    // Connections the program still holds end with it, as scopes do.
+    drop(store);
+    match outcome {
+        Ok(result) => result,
+        Err(e) => Err(crate::plugin::describe_fault(&e)),
+    }
+}
