@@ -7,6 +7,7 @@
 //! period_ms = 10                       # optional: an event's check period
 //! fuel = 200000000                     # optional: fuel per call
 //! board = { read = ["range"] }         # optional: blackboard grants (read, write)
+//! wasi = { env = { ROBOT = "r2" } }    # optional: what of the host WASI shows
 //!
 //! [[connect]]
 //! mode = "whenever"                    # once | whenever
@@ -78,6 +79,18 @@ pub struct PluginEntry {
     pub build: Option<BuildEntry>,
     /// What it may do with the blackboard: `{ read = [...], write = [...] }`.
     pub board: Option<BoardGrantEntry>,
+    /// What of the host it sees through WASI (nothing by default).
+    pub wasi: Option<WasiEntry>,
+}
+
+/// `[plugins.NAME.wasi]`: what the plugin sees of the host through WASI:
+/// environment variables (directories are not offered yet).
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WasiEntry {
+    /// Environment variables.
+    #[serde(default)]
+    pub env: BTreeMap<String, String>,
 }
 
 /// `[plugins.NAME] board = { read = [...], write = [...] }`.
@@ -271,6 +284,11 @@ impl Manifest {
             };
             for (key, value) in &entry.config {
                 plugin = plugin.config(key, config_text(value));
+            }
+            if let Some(wasi) = &entry.wasi {
+                for (key, value) in &wasi.env {
+                    plugin = plugin.env(key, value);
+                }
             }
             if let Some(board) = &entry.board {
                 plugin = plugin

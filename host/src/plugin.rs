@@ -169,6 +169,16 @@ fn name_seed(name: &str, seed: u64) -> u64 {
     u64::from_le_bytes(bytes) ^ seed
 }
 
+/// What of the host a plugin sees through WASI: environment variables.
+/// Nothing by default. (Directories are not offered: wasmtime-wasi runs
+/// file operations as blocking tasks on a tokio runtime, which the
+/// scheduler's deterministic executor does not host.)
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct WasiGrants {
+    /// Environment variables, by name.
+    pub env: BTreeMap<String, String>,
+}
+
 /// Everything an instance needs besides its code.
 #[derive(Clone)]
 pub(crate) struct InstanceSetup {
@@ -178,6 +188,8 @@ pub(crate) struct InstanceSetup {
     pub config: Arc<BTreeMap<String, String>>,
     pub limits: Limits,
     pub seed: u64,
+    /// What of the host WASI shows the plugin (nothing by default).
+    pub wasi: Arc<WasiGrants>,
     /// Fuel used by the plugin's calls so far, all instances together.
     pub fuel_used: Arc<AtomicU64>,
 }
@@ -255,6 +267,9 @@ impl PluginCode {
     pub async fn instantiate(&self, setup: InstanceSetup) -> Result<PluginInstance, Fault> {
         let real_clock = setup.base.kind() == ClockKind::Real;
         let mut wasi = WasiCtx::builder();
+        for (key, value) in &setup.wasi.env {
+            wasi.env(key, value);
+        }
         let stderr = StderrTail::default();
         wasi.stderr(stderr.clone());
         if setup.base.kind() == ClockKind::Virtual {

@@ -65,7 +65,7 @@ use crate::clock::{ClockKind, TimeBase};
 use crate::error::RadarError;
 use crate::executor::block_on;
 use crate::payload::Payload;
-use crate::plugin::{default_cache_dir, InstanceSetup, Limits, Loader};
+use crate::plugin::{default_cache_dir, InstanceSetup, Limits, Loader, WasiGrants};
 use crate::scheduler::{
     duration_nanos, AnonymousJob, AnonymousSlot, Busy, Command, Grants, LinkSpec, LinkTarget, Mode,
     NewVersion, PluginDef, ProgramFailure, RunSetup, Scheduler, StaticInjection, StaticSwap,
@@ -103,6 +103,7 @@ pub struct Plugin {
     period: Option<Duration>,
     limits: Option<Limits>,
     grants: Grants,
+    wasi: WasiGrants,
 }
 
 impl Plugin {
@@ -124,7 +125,15 @@ impl Plugin {
             period: None,
             limits: None,
             grants: Grants::default(),
+            wasi: WasiGrants::default(),
         }
+    }
+
+    /// An environment variable the plugin sees through WASI (none by
+    /// default).
+    pub fn env(mut self, key: impl Into<String>, value: impl Into<String>) -> Self {
+        self.wasi.env.insert(key.into(), value.into());
+        self
     }
 
     /// Lets the plugin read blackboard `entries` (nothing by default).
@@ -385,6 +394,7 @@ impl SystemBuilder {
                 limits: p.limits.unwrap_or_else(|| self.limits.clone()),
                 period: duration_nanos(p.period.unwrap_or(self.period)),
                 grants: Arc::new(p.grants),
+                wasi: Arc::new(p.wasi),
                 name: p.name,
             });
         }

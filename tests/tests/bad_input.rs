@@ -358,3 +358,25 @@ fn a_zero_check_period_is_refused_naming_the_plugin() {
         "plugin `E`: an event's check period must be longer than zero"
     );
 }
+
+/// What `W` (triggering with what it sees through WASI) triggers with first.
+fn wasi_sees(plugin: Plugin) -> serde_json::Value {
+    let report = run(virtual_system().plugin(plugin), 2, |radar| {
+        radar.whenever_do("W", |_| {})?.keep();
+        Ok(())
+    });
+    let trace = records(&report);
+    let signals = find(&trace, json!({"kind": "signal", "plugin": "W"}));
+    assert!(!signals.is_empty(), "{trace:#?}");
+    signals[0]["payload"].clone()
+}
+
+#[test]
+fn wasi_shows_a_plugin_nothing_of_the_host_but_what_it_is_granted() {
+    let plugin = || Plugin::file("W", radar_fixtures::plugins::WASI_GRANTS_EVENT);
+    assert_eq!(wasi_sees(plugin()), json!("ROBOT=none of 0"));
+    assert_eq!(
+        wasi_sees(plugin().env("ROBOT", "r2").env("SITE", "lab")),
+        json!("ROBOT=r2 of 2")
+    );
+}

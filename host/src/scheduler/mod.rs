@@ -402,6 +402,8 @@ pub(crate) struct PluginDef {
     pub period: u64,
     /// What it may do with the blackboard.
     pub grants: Arc<Grants>,
+    /// What of the host it sees through WASI.
+    pub wasi: Arc<crate::plugin::WasiGrants>,
 }
 
 struct PluginEntry {

@@ -817,6 +817,7 @@ impl State {
                 stop: entry.stop.clone(),
                 config: entry.def.config.clone(),
                 limits: entry.def.limits.clone(),
+                wasi: entry.def.wasi.clone(),
                 seed: self.seed,
                 fuel_used: entry.fuel_used.clone(),
             },
