@@ -202,13 +202,87 @@ pub fn once_until(from: &str, to: &str, until: &str) -> Result<Connection, Error
     connect(Link::once(from, &format!("{to}.start")).until(until))
 }
 
+std::thread_local! {
+    /// The handlers of the program's anonymous slots, by connection.
+    /// (`ManuallyDrop`: a thread-local with a destructor registers it at
+    /// exit, which links libc's `exit` into every plugin built beside a
+    /// program, where it clashes with a plugin's own `exit` slot.)
+    static HANDLERS: std::mem::ManuallyDrop<std::cell::RefCell<std::collections::HashMap<u64, Handler>>> =
+        std::mem::ManuallyDrop::new(std::cell::RefCell::new(std::collections::HashMap::new()));
+}
+
+type Handler = Box<dyn FnMut(Json)>;
+
+/// Runs the handler of a delivery to one of the program's anonymous slots.
+fn dispatch(delivery: system::Delivery) {
+    let payload = serde_json::from_str(&delivery.payload).unwrap_or(Json::Null);
+    // Taken out while it runs: a handler may wait, and so run others.
+    let handler = HANDLERS.with(|h| h.borrow_mut().remove(&delivery.connection));
+    if let Some(mut handler) = handler {
+        handler(payload);
+        HANDLERS.with(|h| {
+            h.borrow_mut().entry(delivery.connection).or_insert(handler);
+        });
+    }
+}
+
+/// The program's one way of waiting: runs its anonymous slots' handlers as
+/// their deliveries come, until the deadline or the signal.
+fn wait(deadline: Option<u64>, signal: Option<&str>) -> Result<Option<String>, Error> {
+    loop {
+        match system::wait(deadline, signal)? {
+            system::Woke::Deadline => return Ok(None),
+            system::Woke::Signal(payload) => return Ok(Some(payload)),
+            system::Woke::Delivery(delivery) => dispatch(delivery),
+        }
+    }
+}
+
+/// An anonymous slot (see [`on`]): dropping it removes the connection and
+/// the handler.
+#[must_use = "an anonymous slot ends when its guard is dropped"]
+pub struct Listener {
+    id: u64,
+    _connection: system::Connection,
+}
+
+impl Drop for Listener {
+    fn drop(&mut self) {
+        HANDLERS.with(|h| h.borrow_mut().remove(&self.id));
+    }
+}
+
+fn listen(signal: &str, mode: system::Mode, handler: Handler) -> Result<Listener, Error> {
+    let connection = system::listen(signal, mode)?;
+    let id = connection.ids().first().copied().unwrap_or(0);
+    HANDLERS.with(|h| h.borrow_mut().insert(id, handler));
+    Ok(Listener {
+        id,
+        _connection: connection,
+    })
+}
+
+/// An anonymous slot: `handler` runs with the payload of every emission of
+/// `signal`, while the program waits (in [`sleep`] or [`waitfor`]), at the
+/// time of the delivery. It ends with the guard, or with the program.
+pub fn on(signal: &str, handler: impl FnMut(Json) + 'static) -> Result<Listener, Error> {
+    listen(signal, system::Mode::Whenever, Box::new(handler))
+}
+
+/// [`on`] for the first emission only.
+pub fn on_once(signal: &str, handler: impl FnMut(Json) + 'static) -> Result<Listener, Error> {
+    listen(signal, system::Mode::Once, Box::new(handler))
+}
+
 /// Waits for `signal` and returns its payload as `T` (`None` when
 /// `timeout` passes first). A signal without payload gives `()`.
+/// Anonymous slots run meanwhile.
 pub fn waitfor<T: serde::de::DeserializeOwned>(
     signal: &str,
     timeout: Option<StdDuration>,
 ) -> Result<Option<T>, Error> {
-    match system::waitfor(signal, timeout.map(nanos))? {
+    let deadline = timeout.map(|t| system::now().saturating_add(nanos(t)));
+    match wait(deadline, Some(signal))? {
         None => Ok(None),
         Some(json) => serde_json::from_str(&json)
             .map(Some)
@@ -216,9 +290,10 @@ pub fn waitfor<T: serde::de::DeserializeOwned>(
     }
 }
 
-/// Waits `duration` of the system's time.
+/// Waits `duration` of the system's time; anonymous slots run meanwhile.
 pub fn sleep(duration: StdDuration) -> Result<(), Error> {
-    Ok(system::sleep(nanos(duration))?)
+    let deadline = system::now().saturating_add(nanos(duration));
+    wait(Some(deadline), None).map(drop)
 }
 
 /// The system's time since the run began.

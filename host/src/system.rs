@@ -69,7 +69,7 @@ use crate::plugin::{default_cache_dir, InstanceSetup, Limits, Loader, WasiGrants
 use crate::scheduler::{
     duration_nanos, AnonymousJob, AnonymousSlot, Busy, Command, Grants, LinkSpec, LinkTarget, Mode,
     NewVersion, PluginDef, ProgramFailure, RunSetup, Scheduler, StaticInjection, StaticSwap,
-    StaticWrite, SwapPolicy, TraceOut,
+    StaticWrite, SwapPolicy, TraceOut, Woke,
 };
 
 /// What a new instance of each plugin needs, published when the run
@@ -773,6 +773,11 @@ impl Link {
         )
     }
 
+    /// `from` into a deliberative component's mailbox (its anonymous slot).
+    pub(crate) fn to_mailbox(from: &str, mode: Mode, mailbox: u64) -> Self {
+        Self::new(from, LinkTarget::Mailbox(mailbox), mode)
+    }
+
     /// What a start signal does while the response is busy (default: drop).
     pub fn busy(mut self, busy: Busy) -> Self {
         self.spec.busy = busy;
@@ -989,6 +994,24 @@ impl Radar {
             lockstep: self.lockstep(),
             reply,
         })
+    }
+
+    /// A deliberative component's wait: until `deadline` (run time), until
+    /// `signal`, or until a delivery to one of its anonymous slots.
+    pub(crate) fn wait(
+        &self,
+        mailbox: u64,
+        deadline: Option<Duration>,
+        signal: Option<&str>,
+    ) -> Result<Woke, RadarError> {
+        let lockstep = self.lockstep();
+        self.ask(|reply| Command::Wait {
+            mailbox,
+            deadline,
+            signal: signal.map(str::to_string),
+            lockstep,
+            reply,
+        })?
     }
 
     /// A plugin's state: `inactive`, `active` (events), `idle`, `running`,

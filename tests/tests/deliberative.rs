@@ -39,7 +39,7 @@ fn constructs(greeting: Option<&str>) -> radar::RunReport {
         system
             .build()
             .expect("builds")
-            .run(Some(Duration::from_secs(12)))
+            .run(Some(Duration::from_secs(20)))
             .expect("runs"),
     )
 }
@@ -52,8 +52,39 @@ fn every_construct_works_from_a_component() {
     let trace = records(&report);
     assert_eq!(
         count(&trace, json!({"kind": "log", "plugin": "(deliberative)"})),
-        10,
-        "every check logged"
+        16,
+        "every check and every run of the anonymous slot logged"
+    );
+    // The anonymous slot ran at each delivery's time, while the program
+    // waited.
+    let slot_runs: Vec<_> = trace
+        .iter()
+        .filter(|r| {
+            r["kind"] == "log"
+                && r["message"]
+                    .as_str()
+                    .is_some_and(|m| m.starts_with("anonymous slot: E.triggered(2)"))
+        })
+        .map(|r| r["t"].clone())
+        .collect();
+    assert_eq!(
+        slot_runs,
+        [json!(ns(8.0)), json!(ns(10.0)), json!(ns(12.0))]
+    );
+    assert_eq!(
+        count(
+            &trace,
+            json!({"kind": "connect", "id": 8, "to": "(anonymous)"})
+        ),
+        1
+    );
+    assert_eq!(
+        count(
+            &trace,
+            json!({"kind": "disconnect", "id": 8, "reason": "scope"})
+        ),
+        1,
+        "the slot ended with its guard"
     );
     for (id, reason, at) in [
         (1, "timeout", 1.5), // waitfor with a timeout

@@ -38,7 +38,7 @@ mod bindings {
     });
 }
 
-use bindings::radar::reactive::system::{self, Busy as WitBusy, Host, Mode};
+use bindings::radar::reactive::system::{self, Busy as WitBusy, Host, Mode, Woke};
 
 /// A deliberative component, compiled and checked.
 #[derive(Clone)]
@@ -88,6 +88,11 @@ pub(crate) fn validate(engine: &Engine, component: &Component) -> Result<(), Str
 /// The store's state of a deliberative component.
 pub(crate) struct ProgramCtx {
     radar: Radar,
+    /// Where its anonymous slots' deliveries wait (unique per program).
+    mailbox: u64,
+    /// Its anonymous slots (resource reps): they end with the program,
+    /// `keep` or not.
+    listeners: std::collections::HashSet<u32>,
     log: LogState,
     config: ConfigState,
     table: ResourceTable,
@@ -113,6 +118,9 @@ impl system::HostConnection for ProgramCtx {
     }
 
     fn keep(&mut self, connection: Resource<Connection>) {
+        if self.listeners.contains(&connection.rep()) {
+            return; // a program's anonymous slots end with it
+        }
         if let Ok(c) = self.table.get_mut(&connection) {
             c.disarm();
         }
@@ -120,6 +128,7 @@ impl system::HostConnection for ProgramCtx {
 
     fn drop(&mut self, connection: Resource<Connection>) -> wasmtime::Result<()> {
         // Dropping the connection's guard ends it, unless kept.
+        self.listeners.remove(&connection.rep());
         drop(self.table.delete(connection)?);
         Ok(())
     }
@@ -154,20 +163,39 @@ impl Host for ProgramCtx {
         self.table.push(connection).map_err(|e| e.to_string())
     }
 
-    fn waitfor(
-        &mut self,
-        signal: String,
-        timeout_ns: Option<u64>,
-    ) -> Result<Option<String>, String> {
-        let payload = self
+    fn listen(&mut self, signal: String, mode: Mode) -> Result<Resource<Connection>, String> {
+        let mode = match mode {
+            Mode::Once => crate::Mode::Once,
+            Mode::Whenever => crate::Mode::Whenever,
+        };
+        let connection = self
             .radar
-            .waitfor(&signal, timeout_ns.map(Duration::from_nanos))
+            .connect(Link::to_mailbox(&signal, mode, self.mailbox))
             .map_err(text)?;
-        Ok(payload.map(|p| p.to_json().to_string()))
+        let resource = self.table.push(connection).map_err(|e| e.to_string())?;
+        self.listeners.insert(resource.rep());
+        Ok(resource)
     }
 
-    fn sleep(&mut self, nanos: u64) -> Result<(), String> {
-        self.radar.sleep(Duration::from_nanos(nanos)).map_err(text)
+    fn wait(&mut self, deadline_ns: Option<u64>, signal: Option<String>) -> Result<Woke, String> {
+        let woke = self
+            .radar
+            .wait(
+                self.mailbox,
+                deadline_ns.map(Duration::from_nanos),
+                signal.as_deref(),
+            )
+            .map_err(text)?;
+        Ok(match woke {
+            crate::scheduler::Woke::Deadline => Woke::Deadline,
+            crate::scheduler::Woke::Signal(payload) => Woke::Signal(payload.to_json().to_string()),
+            crate::scheduler::Woke::Delivery(connection, payload) => {
+                Woke::Delivery(system::Delivery {
+                    connection,
+                    payload: payload.to_json().to_string(),
+                })
+            }
+        })
     }
 
     fn now(&mut self) -> u64 {
@@ -248,8 +276,11 @@ pub(crate) fn run(
             ))
             .insecure_random_seed(u128::from(seed));
     }
+    static MAILBOXES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
     let ctx = ProgramCtx {
         radar,
+        mailbox: MAILBOXES.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+        listeners: std::collections::HashSet::new(),
         log: LogState { name, base },
         config: ConfigState(code.config.clone()),
         table: ResourceTable::new(),

@@ -38,6 +38,7 @@ use crate::trace::{Entry, Record, TraceSink};
 
 mod actors;
 pub(crate) mod board;
+mod mailbox;
 mod routing;
 mod swap;
 mod turns;
@@ -107,6 +108,29 @@ pub(crate) struct LinkSpec {
 pub(crate) enum LinkTarget {
     Slot(String),
     Closure(AnonymousSlot),
+    /// A deliberative component's anonymous slot: deliveries wait in its
+    /// mailbox until the program next waits (see [`Woke`]).
+    Mailbox(u64),
+}
+
+/// What ended a deliberative component's wait.
+#[derive(Debug)]
+pub(crate) enum Woke {
+    /// The deadline passed.
+    Deadline,
+    /// The awaited signal, with its payload.
+    Signal(Payload),
+    /// A delivery to one of the program's anonymous slots: the connection
+    /// and the payload.
+    Delivery(u64, Payload),
+}
+
+/// A deliberative component's anonymous-slot deliveries, and its wait.
+#[derive(Default)]
+pub(crate) struct Mailbox {
+    queue: VecDeque<(u64, Payload)>,
+    /// The waiter of the program's current wait, if it waits.
+    waiter: Option<u64>,
 }
 
 /// What deliberative code (or the CLI) asks of a running system.
@@ -175,6 +199,15 @@ pub(crate) enum Command {
         code: Result<Box<NewVersion>, (String, RadarError)>,
         policy: SwapPolicy,
         reply: Sender<Result<(), RadarError>>,
+    },
+    /// A deliberative component waits for a deadline, a signal, or a
+    /// delivery to its anonymous slots, whichever comes first.
+    Wait {
+        mailbox: u64,
+        deadline: Option<Duration>,
+        signal: Option<String>,
+        lockstep: bool,
+        reply: Sender<Result<Woke, RadarError>>,
     },
     /// A new native context (`Radar::spawn`): `go` lets its thread run.
     Spawn {
@@ -528,6 +561,7 @@ enum Target {
     Slot(usize, Slot),
     Anonymous(u64),
     Waiter(u64),
+    Mailbox(u64),
 }
 
 struct Connection {
@@ -556,10 +590,20 @@ struct Anonymous {
 }
 
 struct Waiter {
-    reply: Sender<Result<Option<Payload>, RadarError>>,
+    reply: WaiterReply,
     lockstep: bool,
     timeout_task: Option<TaskId>,
     connection: u64,
+}
+
+/// Who a wait answers: native `waitfor`, or a deliberative component's
+/// wait (which its mailbox may also end).
+enum WaiterReply {
+    WaitFor(Sender<Result<Option<Payload>, RadarError>>),
+    Wait {
+        mailbox: u64,
+        reply: Sender<Result<Woke, RadarError>>,
+    },
 }
 
 /// Where trace records go.
@@ -599,6 +643,7 @@ pub(crate) struct State {
     next_native_task: u64,
     route_buffer: Vec<u64>,
     board: board::Blackboard,
+    mailboxes: HashMap<u64, Mailbox>,
 }
 
 /// A spawned native context, running or ended.
@@ -794,6 +839,7 @@ impl Scheduler {
             next_native_task: 0,
             route_buffer: Vec::new(),
             board: board::Blackboard::default(),
+            mailboxes: HashMap::new(),
         };
         let mut state = state;
         state.set_board(board);
@@ -1088,7 +1134,7 @@ impl Scheduler {
                 st.waiters.insert(
                     w,
                     Waiter {
-                        reply,
+                        reply: WaiterReply::WaitFor(reply),
                         lockstep,
                         timeout_task: None,
                         connection: 0,
@@ -1108,6 +1154,13 @@ impl Scheduler {
                     waiter.connection = connection;
                 }
             }),
+            Command::Wait {
+                mailbox,
+                deadline,
+                signal,
+                lockstep,
+                reply,
+            } => core.with(|st| st.wait(&core, mailbox, deadline, signal, lockstep, reply)),
             Command::Sleep {
                 duration,
                 lockstep,

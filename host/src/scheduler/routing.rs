@@ -262,6 +262,23 @@ impl State {
                 );
                 Ok(vec![id])
             }
+            LinkTarget::Mailbox(mailbox) => {
+                if link.until.is_some() {
+                    return Err(RadarError::InvalidConnection {
+                        from: link.from,
+                        to: "an anonymous slot".into(),
+                        cause: "`until` interrupts a response; an anonymous slot has nothing to interrupt"
+                            .into(),
+                    });
+                }
+                self.mailboxes.entry(mailbox).or_default();
+                let id = self.add_connection(
+                    from,
+                    Target::Mailbox(mailbox),
+                    parts("(anonymous)".into(), true),
+                );
+                Ok(vec![id])
+            }
             LinkTarget::Slot(to) => {
                 let (pid, slot) = self.resolve_slot(&to)?;
                 let pass = self.check_types(from, pid, slot)?;
@@ -327,7 +344,8 @@ impl State {
                     self.finish_waiter(w, None);
                 }
             }
-            Target::Slot(..) => {}
+            // Deliveries already in the mailbox stay there for the program.
+            Target::Slot(..) | Target::Mailbox(_) => {}
         }
         if let (Mode::Whenever, Some(until)) = (conn.mode, conn.until) {
             // `whenever E start R until F`: F listens as long as E does. (A
@@ -465,6 +483,10 @@ impl State {
             }
             Target::Waiter(w) => {
                 self.finish_waiter(w, Some(Payload(payload)));
+                Ok(())
+            }
+            Target::Mailbox(mailbox) => {
+                self.mail(mailbox, id, Payload(payload));
                 Ok(())
             }
         };
@@ -689,11 +711,22 @@ impl State {
             // Timed out (or ended by the run stopping): end the wait's connection.
             self.disconnect(waiter.connection, "timeout");
         }
-        let reply = waiter.reply;
-        self.resume(
-            waiter.lockstep,
-            Box::new(move || reply.send(Ok(payload)).is_ok()),
-        );
+        match waiter.reply {
+            WaiterReply::WaitFor(reply) => self.resume(
+                waiter.lockstep,
+                Box::new(move || reply.send(Ok(payload)).is_ok()),
+            ),
+            WaiterReply::Wait { mailbox, reply } => {
+                if let Some(m) = self.mailboxes.get_mut(&mailbox) {
+                    m.waiter = None;
+                }
+                let woke = payload.map_or(Woke::Deadline, Woke::Signal);
+                self.resume(
+                    waiter.lockstep,
+                    Box::new(move || reply.send(Ok(woke)).is_ok()),
+                )
+            }
+        }
     }
 
     pub(super) fn fault(&mut self, pid: usize, fault: Fault) {

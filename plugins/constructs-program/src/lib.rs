@@ -1,8 +1,8 @@
 //! A test fixture: a deliberative component that uses every construct of
-//! the `system` interface on a system of E (TestEvent counting to 2), F
-//! (a timer event, 3 s) and R (TestResponse counting 2 s), logs what it
-//! saw, and fails (`run` returns the error) when anything is not what the
-//! semantics say.
+//! the `system` interface (anonymous slots included) on a system of E
+//! (TestEvent counting to 2), F (a timer event, 3 s) and R (TestResponse
+//! counting 2 s), logs what it saw, and fails (`run` returns the error)
+//! when anything is not what the semantics say.
 use radar_guest::deliberative::*;
 
 fn check(what: &str, ok: bool) -> Result<(), Error> {
@@ -46,6 +46,26 @@ fn main() -> Result<(), Error> {
         "config reaches the program",
         config_or("greeting", String::new()) == "hello",
     )?;
+    // An anonymous slot: its handler runs at each delivery, while the
+    // program waits.
+    let seen = std::rc::Rc::new(std::cell::Cell::new(0u32));
+    let counter = seen.clone();
+    let slot = on("E", move |payload| {
+        info(&format!(
+            "anonymous slot: E.triggered({payload}) at {:?}",
+            now()
+        ));
+        counter.set(counter.get() + 1);
+    })?;
+    sleep(Duration::from_secs(5))?;
+    check("the anonymous slot ran twice", seen.get() == 2)?;
+    // A waitfor meanwhile still sees its own signal.
+    let count: Option<u32> = waitfor("E", Some(Duration::from_secs(3)))?;
+    check("waitfor beside an anonymous slot", count == Some(2))?;
+    // The slot's delivery of that same emission runs at the next wait.
+    sleep(Duration::ZERO)?;
+    check("the slot ran for that one too", seen.get() == 3)?;
+    drop(slot);
     Ok(())
 }
 

@@ -1,0 +1,134 @@
+//! A deliberative component's anonymous slots. A component cannot be
+//! called while it waits inside a host call, so its slots' deliveries go to
+//! its mailbox, and the program's one blocking call, `wait`, ends with
+//! whichever comes first: its deadline, the signal it waits for, or a
+//! delivery (the Rust SDK then runs the slot's handler and waits again).
+//! Under the virtual clock all of it happens in turns, deterministically;
+//! a delivery is recorded as `deliver` when it reaches the mailbox.
+
+use super::*;
+
+impl State {
+    /// `Command::Wait`.
+    pub(super) fn wait(
+        &mut self,
+        core: &Rc<Core>,
+        mailbox: u64,
+        deadline: Option<Duration>,
+        signal: Option<String>,
+        lockstep: bool,
+        reply: Sender<Result<Woke, RadarError>>,
+    ) {
+        let mail = self.mailboxes.entry(mailbox).or_default();
+        if let Some((connection, payload)) = mail.queue.pop_front() {
+            let _ = reply.send(Ok(Woke::Delivery(connection, payload)));
+            return;
+        }
+        let from = match signal
+            .as_deref()
+            .map(|s| self.resolve_signal(s))
+            .transpose()
+        {
+            Ok(from) => from,
+            Err(e) => {
+                let _ = reply.send(Err(e));
+                return;
+            }
+        };
+        let deadline = deadline.map(duration_nanos);
+        if from.is_none() && deadline.is_some_and(|d| d <= self.now()) {
+            let _ = reply.send(Ok(Woke::Deadline));
+            return;
+        }
+        if lockstep {
+            self.turns.block();
+        }
+        self.next_waiter += 1;
+        let w = self.next_waiter;
+        self.waiters.insert(
+            w,
+            Waiter {
+                reply: WaiterReply::Wait { mailbox, reply },
+                lockstep,
+                timeout_task: None,
+                connection: 0,
+            },
+        );
+        if let Some(m) = self.mailboxes.get_mut(&mailbox) {
+            m.waiter = Some(w);
+        }
+        let connection = from.map(|from| {
+            let parts = ConnectionParts {
+                mode: Mode::Once,
+                busy: Busy::Drop,
+                min_interval: None,
+                to_label: "(waitfor)".into(),
+                pass_payload: true,
+                serves: None,
+            };
+            self.add_connection(from, Target::Waiter(w), parts)
+        });
+        let timeout_task = deadline.map(|deadline| {
+            let core = core.clone();
+            self.spawn(Box::pin(async move {
+                let _ = core.base.sleep_until(deadline, None).await;
+                core.with(|st| st.finish_waiter(w, None));
+            }))
+        });
+        if let Some(waiter) = self.waiters.get_mut(&w) {
+            waiter.timeout_task = timeout_task;
+            waiter.connection = connection.unwrap_or(0);
+        }
+    }
+
+    /// A delivery to a program's anonymous slot. It waits in the mailbox;
+    /// if the program is waiting, it is woken for it once the emission that
+    /// brought it has reached every connection (so a `waitfor` of the same
+    /// signal gets it too).
+    pub(super) fn mail(&mut self, mailbox: u64, connection: u64, payload: Payload) {
+        let Some(mail) = self.mailboxes.get_mut(&mailbox) else {
+            return;
+        };
+        mail.queue.push_back((connection, payload));
+        if mail.waiter.is_none() {
+            return;
+        }
+        let Some(core) = RUNNING.with(|r| r.borrow().upgrade()) else {
+            return;
+        };
+        let task_core = core.clone();
+        self.spawn(Box::pin(async move {
+            task_core.with(|st| st.wake_for_mail(mailbox));
+        }));
+    }
+
+    /// Ends the program's wait with the first delivery in its mailbox, if it
+    /// still waits.
+    fn wake_for_mail(&mut self, mailbox: u64) {
+        let Some(mail) = self.mailboxes.get_mut(&mailbox) else {
+            return;
+        };
+        let (Some(w), false) = (mail.waiter, mail.queue.is_empty()) else {
+            return;
+        };
+        mail.waiter = None;
+        let delivery = mail.queue.pop_front();
+        let Some(waiter) = self.waiters.remove(&w) else {
+            return;
+        };
+        if let Some(task) = waiter.timeout_task {
+            self.cancelled.push(task);
+        }
+        // The wait's own signal connection ends with it.
+        self.disconnect(waiter.connection, "closed");
+        if let (WaiterReply::Wait { reply, .. }, Some((connection, payload))) =
+            (waiter.reply, delivery)
+        {
+            let woke = Woke::Delivery(connection, payload);
+            self.resume(
+                waiter.lockstep,
+                Box::new(move || reply.send(Ok(woke)).is_ok()),
+            );
+        }
+    }
+}
