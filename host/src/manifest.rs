@@ -7,7 +7,8 @@
 //! period_ms = 10                       # optional: an event's check period
 //! fuel = 200000000                     # optional: fuel per call
 //! board = { read = ["range"] }         # optional: blackboard grants (read, write)
-//! wasi = { env = { ROBOT = "r2" } }    # optional: what of the host WASI shows
+//! wasi = { env = { ROBOT = "r2" }, dirs = [{ host = "maps", guest = "/maps" }] }
+//!                                      # optional: what of the host WASI shows
 //!
 //! [[connect]]
 //! mode = "whenever"                    # once | whenever
@@ -83,14 +84,29 @@ pub struct PluginEntry {
     pub wasi: Option<WasiEntry>,
 }
 
-/// `[plugins.NAME.wasi]`: what the plugin sees of the host through WASI:
-/// environment variables (directories are not offered yet).
+/// `[plugins.NAME.wasi]`: what the plugin sees of the host through WASI.
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WasiEntry {
     /// Environment variables.
     #[serde(default)]
     pub env: BTreeMap<String, String>,
+    /// Directories: `{ host = "maps", guest = "/maps", writable = false }`.
+    #[serde(default)]
+    pub dirs: Vec<WasiDirEntry>,
+}
+
+/// One directory of `[plugins.NAME.wasi]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WasiDirEntry {
+    /// The host's directory, relative to the manifest.
+    pub host: PathBuf,
+    /// Where the plugin sees it.
+    pub guest: String,
+    /// Whether the plugin may write there (default: read-only).
+    #[serde(default)]
+    pub writable: bool,
 }
 
 /// `[plugins.NAME] board = { read = [...], write = [...] }`.
@@ -288,6 +304,9 @@ impl Manifest {
             if let Some(wasi) = &entry.wasi {
                 for (key, value) in &wasi.env {
                     plugin = plugin.env(key, value);
+                }
+                for d in &wasi.dirs {
+                    plugin = plugin.dir(self.dir.join(&d.host), &d.guest, d.writable);
                 }
             }
             if let Some(board) = &entry.board {

@@ -169,14 +169,17 @@ fn name_seed(name: &str, seed: u64) -> u64 {
     u64::from_le_bytes(bytes) ^ seed
 }
 
-/// What of the host a plugin sees through WASI: environment variables.
-/// Nothing by default. (Directories are not offered: wasmtime-wasi runs
-/// file operations as blocking tasks on a tokio runtime, which the
-/// scheduler's deterministic executor does not host.)
+/// What of the host a plugin sees through WASI: environment variables and
+/// directories (read-only unless writable). Nothing by default. File
+/// operations run on the scheduler's thread as the guest makes them (they
+/// block it briefly); what a plugin reads there is input from outside the
+/// run, so a run that depends on it is only as repeatable as those files.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct WasiGrants {
     /// Environment variables, by name.
     pub env: BTreeMap<String, String>,
+    /// Directories: the host's path, the path the plugin sees, writable.
+    pub dirs: Vec<(PathBuf, String, bool)>,
 }
 
 /// Everything an instance needs besides its code.
@@ -269,6 +272,21 @@ impl PluginCode {
         let mut wasi = WasiCtx::builder();
         for (key, value) in &setup.wasi.env {
             wasi.env(key, value);
+        }
+        // File operations in place, not on a thread pool the deterministic
+        // executor does not have.
+        wasi.allow_blocking_current_thread(true);
+        for (host, guest, writable) in &setup.wasi.dirs {
+            let perms = if *writable {
+                wasmtime_wasi::FsPerms::ReadWrite
+            } else {
+                wasmtime_wasi::FsPerms::ReadOnly
+            };
+            wasi.preopened_dir(host, guest, perms).map_err(|e| Fault {
+                cause: format!("cannot open {} for the plugin: {e:#}", host.display()),
+                backtrace: None,
+                out_of_fuel: false,
+            })?;
         }
         let stderr = StderrTail::default();
         wasi.stderr(stderr.clone());

@@ -136,6 +136,19 @@ impl Plugin {
         self
     }
 
+    /// A host directory the plugin sees at `guest` through WASI, read-only
+    /// unless `writable` (none by default). It must exist when the system
+    /// is built.
+    pub fn dir(
+        mut self,
+        host: impl Into<PathBuf>,
+        guest: impl Into<String>,
+        writable: bool,
+    ) -> Self {
+        self.wasi.dirs.push((host.into(), guest.into(), writable));
+        self
+    }
+
     /// Lets the plugin read blackboard `entries` (nothing by default).
     pub fn grant_read<S: Into<String>>(mut self, entries: impl IntoIterator<Item = S>) -> Self {
         self.grants.read.extend(entries.into_iter().map(Into::into));
@@ -382,6 +395,12 @@ impl SystemBuilder {
                 return Err(RadarError::BadSetting {
                     plugin: p.name,
                     cause: "an event's check period must be longer than zero".into(),
+                });
+            }
+            if let Some((host, _, _)) = p.wasi.dirs.iter().find(|(host, _, _)| !host.is_dir()) {
+                return Err(RadarError::BadSetting {
+                    plugin: p.name.clone(),
+                    cause: format!("its WASI directory {} is not a directory", host.display()),
                 });
             }
             let code = match &p.source {

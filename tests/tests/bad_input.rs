@@ -374,9 +374,24 @@ fn wasi_sees(plugin: Plugin) -> serde_json::Value {
 #[test]
 fn wasi_shows_a_plugin_nothing_of_the_host_but_what_it_is_granted() {
     let plugin = || Plugin::file("W", radar_fixtures::plugins::WASI_GRANTS_EVENT);
-    assert_eq!(wasi_sees(plugin()), json!("ROBOT=none of 0"));
+    assert_eq!(wasi_sees(plugin()), json!("ROBOT=none of 0 file=none"));
+    let dir = tempfile::tempdir().expect("temp dir");
+    std::fs::write(dir.path().join("hello.txt"), "from the host\n").expect("written");
     assert_eq!(
-        wasi_sees(plugin().env("ROBOT", "r2").env("SITE", "lab")),
-        json!("ROBOT=r2 of 2")
+        wasi_sees(
+            plugin()
+                .env("ROBOT", "r2")
+                .env("SITE", "lab")
+                .dir(dir.path(), "/data", false)
+        ),
+        json!("ROBOT=r2 of 2 file=from the host")
     );
+    // A directory that is not there fails the build, naming the plugin.
+    let err = virtual_system()
+        .plugin(plugin().dir(dir.path().join("missing"), "/data", false))
+        .build()
+        .err()
+        .expect("refused");
+    let text = err.to_string();
+    assert!(text.contains("`W`") && text.contains("missing"), "{text}");
 }
