@@ -23,6 +23,16 @@ fn the_built_in_example_runs_its_program_as_a_component_with_the_native_trace() 
             .expect("runs"),
     );
     check_golden("listing23.jsonl", &report.trace_json_lines());
+    // The fresh build of plugins/listing23-program does the same.
+    let fresh = checked(
+        example::listing23(virtual_system())
+            .deliberative(Deliberative::file(plugins::LISTING23_PROGRAM))
+            .build()
+            .expect("builds")
+            .run(Some(Duration::from_secs(30)))
+            .expect("runs"),
+    );
+    assert_eq!(fresh.trace_json_lines(), report.trace_json_lines());
 }
 
 fn constructs(greeting: Option<&str>) -> radar::RunReport {
