@@ -23,16 +23,23 @@ fn the_built_in_example_runs_its_program_as_a_component_with_the_native_trace() 
             .expect("runs"),
     );
     check_golden("listing23.jsonl", &report.trace_json_lines());
-    // The fresh build of plugins/listing23-program does the same.
-    let fresh = checked(
-        example::listing23(virtual_system())
-            .deliberative(Deliberative::file(plugins::LISTING23_PROGRAM))
-            .build()
-            .expect("builds")
-            .run(Some(Duration::from_secs(30)))
-            .expect("runs"),
-    );
-    assert_eq!(fresh.trace_json_lines(), report.trace_json_lines());
+    // The fresh build of plugins/listing23-program does the same, and so
+    // does the same program in Python (plugins/listing23-program-py).
+    for program in [plugins::LISTING23_PROGRAM, plugins::LISTING23_PROGRAM_PY] {
+        let fresh = checked(
+            example::listing23(virtual_system())
+                .deliberative(Deliberative::file(program))
+                .build()
+                .expect("builds")
+                .run(Some(Duration::from_secs(30)))
+                .expect("runs"),
+        );
+        assert_eq!(
+            fresh.trace_json_lines(),
+            report.trace_json_lines(),
+            "{program}"
+        );
+    }
 }
 
 fn constructs(greeting: Option<&str>) -> radar::RunReport {
