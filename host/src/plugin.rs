@@ -604,12 +604,12 @@ impl Loader {
             cause,
         };
         let declared = signals::declared(&self.engine, &component).map_err(wrong)?;
+        let board_ports = board::declared(&self.engine, &component).map_err(wrong)?;
         let kind = self.validate(
             plugin,
             &component,
             declared.as_ref().map_or(&[][..], |d| &d.signals),
         )?;
-        let board_ports = board::declared(&self.engine, &component).map_err(wrong)?;
         // A plugin's own signals and blackboard entries are typed by its
         // world: linked for it alone.
         let pre = if declared.is_none() && board_ports.is_none() {

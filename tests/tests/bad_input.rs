@@ -395,3 +395,32 @@ fn wasi_shows_a_plugin_nothing_of_the_host_but_what_it_is_granted() {
     let text = err.to_string();
     assert!(text.contains("`W`") && text.contains("missing"), "{text}");
 }
+
+#[test]
+fn malformed_signals_and_blackboard_declarations_are_refused_naming_the_cause() {
+    let refused = |wat_text: &str| -> String {
+        let component = wat::parse_str(wat_text).expect("valid wat");
+        let err = build_error(Plugin::bytes("Odd", component));
+        assert!(matches!(err, RadarError::WrongWorld { .. }), "{err:?}");
+        err.to_string()
+    };
+    let text = refused(r#"(component (import "signals" (instance (export "triggered" (func)))))"#);
+    assert!(
+        text.contains("`Odd`")
+            && text.contains("signal `triggered`, which every plugin has already"),
+        "{text}"
+    );
+    let text = refused(
+        r#"(component (import "signals" (instance (export "pair" (func (param "a" u32) (param "b" u32))))))"#,
+    );
+    assert!(text.contains("carries at most one payload"), "{text}");
+    let text = refused(r#"(component (import "board" (instance (export "range" (func)))))"#);
+    assert!(
+        text.contains("`range` must be `read-ENTRY: func() -> option<T>`"),
+        "{text}"
+    );
+    let text = refused(
+        r#"(component (import "board" (instance (export "read-range" (func (result u32))))))"#,
+    );
+    assert!(text.contains("`read-range` must be"), "{text}");
+}
