@@ -188,22 +188,21 @@ macro_rules! plugin {
         $crate::plugin!(wit: "../../wit", $world);
     };
     (world: $name:literal, path: $path:literal) => {
-        $crate::__wit_bindgen::generate!({
-            world: $name,
-            path: $path,
-            runtime_path: "::radar_guest::__wit_bindgen::rt",
-            with: {
-                "radar:reactive/types@0.1.0": ::radar_guest::__bindings::radar::reactive::types,
-                "radar:reactive/clock@0.1.0": ::radar_guest::__bindings::radar::reactive::clock,
-                "radar:reactive/logging@0.1.0": ::radar_guest::__bindings::radar::reactive::logging,
-                "radar:reactive/config@0.1.0": ::radar_guest::__bindings::radar::reactive::config,
-            },
-        });
+        $crate::__plugin_bindings!(world: $name, path: $path);
     };
     (wit: $wit:literal, $world:literal) => {
+        $crate::__plugin_bindings!(inline: $world, path: $wit);
+    };
+}
+
+/// The bindings of a plugin's world, given by `plugin!`'s arms: the
+/// host interfaces come from this crate's own bindings.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __plugin_bindings {
+    ($($source:tt)*) => {
         $crate::__wit_bindgen::generate!({
-            inline: $world,
-            path: $wit,
+            $($source)*,
             runtime_path: "::radar_guest::__wit_bindgen::rt",
             with: {
                 "radar:reactive/types@0.1.0": ::radar_guest::__bindings::radar::reactive::types,

@@ -26,13 +26,12 @@ impl Grants {
 }
 
 /// The entries and their values.
-#[derive(Default)]
 pub(crate) struct Blackboard {
     entries: BTreeMap<String, (PayloadType, Option<Val>)>,
 }
 
 impl Blackboard {
-    fn new(types: BTreeMap<String, PayloadType>) -> Self {
+    pub(super) fn new(types: BTreeMap<String, PayloadType>) -> Self {
         Self {
             entries: types.into_iter().map(|(e, t)| (e, (t, None))).collect(),
         }
@@ -118,10 +117,6 @@ pub(crate) fn plan(plugins: &[PluginDef]) -> Result<BTreeMap<String, PayloadType
 }
 
 impl State {
-    pub(super) fn set_board(&mut self, types: BTreeMap<String, PayloadType>) {
-        self.board = Blackboard::new(types);
-    }
-
     /// Whether a new version of plugin `pid` keeps to its grants and to the
     /// entries' types.
     pub(super) fn check_board(&self, pid: usize, ports: &[BoardPort]) -> Result<(), String> {

@@ -40,44 +40,15 @@ impl State {
             let _ = reply.send(Ok(Woke::Deadline));
             return;
         }
-        if lockstep {
-            self.turns.block();
-        }
-        self.next_waiter += 1;
-        let w = self.next_waiter;
-        self.waiters.insert(
-            w,
-            Waiter {
-                reply: WaiterReply::Wait { mailbox, reply },
-                lockstep,
-                timeout_task: None,
-                connection: 0,
-            },
+        let w = self.add_waiter(
+            core,
+            WaiterReply::Wait { mailbox, reply },
+            lockstep,
+            from,
+            deadline,
         );
         if let Some(m) = self.mailboxes.get_mut(&mailbox) {
             m.waiter = Some(w);
-        }
-        let connection = from.map(|from| {
-            let parts = ConnectionParts {
-                mode: Mode::Once,
-                busy: Busy::Drop,
-                min_interval: None,
-                to_label: "(waitfor)".into(),
-                pass_payload: true,
-                serves: None,
-            };
-            self.add_connection(from, Target::Waiter(w), parts)
-        });
-        let timeout_task = deadline.map(|deadline| {
-            let core = core.clone();
-            self.spawn(Box::pin(async move {
-                let _ = core.base.sleep_until(deadline, None).await;
-                core.with(|st| st.finish_waiter(w, None));
-            }))
-        });
-        if let Some(waiter) = self.waiters.get_mut(&w) {
-            waiter.timeout_task = timeout_task;
-            waiter.connection = connection.unwrap_or(0);
         }
     }
 

@@ -838,11 +838,9 @@ impl Scheduler {
             native_tasks: HashMap::new(),
             next_native_task: 0,
             route_buffer: Vec::new(),
-            board: board::Blackboard::default(),
+            board: board::Blackboard::new(board),
             mailboxes: HashMap::new(),
         };
-        let mut state = state;
-        state.set_board(board);
         Self {
             core: Rc::new(Core {
                 base,
@@ -1116,43 +1114,14 @@ impl Scheduler {
                         return;
                     }
                 };
-                if lockstep {
-                    st.turns.block();
-                }
-                st.next_waiter += 1;
-                let w = st.next_waiter;
-                let parts = ConnectionParts {
-                    mode: Mode::Once,
-                    busy: Busy::Drop,
-                    min_interval: None,
-                    to_label: "(waitfor)".into(),
-                    pass_payload: true,
-                    serves: None,
-                };
-                // Registered before the connection exists so that an
-                // immediate delivery finds it.
-                st.waiters.insert(
-                    w,
-                    Waiter {
-                        reply: WaiterReply::WaitFor(reply),
-                        lockstep,
-                        timeout_task: None,
-                        connection: 0,
-                    },
-                );
-                let connection = st.add_connection(from, Target::Waiter(w), parts);
                 let deadline = timeout.map(|t| st.now().saturating_add(duration_nanos(t)));
-                let timeout_task = deadline.map(|deadline| {
-                    let core = core.clone();
-                    st.spawn(Box::pin(async move {
-                        let _ = core.base.sleep_until(deadline, None).await;
-                        core.with(|st| st.finish_waiter(w, None));
-                    }))
-                });
-                if let Some(waiter) = st.waiters.get_mut(&w) {
-                    waiter.timeout_task = timeout_task;
-                    waiter.connection = connection;
-                }
+                st.add_waiter(
+                    &core,
+                    WaiterReply::WaitFor(reply),
+                    lockstep,
+                    Some(from),
+                    deadline,
+                );
             }),
             Command::Wait {
                 mailbox,

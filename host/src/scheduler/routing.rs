@@ -236,16 +236,17 @@ impl State {
             pass_payload,
             serves: None,
         };
+        let anonymous = matches!(link.to, LinkTarget::Closure(_) | LinkTarget::Mailbox(_));
+        if anonymous && link.until.is_some() {
+            return Err(RadarError::InvalidConnection {
+                from: link.from,
+                to: "an anonymous slot".into(),
+                cause: "`until` interrupts a response; an anonymous slot has nothing to interrupt"
+                    .into(),
+            });
+        }
         match link.to {
             LinkTarget::Closure(closure) => {
-                if link.until.is_some() {
-                    return Err(RadarError::InvalidConnection {
-                        from: link.from,
-                        to: "an anonymous slot".into(),
-                        cause: "`until` interrupts a response; an anonymous slot has nothing to interrupt"
-                            .into(),
-                    });
-                }
                 let slot = self.next_connection + 1;
                 self.anonymous.insert(
                     slot,
@@ -263,14 +264,6 @@ impl State {
                 Ok(vec![id])
             }
             LinkTarget::Mailbox(mailbox) => {
-                if link.until.is_some() {
-                    return Err(RadarError::InvalidConnection {
-                        from: link.from,
-                        to: "an anonymous slot".into(),
-                        cause: "`until` interrupts a response; an anonymous slot has nothing to interrupt"
-                            .into(),
-                    });
-                }
                 self.mailboxes.entry(mailbox).or_default();
                 let id = self.add_connection(
                     from,
@@ -698,6 +691,58 @@ impl State {
             };
             self.dispatch_anonymous(next);
         }
+    }
+
+    /// Registers a wait that ends with `from`'s next emission (if any), at
+    /// `deadline` (if any), or as its reply's kind allows (a component's
+    /// mailbox): the one path of native `waitfor` and a component's `wait`.
+    pub(super) fn add_waiter(
+        &mut self,
+        core: &Rc<Core>,
+        reply: WaiterReply,
+        lockstep: bool,
+        from: Option<(usize, Signal)>,
+        deadline: Option<u64>,
+    ) -> u64 {
+        if lockstep {
+            self.turns.block();
+        }
+        self.next_waiter += 1;
+        let w = self.next_waiter;
+        // Registered before the connection exists so that an immediate
+        // delivery finds it.
+        self.waiters.insert(
+            w,
+            Waiter {
+                reply,
+                lockstep,
+                timeout_task: None,
+                connection: 0,
+            },
+        );
+        let connection = from.map(|from| {
+            let parts = ConnectionParts {
+                mode: Mode::Once,
+                busy: Busy::Drop,
+                min_interval: None,
+                to_label: "(waitfor)".into(),
+                pass_payload: true,
+                serves: None,
+            };
+            self.add_connection(from, Target::Waiter(w), parts)
+        });
+        let timeout_task = deadline.map(|deadline| {
+            let core = core.clone();
+            self.spawn(Box::pin(async move {
+                let _ = core.base.sleep_until(deadline, None).await;
+                core.with(|st| st.finish_waiter(w, None));
+            }))
+        });
+        if let Some(waiter) = self.waiters.get_mut(&w) {
+            waiter.timeout_task = timeout_task;
+            waiter.connection = connection.unwrap_or(0);
+        }
+        w
     }
 
     pub(super) fn finish_waiter(&mut self, w: u64, payload: Option<Payload>) {
