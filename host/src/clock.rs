@@ -30,6 +30,16 @@ pub enum ClockKind {
     Real,
 }
 
+impl ClockKind {
+    /// `virtual` or `real`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Virtual => "virtual",
+            Self::Real => "real",
+        }
+    }
+}
+
 impl std::str::FromStr for ClockKind {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
@@ -64,6 +74,8 @@ pub(crate) struct LogLine {
 
 struct Shared {
     kind: ClockKind,
+    /// Fuel as time (virtual clock only): fuel that stands for one second.
+    fuel_per_second: Option<u64>,
     start: Instant,
     /// Virtual time; only the scheduler's thread moves it.
     virtual_now: AtomicU64,
@@ -91,9 +103,19 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 
 impl TimeBase {
     /// A clock whose time 0 is now.
+    #[cfg(test)]
     pub fn new(kind: ClockKind) -> Self {
+        Self::with_fuel_time(kind, None)
+    }
+
+    /// A clock on which, if `fuel_per_second` is given and the clock is
+    /// virtual, a plugin's compute takes time: the fuel it burns, at that
+    /// rate.
+    pub fn with_fuel_time(kind: ClockKind, fuel_per_second: Option<u64>) -> Self {
+        let fuel_per_second = fuel_per_second.filter(|r| *r > 0 && kind == ClockKind::Virtual);
         Self(Arc::new(Shared {
             kind,
+            fuel_per_second,
             start: Instant::now(),
             virtual_now: AtomicU64::new(0),
             timers: Mutex::new(Timers {
@@ -111,6 +133,23 @@ impl TimeBase {
 
     pub fn kind(&self) -> ClockKind {
         self.0.kind
+    }
+
+    /// Whether compute takes virtual time (fuel as time).
+    pub fn fuel_is_time(&self) -> bool {
+        self.0.fuel_per_second.is_some()
+    }
+
+    /// The virtual time `fuel` units of compute take (0 unless fuel is
+    /// time), rounded up so that any compute takes some time.
+    pub fn fuel_nanos(&self, fuel: u64) -> u64 {
+        match self.0.fuel_per_second {
+            Some(rate) if fuel > 0 => {
+                let nanos = (u128::from(fuel) * 1_000_000_000).div_ceil(u128::from(rate));
+                u64::try_from(nanos).unwrap_or(u64::MAX)
+            }
+            _ => 0,
+        }
     }
 
     /// Nanoseconds since the run began.

@@ -32,8 +32,15 @@ pub mod wasm {
     /// component.
     pub const LISTING23_PROGRAM: &[u8] = include_bytes!("../assets/listing23_program.wasm");
 
+    /// `plugins/counter-event`: triggers every second with its count, which
+    /// it hands to a new version through `snapshot` / `restore`.
+    pub const COUNTER_EVENT: &[u8] = include_bytes!("../assets/counter_event.wasm");
+    /// `plugins/counter-event-v2`: the same count, triggered × 100: swap
+    /// it in for [`COUNTER_EVENT`] to see hot swap move state.
+    pub const COUNTER_EVENT_V2: &[u8] = include_bytes!("../assets/counter_event_v2.wasm");
+
     /// The names a manifest gives these as `wasm = "builtin:NAME"`.
-    pub const BUILTIN: [(&str, &[u8]); 7] = [
+    pub const BUILTIN: [(&str, &[u8]); 9] = [
         ("test-event", TEST_EVENT),
         ("test-response", TEST_RESPONSE),
         ("timer-event", TIMER_EVENT),
@@ -41,6 +48,8 @@ pub mod wasm {
         ("obstacle-event", OBSTACLE_EVENT),
         ("avoid-response", AVOID_RESPONSE),
         ("listing23-program", LISTING23_PROGRAM),
+        ("counter-event", COUNTER_EVENT),
+        ("counter-event-v2", COUNTER_EVENT_V2),
     ];
 
     /// The component a manifest names `builtin:NAME`.

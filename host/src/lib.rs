@@ -23,6 +23,7 @@ pub mod plugin;
 pub(crate) mod scheduler;
 mod stderr;
 pub mod system;
+pub mod testing;
 pub mod timeline;
 pub mod trace;
 pub mod workspace;

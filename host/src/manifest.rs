@@ -52,7 +52,7 @@ pub struct Manifest {
     /// The plugins, by name.
     #[serde(default)]
     pub plugins: BTreeMap<String, PluginEntry>,
-    /// A deliberative component (not supported yet: see the README).
+    /// The deliberative component that wires the system, if any.
     pub deliberative: Option<DeliberativeEntry>,
     /// Static connections, made when the run begins.
     #[serde(default)]
@@ -271,6 +271,14 @@ impl Manifest {
             manifest.link(c).map_err(bad)?;
         }
         Ok(manifest)
+    }
+
+    /// Adds the whole system to a builder: plugins, deliberative program and
+    /// static connections.
+    pub fn add_to(&self, builder: SystemBuilder) -> SystemBuilder {
+        self.links()
+            .into_iter()
+            .fold(self.add_plugins(builder), SystemBuilder::connect)
     }
 
     /// Adds the manifest's plugins, and its deliberative program if it has

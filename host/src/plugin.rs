@@ -302,6 +302,7 @@ impl PluginCode {
             clock: ClockState {
                 base: setup.base.clone(),
                 stop: setup.stop,
+                fuel_mark: setup.limits.fuel_per_call,
             },
             log: LogState {
                 name: setup.name,
@@ -360,6 +361,7 @@ impl PluginInstance {
     ) -> Result<Option<Val>, Fault> {
         let fault = |e: wasmtime::Error| Fault::from_error(&e);
         self.store.set_fuel(self.fuel_per_call).map_err(fault)?;
+        self.store.data_mut().clock.fuel_mark = self.fuel_per_call;
         let mut results = [Val::Bool(false)];
         let slots = if has_result {
             &mut results[..]
@@ -373,6 +375,14 @@ impl PluginInstance {
             self.fuel_per_call.saturating_sub(left),
             std::sync::atomic::Ordering::Relaxed,
         );
+        // Fuel as time: the compute not yet counted takes its time now, so
+        // that what follows the call (its end, its result) comes later.
+        let clock = &self.store.data().clock;
+        let compute = clock.base.fuel_nanos(clock.fuel_mark.saturating_sub(left));
+        if compute > 0 {
+            let deadline = clock.base.now().saturating_add(compute);
+            let _ = clock.base.sleep_until(deadline, None).await;
+        }
         called.map_err(|e| {
             let mut fault = fault(e);
             // An interpreter's uncaught exception: its message, then the trap.

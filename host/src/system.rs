@@ -85,6 +85,7 @@ thread_local! {
     /// here take part in that system's lockstep (see the module docs).
     static NATIVE_CONTEXT: Cell<u64> = const { Cell::new(0) };
 }
+use crate::trace::inputs::{Input, InputRecorder, Origin, TimedInput};
 use crate::trace::{Record, TraceSink};
 
 /// Where a plugin's component comes from.
@@ -253,6 +254,8 @@ pub struct SystemBuilder {
     writes: Vec<StaticWrite>,
     deliberative: Option<Deliberative>,
     sinks: Vec<Box<dyn TraceSink>>,
+    record: Option<PathBuf>,
+    fuel_per_second: Option<u64>,
     keep_trace: bool,
     cache_dir: Option<PathBuf>,
     seed: u64,
@@ -271,6 +274,8 @@ impl Default for SystemBuilder {
             writes: Vec::new(),
             deliberative: None,
             sinks: Vec::new(),
+            record: None,
+            fuel_per_second: None,
             keep_trace: true,
             cache_dir: default_cache_dir(),
             seed: 0,
@@ -350,6 +355,57 @@ impl SystemBuilder {
     /// Sends every trace record to `sink` as it is made.
     pub fn trace_to(mut self, sink: impl TraceSink + 'static) -> Self {
         self.sinks.push(Box::new(sink));
+        self
+    }
+
+    /// Records every input that enters the run from outside (static
+    /// injections, writes and swaps, and those of handles used off the
+    /// run's native contexts) into `path`, as `radar run --record` does;
+    /// [`SystemBuilder::inputs`] feeds such a file back.
+    pub fn record_to(mut self, path: impl Into<PathBuf>) -> Self {
+        self.record = Some(path.into());
+        self
+    }
+
+    /// Feeds timed inputs (an inputs file, [`crate::trace::inputs::load`])
+    /// into the run: injections, blackboard writes and swaps at their
+    /// times. A recording's own lines (its clock, plugin versions, end) are
+    /// not inputs and are skipped here.
+    pub fn inputs(mut self, inputs: &[TimedInput]) -> Self {
+        for TimedInput { t, input } in inputs {
+            let at = Duration::from_nanos(*t);
+            self = match input {
+                Input::Inject { to, payload } => self.inject_at(at, to, payload.clone()),
+                Input::BoardWrite { entry, value } => self.write_at(at, entry, value.clone()),
+                Input::Swap {
+                    plugin,
+                    wasm,
+                    policy,
+                    ..
+                } => {
+                    let policy = if policy == "restart" {
+                        SwapPolicy::Restart
+                    } else {
+                        SwapPolicy::Drain
+                    };
+                    self.swap_at(at, plugin, wasm, policy)
+                }
+                Input::Recording { .. } | Input::Plugin { .. } | Input::End => self,
+            };
+        }
+        self
+    }
+
+    /// Fuel as time (virtual clock): a plugin's compute takes virtual time,
+    /// `fuel_per_second` fuel (about one wasm instruction each) a second, so
+    /// that a slow check or slot shows as late as it would be on a robot,
+    /// and still deterministically. A call's compute is counted when it
+    /// sleeps, yields or returns: what it does after (its end, its result,
+    /// a signal it causes) comes that much later. Off by default (compute
+    /// takes no virtual time); ignored under the real clock, where compute
+    /// takes its real time.
+    pub fn fuel_as_time(mut self, fuel_per_second: u64) -> Self {
+        self.fuel_per_second = Some(fuel_per_second);
         self
     }
 
@@ -445,10 +501,17 @@ impl SystemBuilder {
             .map(|(at, plugin, path, policy)| StaticSwap {
                 at,
                 code: load_version(&mut loader, &plugin, &path),
+                origin: origin_of(&path),
                 plugin,
                 policy,
             })
             .collect();
+        let inputs = match &self.record {
+            None => None,
+            Some(path) => Some(InputRecorder::create(path).map_err(|e| {
+                RadarError::Recording(format!("cannot create {}: {e}", path.display()))
+            })?),
+        };
         let (tx, rx) = unbounded();
         Ok(System {
             loader: Arc::new(Mutex::new(loader)),
@@ -463,6 +526,8 @@ impl SystemBuilder {
             writes: self.writes,
             program,
             sinks: self.sinks,
+            inputs,
+            fuel_per_second: self.fuel_per_second,
             keep_trace: self.keep_trace,
             seed: self.seed,
             tx,
@@ -486,6 +551,8 @@ pub struct System {
     writes: Vec<StaticWrite>,
     program: Option<ProgramCode>,
     sinks: Vec<Box<dyn TraceSink>>,
+    inputs: Option<InputRecorder>,
+    fuel_per_second: Option<u64>,
     keep_trace: bool,
     seed: u64,
     tx: Sender<Command>,
@@ -534,6 +601,15 @@ impl System {
         self.clock
     }
 
+    /// Each plugin's version (the first 12 hex digits of its component's
+    /// sha256), by name.
+    pub fn versions(&self) -> BTreeMap<String, String> {
+        self.plugins
+            .iter()
+            .map(|p| (p.name.clone(), p.code.version.clone()))
+            .collect()
+    }
+
     /// An external handle: commands are applied as they arrive.
     pub fn handle(&self) -> Radar {
         Radar {
@@ -579,7 +655,7 @@ impl System {
         limit: Option<Duration>,
         mut programs: u32,
     ) -> Result<RunReport, RadarError> {
-        let base = TimeBase::new(self.clock);
+        let base = TimeBase::with_fuel_time(self.clock, self.fuel_per_second);
         if let Some(code) = self.program.take() {
             let (clock, seed) = (base.clone(), self.seed);
             native_thread(
@@ -619,6 +695,7 @@ impl System {
             trace: TraceOut {
                 sinks: self.sinks,
                 kept: self.keep_trace.then(Vec::new),
+                inputs: self.inputs.take(),
             },
             commands: self.rx,
             anonymous_jobs: job_tx,
@@ -693,6 +770,25 @@ fn load_version(
     plugin: &str,
     path: &Path,
 ) -> Result<Box<NewVersion>, (String, RadarError)> {
+    if let Origin::Builtin(name) = origin_of(path) {
+        let Some(bytes) = crate::example::wasm::builtin(&name) else {
+            let cause = format!("no built-in component `{name}`");
+            let error = RadarError::BadSetting {
+                plugin: plugin.to_string(),
+                cause,
+            };
+            return Err(("unknown".into(), error));
+        };
+        return loader
+            .load_bytes(plugin, bytes)
+            .map(|code| {
+                Box::new(NewVersion {
+                    code,
+                    instance: None,
+                })
+            })
+            .map_err(|e| (crate::plugin::version_of(bytes), e));
+    }
     let code = loader.load_file(plugin, path);
     code.map(|code| {
         Box::new(NewVersion {
@@ -706,6 +802,14 @@ fn load_version(
             .unwrap_or_else(|_| "unreadable".into());
         (version, e)
     })
+}
+
+/// Where a swap's component comes from: `builtin:NAME` or a file.
+fn origin_of(path: &Path) -> Origin {
+    match path.to_str().and_then(|p| p.strip_prefix("builtin:")) {
+        Some(name) => Origin::Builtin(name.to_string()),
+        None => Origin::File(path.to_path_buf()),
+    }
 }
 
 fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
@@ -971,6 +1075,7 @@ impl Radar {
             to: slot.to_string(),
             payload,
             at: None,
+            external: !self.lockstep(),
             reply,
         })?
     }
@@ -982,6 +1087,7 @@ impl Radar {
             to: slot.to_string(),
             payload,
             at: Some(at),
+            external: !self.lockstep(),
             reply,
         })?
     }
@@ -993,6 +1099,7 @@ impl Radar {
         self.ask(|reply| Command::BoardWrite {
             entry: entry.to_string(),
             value,
+            external: !self.lockstep(),
             reply,
         })?
     }
@@ -1097,10 +1204,12 @@ impl Radar {
         policy: SwapPolicy,
     ) -> Result<(), RadarError> {
         let code = self.stage(plugin, path.as_ref());
+        let origin = (!self.lockstep()).then(|| origin_of(path.as_ref()));
         self.ask(|reply| Command::Swap {
             plugin: plugin.to_string(),
             code,
             policy,
+            origin,
             reply,
         })?
     }
@@ -1120,6 +1229,7 @@ impl Radar {
             Ok(new) => Ok(PreparedVersion {
                 system: self.system,
                 plugin: plugin.to_string(),
+                origin: origin_of(path.as_ref()),
                 new,
             }),
             Err((_, error)) => Err(error),
@@ -1140,10 +1250,12 @@ impl Radar {
                 cause: "the version was prepared for another system".into(),
             });
         }
+        let origin = (!self.lockstep()).then_some(prepared.origin);
         self.ask(|reply| Command::Swap {
             plugin: prepared.plugin,
             code: Ok(prepared.new),
             policy,
+            origin,
             reply,
         })?
     }
@@ -1178,6 +1290,7 @@ impl Radar {
 pub struct PreparedVersion {
     system: u64,
     plugin: String,
+    origin: Origin,
     new: Box<NewVersion>,
 }
 

@@ -17,7 +17,7 @@ fn obstacle_system() -> radar::SystemBuilder {
 }
 
 #[test]
-fn the_obstacle_example_matches_its_expected_trace() {
+fn the_obstacle_example_reads_back_what_avoid_wrote() {
     let report = checked(
         obstacle_system()
             .build()
@@ -46,7 +46,6 @@ fn the_obstacle_example_matches_its_expected_trace() {
             .collect::<Vec<_>>(),
         [json!(1), json!(2)]
     );
-    check_golden("obstacle.jsonl", &report.trace_json_lines());
 }
 
 #[test]

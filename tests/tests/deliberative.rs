@@ -22,7 +22,8 @@ fn the_built_in_example_runs_its_program_as_a_component_with_the_native_trace() 
             .run(Some(Duration::from_secs(30)))
             .expect("runs"),
     );
-    check_golden("listing23.jsonl", &report.trace_json_lines());
+    // The scenario `radar test` runs (tests/scenarios/listing23).
+    assert_matches_scenario("listing23", &report);
     // The fresh build of plugins/listing23-program does the same, and so
     // does the same program in Python (plugins/listing23-program-py).
     for program in [plugins::LISTING23_PROGRAM, plugins::LISTING23_PROGRAM_PY] {

@@ -136,6 +136,8 @@ fn the_embedded_example_plugins_are_the_current_builds() {
         ("count_up.wasm", plugins::COUNT_UP),
         ("obstacle_event.wasm", plugins::OBSTACLE_EVENT),
         ("avoid_response.wasm", plugins::AVOID_RESPONSE),
+        ("counter_event.wasm", plugins::COUNTER_EVENT),
+        ("counter_event_v2.wasm", plugins::COUNTER_EVENT_V2),
     ] {
         let embedded = assets.join(file);
         if std::env::var_os("UPDATE_EMBEDDED").is_some() {

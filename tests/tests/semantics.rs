@@ -688,35 +688,6 @@ fn an_external_handle_drives_a_system_from_another_thread() {
     assert!(count(&records(&report), json!({"kind": "signal", "plugin": "E"})) >= 2);
 }
 
-#[test]
-fn wasi_time_and_randomness_are_virtual_and_seeded_under_the_virtual_clock() {
-    let observe = |seed: u64| {
-        let system = virtual_system().seed(seed).plugin(radar::Plugin::file(
-            "W",
-            radar_fixtures::plugins::WASI_EVENT,
-        ));
-        let report = run(system, 2, |radar| {
-            radar.whenever_do("W", |_| {})?.keep();
-            Ok(())
-        });
-        find(&records(&report), json!({"kind": "signal", "plugin": "W"}))
-            .iter()
-            .map(|r| r["payload"].clone())
-            .collect::<Vec<_>>()
-    };
-    let first = observe(7);
-    assert_eq!(first.len(), 2);
-    // WASI's wall clock reads scheduler time.
-    assert_eq!(first[0]["wall-ms"], json!(1000));
-    assert_eq!(first[1]["wall-ms"], json!(2000));
-    assert_eq!(observe(7), first, "same seed, same observations");
-    assert_ne!(
-        observe(8)[0]["random"],
-        first[0]["random"],
-        "another seed, other randomness"
-    );
-}
-
 /// `slot-begin` records of R's start slot as (time, connection).
 fn activations(trace: &[serde_json::Value], plugin: &str) -> Vec<(f64, u64)> {
     find(

@@ -111,21 +111,28 @@ fn response_swap_report(policy: SwapPolicy) -> radar::RunReport {
     })
 }
 
-/// `drain` and `restart`, for a running response and for an event in the
-/// middle of a check, as whole expected traces (`tests/golden/swap-*.jsonl`,
-/// versions named `v1`, `v2` in order of appearance).
+/// `drain` and `restart` as whole expected traces live in scenario folders
+/// (`tests/scenarios/swap-*`, run by `radar test`); the same system and
+/// inputs given in code, through the test harness, give the same traces.
 #[test]
-fn drain_and_restart_match_their_expected_traces() {
+fn the_swap_scenarios_given_in_code_give_their_expected_traces() {
+    use radar::testing::{secs, TestSystem};
     for policy in [SwapPolicy::Drain, SwapPolicy::Restart] {
         let name = policy.as_str();
-        check_golden(
-            &format!("swap-response-{name}.jsonl"),
-            &with_versions_named(&response_swap_report(policy).trace_json_lines()),
-        );
-        check_golden(
-            &format!("swap-event-{name}.jsonl"),
-            &with_versions_named(&counter_swap(policy).trace_json_lines()),
-        );
+        let run = TestSystem::new(virtual_system())
+            .plugin(
+                Plugin::bytes("R", radar::example::wasm::TEST_RESPONSE)
+                    .config("interval_s", 1.0)
+                    .config("count_for_s", 4.0),
+            )
+            .inject_at(secs(0.0), "R.start", json!(7))
+            .swap_at(secs(1.5), "R", "builtin:count-up", policy)
+            .inject_at(secs(5.0), "R.start", json!(8))
+            .run_for(secs(7.0))
+            .expect("runs");
+        run.assert_matches_file(scenario_expect(&format!("swap-response-{name}")));
+        run.assert_never_overlaps("R");
+        run.assert_started_at("R", secs(5.0));
     }
 }
 

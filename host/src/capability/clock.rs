@@ -4,22 +4,96 @@
 
 use std::sync::Arc;
 
-use wasmtime::component::{HasSelf, Linker};
+use wasmtime::component::Linker;
+use wasmtime::StoreContextMut;
 
-use super::bindings::radar::reactive::clock::{self, Host};
 use super::Interruption;
 use crate::clock::{StopFlag, StopReason, TimeBase, YieldNow};
 use crate::plugin::PluginCtx;
 
-/// What the clock interface reaches: scheduler time and the plugin's stop
-/// request.
+/// What the clock interface reaches: scheduler time, the plugin's stop
+/// request, and (fuel as time) how much of the running call's compute has
+/// been counted as time already.
 pub(crate) struct ClockState {
     pub base: TimeBase,
     pub stop: Arc<StopFlag>,
+    /// The store's fuel level when the running call's compute was last
+    /// turned into time (see [`TimeBase::fuel_nanos`]).
+    pub fuel_mark: u64,
 }
 
+/// Written by hand rather than generated: under fuel as time, `now`,
+/// `sleep` and `yield` read the store's fuel, which a generated host trait
+/// cannot reach.
 pub(crate) fn add_to_linker(linker: &mut Linker<PluginCtx>) -> wasmtime::Result<()> {
-    clock::add_to_linker::<PluginCtx, HasSelf<ClockState>>(linker, |ctx| &mut ctx.clock)
+    let mut clock = linker.instance("radar:reactive/clock@0.1.0")?;
+    clock.func_wrap("now", |store: StoreContextMut<'_, PluginCtx>, (): ()| {
+        let pending = pending_compute(&store).1;
+        Ok((store.data().clock.base.now().saturating_add(pending),))
+    })?;
+    clock.func_wrap_async(
+        "sleep",
+        |mut store: StoreContextMut<'_, PluginCtx>, (nanos,): (u64,)| {
+            let compute = charge_compute(&mut store);
+            let state = &store.data().clock;
+            let deadline = state
+                .base
+                .now()
+                .saturating_add(compute)
+                .saturating_add(nanos);
+            let sleep = state.base.sleep_until(deadline, Some(state.stop.clone()));
+            Box::new(async move { Ok((sleep.await.map_err(interruption),)) })
+        },
+    )?;
+    clock.func_wrap_async(
+        "yield",
+        |mut store: StoreContextMut<'_, PluginCtx>, (): ()| {
+            let compute = charge_compute(&mut store);
+            let state = &store.data().clock;
+            let stop = state.stop.clone();
+            let sleep = (compute > 0).then(|| {
+                let deadline = state.base.now().saturating_add(compute);
+                state.base.sleep_until(deadline, Some(stop.clone()))
+            });
+            Box::new(async move {
+                let woke = match sleep {
+                    // Its compute takes time: other tasks run meanwhile.
+                    Some(sleep) => sleep.await,
+                    None => YieldNow::new(stop).await,
+                };
+                Ok((woke.map_err(interruption),))
+            })
+        },
+    )?;
+    clock.func_wrap(
+        "interrupted",
+        |store: StoreContextMut<'_, PluginCtx>, (): ()| {
+            Ok((store.data().clock.stop.get().map(interruption),))
+        },
+    )?;
+    Ok(())
+}
+
+/// Fuel as time: the running call's fuel level, and the time its compute
+/// since the last charge stands for (0 when fuel is not time).
+fn pending_compute(store: &StoreContextMut<'_, PluginCtx>) -> (u64, u64) {
+    let state = &store.data().clock;
+    if !state.base.fuel_is_time() {
+        return (0, 0);
+    }
+    let left = store.get_fuel().unwrap_or(0);
+    let used = state.fuel_mark.saturating_sub(left);
+    (left, state.base.fuel_nanos(used))
+}
+
+/// Turns the running call's compute since the last charge into time: the
+/// nanoseconds to wait before going on.
+fn charge_compute(store: &mut StoreContextMut<'_, PluginCtx>) -> u64 {
+    let (left, nanos) = pending_compute(store);
+    if nanos > 0 {
+        store.data_mut().clock.fuel_mark = left;
+    }
+    nanos
 }
 
 fn interruption(reason: StopReason) -> Interruption {
@@ -27,28 +101,6 @@ fn interruption(reason: StopReason) -> Interruption {
         StopReason::Interrupt => Interruption::Interrupt,
         StopReason::Exit => Interruption::Exit,
         StopReason::Deactivate => Interruption::Deactivate,
-    }
-}
-
-impl Host for ClockState {
-    fn now(&mut self) -> u64 {
-        self.base.now()
-    }
-
-    async fn sleep(&mut self, nanos: u64) -> Result<(), Interruption> {
-        let deadline = self.base.now().saturating_add(nanos);
-        self.base
-            .sleep_until(deadline, Some(self.stop.clone()))
-            .await
-            .map_err(interruption)
-    }
-
-    async fn yield_(&mut self) -> Result<(), Interruption> {
-        YieldNow::new(self.stop.clone()).await.map_err(interruption)
-    }
-
-    fn interrupted(&mut self) -> Option<Interruption> {
-        self.stop.get().map(interruption)
     }
 }
 

@@ -34,6 +34,7 @@ use crate::error::RadarError;
 use crate::executor::{block_on, Executor, LocalTask, TaskId};
 use crate::payload::{json_to_val, val_to_json, Payload, PayloadType};
 use crate::plugin::{Fault, InstanceSetup, Kind, Limits, PluginCode, PluginInstance};
+use crate::trace::inputs::{Input, InputRecorder, Origin, TimedInput};
 use crate::trace::{Entry, Record, TraceSink};
 
 mod actors;
@@ -148,6 +149,8 @@ pub(crate) enum Command {
         payload: Json,
         /// When to inject (time since the run began); now if `None`.
         at: Option<Duration>,
+        /// From outside the run (not its own deliberative code): recorded.
+        external: bool,
         reply: Sender<Result<(), RadarError>>,
     },
     WaitFor {
@@ -180,6 +183,8 @@ pub(crate) enum Command {
     BoardWrite {
         entry: String,
         value: Json,
+        /// From outside the run: recorded.
+        external: bool,
         reply: Sender<Result<(), RadarError>>,
     },
     /// A plugin's state, as deliberative code sees it.
@@ -198,6 +203,9 @@ pub(crate) enum Command {
         plugin: String,
         code: Result<Box<NewVersion>, (String, RadarError)>,
         policy: SwapPolicy,
+        /// Where the new version came from, when the swap came from outside
+        /// the run (recorded); `None` from its own deliberative code.
+        origin: Option<Origin>,
         reply: Sender<Result<(), RadarError>>,
     },
     /// A deliberative component waits for a deadline, a signal, or a
@@ -257,6 +265,7 @@ pub(crate) struct StaticSwap {
     pub plugin: String,
     pub code: Result<Box<NewVersion>, (String, RadarError)>,
     pub policy: SwapPolicy,
+    pub origin: Origin,
 }
 
 /// A payload for a slot, checked against the slot's type.
@@ -266,6 +275,8 @@ pub(crate) struct Injection {
     label: Arc<str>,
     json: Json,
     value: Option<Val>,
+    /// From outside the run: recorded when it is sent.
+    external: bool,
 }
 
 /// A delivery to an anonymous slot, run on the slot-runner thread.
@@ -606,10 +617,22 @@ enum WaiterReply {
     },
 }
 
+impl State {
+    /// Writes an input from outside into the recording, if there is one.
+    pub(super) fn record_input(&mut self, input: Input) {
+        let t = self.now();
+        if let Some(recorder) = &mut self.trace.inputs {
+            recorder.write(&TimedInput { t, input });
+        }
+    }
+}
+
 /// Where trace records go.
 pub(crate) struct TraceOut {
     pub sinks: Vec<Box<dyn TraceSink>>,
     pub kept: Option<Vec<Record>>,
+    /// `--record`: inputs from outside, as they are applied.
+    pub inputs: Option<InputRecorder>,
 }
 
 pub(crate) struct State {
@@ -875,6 +898,14 @@ impl Scheduler {
         let kind = self.core.base.kind();
         let count = self.core.with(|st| st.plugins.len());
         self.core.with(|st| {
+            st.record_input(Input::Recording {
+                clock: kind.as_str().into(),
+            });
+            for pid in 0..count {
+                let entry = &st.plugins[pid];
+                let (plugin, version) = (entry.name.to_string(), entry.def.code.version.clone());
+                st.record_input(Input::Plugin { plugin, version });
+            }
             for pid in 0..count {
                 let entry = &st.plugins[pid];
                 let state = if entry.is_event() { "inactive" } else { "idle" };
@@ -900,7 +931,8 @@ impl Scheduler {
                 st.connect(link)?;
             }
             for i in std::mem::take(&mut self.injections) {
-                let injection = st.prepare_inject(&i.to, i.payload)?;
+                let mut injection = st.prepare_inject(&i.to, i.payload)?;
+                injection.external = true;
                 st.inject_at(&core, injection, Some(i.at));
             }
             for write in std::mem::take(&mut self.writes) {
@@ -912,7 +944,13 @@ impl Scheduler {
                 let at = duration_nanos(write.at);
                 st.spawn(Box::pin(async move {
                     let _ = core.base.sleep_until(at, None).await;
-                    core.with(|st| st.board_write("(native)", &write.entry, value));
+                    core.with(|st| {
+                        st.board_write("(native)", &write.entry, value);
+                        st.record_input(Input::BoardWrite {
+                            entry: write.entry,
+                            value: write.value,
+                        });
+                    });
                 }));
             }
             for mut swap in std::mem::take(&mut self.swaps) {
@@ -928,7 +966,9 @@ impl Scheduler {
                 st.spawn(Box::pin(async move {
                     let _ = core.base.sleep_until(at, None).await;
                     // A refusal is recorded; the run goes on.
-                    let _ = core.with(|st| st.request_swap(&swap.plugin, swap.code, swap.policy));
+                    let _ = core.with(|st| {
+                        st.request_swap(&swap.plugin, swap.code, swap.policy, Some(&swap.origin))
+                    });
                 }));
             }
             Ok(())
@@ -1035,12 +1075,16 @@ impl Scheduler {
             st.record_logs();
             st.waiters.clear();
             st.turns.abandon();
-            let errors = st
+            st.record_input(Input::End);
+            let mut errors: Vec<String> = st
                 .trace
                 .sinks
                 .iter_mut()
                 .filter_map(|sink| sink.finish().err())
                 .collect();
+            if let Some(Err(e)) = st.trace.inputs.as_mut().map(InputRecorder::finish) {
+                errors.push(format!("recording {e}"));
+            }
             (
                 st.trace.kept.take().unwrap_or_default(),
                 st.program_outcome.take(),
@@ -1092,10 +1136,12 @@ impl Scheduler {
                 to,
                 payload,
                 at,
+                external,
                 reply,
             } => {
                 let result = core.with(|st| {
-                    let injection = st.prepare_inject(&to, payload)?;
+                    let mut injection = st.prepare_inject(&to, payload)?;
+                    injection.external = external;
                     st.inject_at(&core, injection, at);
                     Ok(())
                 });
@@ -1193,9 +1239,16 @@ impl Scheduler {
             Command::BoardWrite {
                 entry,
                 value,
+                external,
                 reply,
             } => {
-                let _ = reply.send(core.with(|st| st.board_write_json(&entry, &value)));
+                let _ = reply.send(core.with(|st| {
+                    st.board_write_json(&entry, &value)?;
+                    if external {
+                        st.record_input(Input::BoardWrite { entry, value });
+                    }
+                    Ok(())
+                }));
             }
             Command::BoardRead { entry, reply } => {
                 let _ = reply.send(core.with(|st| {
@@ -1207,9 +1260,11 @@ impl Scheduler {
                 plugin,
                 code,
                 policy,
+                origin,
                 reply,
             } => {
-                let _ = reply.send(core.with(|st| st.request_swap(&plugin, code, policy)));
+                let _ = reply
+                    .send(core.with(|st| st.request_swap(&plugin, code, policy, origin.as_ref())));
             }
             Command::Spawn { go, reply } => core.with(|st| {
                 st.next_native_task += 1;

@@ -830,6 +830,7 @@ impl State {
             label: label.into(),
             json: payload,
             value,
+            external: false,
         })
     }
 
@@ -861,7 +862,14 @@ impl State {
             label,
             json,
             value,
+            external,
         } = injection;
+        if external {
+            self.record_input(crate::trace::inputs::Input::Inject {
+                to: label.to_string(),
+                payload: json.clone(),
+            });
+        }
         self.record(Entry::Inject {
             to: label.clone(),
             payload: json,

@@ -78,6 +78,21 @@ pub(super) enum Transition {
 }
 
 impl State {
+    /// A swap from outside, into the recording (its component copied
+    /// beside it).
+    fn record_swap(&mut self, plugin: &str, origin: &Origin, version: String, policy: SwapPolicy) {
+        let Some(recorder) = &mut self.trace.inputs else {
+            return;
+        };
+        let wasm = recorder.component(origin, &version);
+        self.record_input(Input::Swap {
+            plugin: plugin.to_string(),
+            wasm,
+            policy: policy.as_str().to_string(),
+            version: Some(version),
+        });
+    }
+
     /// Checks a new version against the plugin's live connections and, if
     /// it fits, makes it wait for the plugin's safe point.
     pub(super) fn request_swap(
@@ -85,8 +100,16 @@ impl State {
         plugin: &str,
         code: Result<Box<NewVersion>, (String, RadarError)>,
         policy: SwapPolicy,
+        origin: Option<&Origin>,
     ) -> Result<(), RadarError> {
         let pid = self.plugin(plugin)?;
+        if let Some(origin) = origin {
+            let version = match &code {
+                Ok(new) => new.code.version.clone(),
+                Err((version, _)) => version.clone(),
+            };
+            self.record_swap(plugin, origin, version, policy);
+        }
         let NewVersion { code, instance } = match code {
             Ok(new) => *new,
             Err((version, error)) => {

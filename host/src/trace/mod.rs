@@ -19,6 +19,8 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value as Json;
 
 mod check;
+pub mod compare;
+pub mod inputs;
 
 pub use check::{check, explain, Violation, WITHDRAWN};
 

@@ -1,32 +1,32 @@
 //! Test fixture: every second, triggers with what Rust's standard library
-//! sees through WASI: the wall clock (ms since the epoch) and a number from
-//! a randomly seeded hasher. Under the virtual clock both must be
-//! deterministic.
+//! sees through WASI: the wall clock (ms since the epoch), the monotonic
+//! clock (ns since the first check) and a number from a randomly seeded
+//! hasher. Under the virtual clock all must be deterministic. The same
+//! probe in Python and JavaScript: `wasi-event-py`, `wasi-event-js`.
 use radar_guest::prelude::*;
 use std::hash::{BuildHasher, RandomState};
-use std::time::{SystemTime, UNIX_EPOCH};
+use std::sync::OnceLock;
+use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
-radar_guest::plugin!(
-    r#"
-    package radar-fixtures:wasi-event;
-    world wasi-event {
-        include radar:reactive/event@0.1.0;
-        record observation { wall-ms: u64, random: u64 }
-        export check: func() -> option<observation>;
-    }
-"#
-);
+radar_guest::plugin!(world: "wasi-probe", path: "../wit/wasi-probe");
+
+/// The monotonic clock at the first check (no destructor: see the SDK's
+/// note on top-level exports).
+static FIRST: OnceLock<Instant> = OnceLock::new();
 
 struct WasiEvent;
 
 impl Guest for WasiEvent {
     fn check() -> Option<Observation> {
         sleep(Duration::from_secs(1)).ok()?;
+        let now = Instant::now();
+        let first = *FIRST.get_or_init(|| now);
         let wall_ms = SystemTime::now()
             .duration_since(UNIX_EPOCH)
             .map_or(0, |d| d.as_millis() as u64);
         Some(Observation {
             wall_ms,
+            monotonic_ns: now.duration_since(first).as_nanos() as u64,
             random: RandomState::new().hash_one(42u32),
         })
     }

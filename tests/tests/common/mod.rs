@@ -137,74 +137,23 @@ pub fn ns(secs: f64) -> u64 {
     (secs * 1e9).round() as u64
 }
 
-/// The directory of expected traces.
-pub fn golden(name: &str) -> PathBuf {
+/// The expected trace of scenario `name` (`tests/scenarios/NAME/expect.jsonl`).
+pub fn scenario_expect(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("golden")
+        .join("scenarios")
         .join(name)
+        .join("expect.jsonl")
 }
 
-/// Compares `actual` with the expected trace `tests/golden/NAME`; with
-/// `UPDATE_GOLDEN=1` set, writes it first.
-pub fn check_golden(name: &str, actual: &str) {
-    let path = golden(name);
-    if std::env::var_os("UPDATE_GOLDEN").is_some() {
-        std::fs::write(&path, actual).expect("write golden file");
+/// Panics, showing the first differing record, unless `report`'s trace is
+/// scenario `name`'s expected trace (what `radar test` checks).
+pub fn assert_matches_scenario(name: &str, report: &RunReport) {
+    let path = scenario_expect(name);
+    let text = std::fs::read_to_string(&path).expect("the scenario's expect.jsonl");
+    let expected = radar::trace::compare::parse_values(&text).expect("JSON lines");
+    let actual: Vec<Json> = records(report);
+    let how = radar::trace::compare::Comparison::default();
+    if let Some(d) = radar::trace::compare::compare(&expected, &actual, &how) {
+        panic!("the trace differs from {}: {d}", path.display());
     }
-    let expected = std::fs::read_to_string(&path).unwrap_or_else(|e| {
-        panic!(
-            "cannot read {} ({e}); run with UPDATE_GOLDEN=1 to create it",
-            path.display()
-        )
-    });
-    if expected != actual {
-        let diff: Vec<String> = expected
-            .lines()
-            .zip(actual.lines())
-            .enumerate()
-            .filter(|(_, (e, a))| e != a)
-            .take(5)
-            .map(|(i, (e, a))| format!("line {}:\n  expected {e}\n  actual   {a}", i + 1))
-            .collect();
-        panic!(
-            "trace differs from {} ({} expected lines, {} actual):\n{}",
-            path.display(),
-            expected.lines().count(),
-            actual.lines().count(),
-            diff.join("\n")
-        );
-    }
-}
-
-/// A trace with plugin versions (component hashes) replaced by `v1`, `v2`,
-/// ... in order of appearance, so that an expected trace says which version
-/// ran, not which bytes a toolchain produced.
-pub fn with_versions_named(trace: &str) -> String {
-    let mut names: Vec<String> = Vec::new();
-    let mut out = String::new();
-    for line in trace.lines() {
-        let record: Json = serde_json::from_str(line).expect("a JSON line");
-        let mut line = line.to_string();
-        if record["kind"]
-            .as_str()
-            .is_some_and(|k| k.starts_with("swap"))
-        {
-            for key in ["version", "from", "to"] {
-                let Some(hash) = record[key].as_str() else {
-                    continue;
-                };
-                let n = match names.iter().position(|h| h == hash) {
-                    Some(n) => n,
-                    None => {
-                        names.push(hash.to_string());
-                        names.len() - 1
-                    }
-                };
-                line = line.replace(&format!("\"{hash}\""), &format!("\"v{}\"", n + 1));
-            }
-        }
-        out.push_str(&line);
-        out.push('\n');
-    }
-    out
 }

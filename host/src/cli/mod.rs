@@ -1,0 +1,12 @@
+//! The subcommands of `radar`, one module each.
+
+use std::io::Write;
+
+pub mod run;
+pub mod test;
+pub mod workspace;
+
+/// Prints a line; a closed stdout (`radar run | head`) is not an error.
+pub fn say(line: std::fmt::Arguments<'_>) {
+    let _ = writeln!(std::io::stdout(), "{line}");
+}

@@ -1,0 +1,415 @@
+//! `radar run`: the built-in example or a manifest's system, on either
+//! clock, with timed inputs, swaps, a trace file, and record and replay.
+
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use anyhow::{Context, Result};
+use radar::manifest::{parse_duration, Manifest};
+use radar::timeline::Timeline;
+use radar::trace::compare::{compare, parse_values, Comparison};
+use radar::trace::inputs::{self, Input, TimedInput};
+use radar::trace::JsonLines;
+use radar::workspace::{self, WatchEvent};
+use radar::{example, ClockKind, SwapPolicy, System};
+
+use super::say;
+
+/// How far apart in time a replay of a real-clock recording may put a
+/// record and still match (`--expect`): a real clock wakes late by up to a
+/// few milliseconds on a loaded machine, and lateness adds up along a
+/// chain of sleeps.
+const REAL_RECORDING_TOLERANCE: Duration = Duration::from_millis(50);
+
+#[derive(clap::Args, Default)]
+pub struct RunArgs {
+    /// A `radar.toml`; without it, the built-in example runs.
+    manifest: Option<PathBuf>,
+    /// `virtual` (time jumps to the next timer: instant and deterministic)
+    /// or `real` (the wall clock).
+    #[arg(long, default_value = "virtual")]
+    clock: ClockKind,
+    /// Stop after this much time on the chosen clock (e.g. 30s, 500ms).
+    /// The built-in example stops after 20 s if not told otherwise.
+    #[arg(long = "for", value_parser = parse_duration)]
+    run_for: Option<Duration>,
+    /// Write the trace (DESIGN §3.3) to this file as JSON Lines.
+    #[arg(long)]
+    trace: Option<PathBuf>,
+    /// Do not print the timeline.
+    #[arg(long, short)]
+    quiet: bool,
+    /// Send a payload straight into a slot at a given time, like OpenRTM's
+    /// rtinject: `AT:Plugin.slot=JSON`, e.g. `2s:TestResponse.start=7` or
+    /// `4.5s:TestResponse.interrupt` (repeatable).
+    #[arg(long = "inject", value_parser = parse_injection)]
+    injections: Vec<Injection>,
+    /// Write a blackboard entry at a given time, as a sensor driver would:
+    /// `AT:entry=JSON`, e.g. `2s:range=0.4` (repeatable).
+    #[arg(long = "write", value_parser = parse_write)]
+    writes: Vec<BoardWrite>,
+    /// Replace a plugin by another component at a given time (hot swap,
+    /// DESIGN §1.4): `AT:Plugin=PATH[:drain|restart]`, e.g.
+    /// `3s:TestEvent=counter_v2.wasm:restart` (repeatable; drain by default).
+    #[arg(long = "swap", value_parser = parse_swap)]
+    swaps: Vec<Swap>,
+    /// Without a manifest, which built-in example runs: `listing23` (the
+    /// paper's Listing 2/3), `listing1` (Listing 1), or `obstacle` (the
+    /// blackboard: a range sensor, an obstacle event, an avoid response).
+    #[arg(long, default_value = "listing23")]
+    example: BuiltInExample,
+    /// Real clock, with a manifest: when a plugin's component file changes,
+    /// or one of the sources its `[plugins.X.build]` table watches (then it
+    /// is rebuilt first), swap the new version in.
+    #[arg(long)]
+    watch: bool,
+    /// Record every input from outside (injections, blackboard writes,
+    /// swaps, from the command line, a watcher or a driver thread) with its
+    /// time, in the inputs.jsonl format (swapped-in components are copied
+    /// beside it).
+    #[arg(long)]
+    record: Option<PathBuf>,
+    /// Feed a recording (or a scenario's inputs.jsonl) back under the
+    /// virtual clock; runs as long as the recorded run unless --for says.
+    #[arg(long)]
+    replay: Option<PathBuf>,
+    /// Compare the run's trace with this trace file (JSON Lines) and fail,
+    /// showing the first differing record, if they part.
+    #[arg(long)]
+    expect: Option<PathBuf>,
+    /// With --expect: how far apart times may be (default 0, or 50ms when
+    /// replaying a real-clock recording).
+    #[arg(long, value_parser = parse_duration)]
+    tolerance: Option<Duration>,
+    /// Fuel as time (virtual clock): plugins' compute takes virtual time,
+    /// this much fuel (about one wasm instruction each) a second, e.g.
+    /// 1000000000.
+    #[arg(long)]
+    fuel_as_time: Option<u64>,
+    /// Seed of the random sources plugins see under the virtual clock
+    /// (default 0).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+}
+
+/// One `--swap`.
+#[derive(Clone)]
+struct Swap {
+    at: Duration,
+    plugin: String,
+    path: PathBuf,
+    policy: SwapPolicy,
+}
+
+fn parse_swap(text: &str) -> Result<Swap, String> {
+    let shape = || format!("`{text}`: expected AT:Plugin=PATH[:drain|restart]");
+    let (at, rest) = text.split_once(':').ok_or_else(shape)?;
+    let (plugin, target) = rest.split_once('=').ok_or_else(shape)?;
+    let (path, policy) = match target.rsplit_once(':') {
+        Some((path, policy)) if policy == "drain" || policy == "restart" => (path, policy.parse()?),
+        _ => (target, SwapPolicy::Drain),
+    };
+    if plugin.is_empty() || path.is_empty() {
+        return Err(shape());
+    }
+    Ok(Swap {
+        at: parse_duration(at)?,
+        plugin: plugin.to_string(),
+        path: PathBuf::from(path),
+        policy,
+    })
+}
+
+/// `radar run --example`.
+#[derive(Clone, Copy, Default, clap::ValueEnum)]
+pub enum BuiltInExample {
+    #[default]
+    Listing23,
+    Listing1,
+    Obstacle,
+}
+
+/// One `--write`.
+#[derive(Clone)]
+struct BoardWrite {
+    at: Duration,
+    entry: String,
+    value: serde_json::Value,
+}
+
+fn parse_write(text: &str) -> Result<BoardWrite, String> {
+    let shape = || format!("`{text}`: expected AT:entry=JSON");
+    let (at, rest) = text.split_once(':').ok_or_else(shape)?;
+    let (entry, value) = rest.split_once('=').ok_or_else(shape)?;
+    if entry.is_empty() {
+        return Err(shape());
+    }
+    Ok(BoardWrite {
+        at: parse_duration(at)?,
+        entry: entry.to_string(),
+        value: serde_json::from_str(value).map_err(|e| format!("`{value}` is not JSON: {e}"))?,
+    })
+}
+
+/// One `--inject`.
+#[derive(Clone)]
+struct Injection {
+    at: Duration,
+    slot: String,
+    payload: serde_json::Value,
+}
+
+fn parse_injection(text: &str) -> Result<Injection, String> {
+    let (at, rest) = text
+        .split_once(':')
+        .ok_or_else(|| format!("`{text}`: expected AT:Plugin.slot=JSON"))?;
+    let (slot, payload) = rest.split_once('=').unwrap_or((rest, "null"));
+    Ok(Injection {
+        at: parse_duration(at)?,
+        slot: slot.to_string(),
+        payload: serde_json::from_str(payload)
+            .map_err(|e| format!("`{payload}` is not JSON: {e}"))?,
+    })
+}
+
+/// What `--watch` did, one line each.
+fn print_watch_event(event: WatchEvent) {
+    match event {
+        WatchEvent::Built { plugin, took } => say(format_args!(
+            "watch: built {plugin} in {:.1} s",
+            took.as_secs_f64()
+        )),
+        WatchEvent::BuildFailed(failure) => {
+            say(format_args!("watch: {failure}; the running version stays"))
+        }
+        WatchEvent::SwapRequested { plugin, version } => {
+            say(format_args!("watch: swapping {plugin} for {version}"))
+        }
+        WatchEvent::SwapRefused(e) => say(format_args!("watch: {e}; the running version stays")),
+    }
+}
+
+pub fn run(args: RunArgs) -> Result<()> {
+    let replay = match &args.replay {
+        None => None,
+        Some(path) => {
+            if args.clock == ClockKind::Real {
+                anyhow::bail!("--replay runs under the virtual clock (leave out --clock real)");
+            }
+            Some(inputs::load(path).map_err(anyhow::Error::msg)?)
+        }
+    };
+    let keep = args.expect.is_some();
+    let mut builder = System::builder()
+        .clock(args.clock)
+        .keep_trace(keep)
+        .seed(args.seed);
+    if !args.quiet {
+        builder = builder.trace_to(Timeline::new(std::io::stdout()));
+    }
+    if let Some(path) = &args.trace {
+        let file = File::create(path)
+            .with_context(|| format!("cannot create trace file {}", path.display()))?;
+        builder = builder.trace_to(JsonLines::new(BufWriter::new(file)));
+    }
+    if let Some(path) = &args.record {
+        builder = builder.record_to(path);
+    }
+    if let Some(rate) = args.fuel_as_time {
+        if args.clock == ClockKind::Real {
+            anyhow::bail!("--fuel-as-time goes with the virtual clock (under the real clock compute takes its real time)");
+        }
+        builder = builder.fuel_as_time(rate);
+    }
+    for w in &args.writes {
+        builder = builder.write_at(w.at, &w.entry, w.value.clone());
+    }
+    for i in &args.injections {
+        builder = builder.inject_at(i.at, &i.slot, i.payload.clone());
+    }
+    for s in &args.swaps {
+        builder = builder.swap_at(s.at, &s.plugin, &s.path, s.policy);
+    }
+    // A replay runs as long as the recorded run did, unless told otherwise.
+    let recorded_end = replay.as_ref().and_then(|inputs| {
+        inputs.iter().find_map(|i| match i.input {
+            Input::End => Some(Duration::from_nanos(i.t)),
+            _ => None,
+        })
+    });
+    let run_for = args.run_for.or(recorded_end);
+    if let Some(inputs) = &replay {
+        builder = builder.inputs(inputs);
+    }
+    let clock = args.clock.as_str();
+    if args.watch && (args.manifest.is_none() || args.clock != ClockKind::Real) {
+        anyhow::bail!("--watch goes with a manifest and --clock real");
+    }
+    let report = match &args.manifest {
+        None => {
+            let limit = run_for.unwrap_or(Duration::from_secs(20));
+            let (what, build, program): (&str, fn(_) -> _, fn(_) -> _) = match args.example {
+                BuiltInExample::Listing23 => (
+                    "the paper's Listing 2/3 example",
+                    example::listing23,
+                    example::listing23_program,
+                ),
+                BuiltInExample::Listing1 => (
+                    "the paper's Listing 1 example",
+                    example::listing1,
+                    example::listing1_program,
+                ),
+                BuiltInExample::Obstacle => (
+                    "the blackboard example (range sensor, Obstacle, Avoid)",
+                    example::obstacle,
+                    example::obstacle_program,
+                ),
+            };
+            // The built-in Listing 2/3 is a manifest whose deliberative
+            // program is a component (its trace is the native one's).
+            let system = match args.example {
+                BuiltInExample::Listing23 => example::listing23_manifest().add_plugins(builder),
+                _ => build(builder),
+            }
+            .build()?;
+            warn_of_changed_plugins(replay.as_deref(), &system);
+            if !args.quiet {
+                say(format_args!(
+                    "Radar: {what}, {clock} clock, {:.1} s\n",
+                    limit.as_secs_f64()
+                ));
+            }
+            match args.example {
+                BuiltInExample::Listing23 => system.run(Some(limit))?,
+                _ => system.run_with(Some(limit), program)?,
+            }
+        }
+        Some(path) => {
+            if args.clock == ClockKind::Virtual && run_for.is_none() {
+                // Active events keep setting timers: virtual time never runs out.
+                anyhow::bail!("with the virtual clock, say how long to run (e.g. --for 30s)");
+            }
+            let manifest = Manifest::load(path)?;
+            let system = manifest.add_to(builder).build()?;
+            warn_of_changed_plugins(replay.as_deref(), &system);
+            if !args.quiet {
+                say(format_args!("Radar: {}, {clock} clock\n", path.display()));
+            }
+            if args.watch {
+                workspace::watch(manifest.builds(), system.handle(), print_watch_event)
+                    .context("cannot watch the plugins' files")?;
+            }
+            system.run(run_for)?
+        }
+    };
+    if let Some(at) = report.livelock {
+        anyhow::bail!(
+            "stopped at {:.3} s: the system kept working without virtual time advancing \
+             (a loop that takes no time, such as connections that restart a response at once)",
+            at.as_secs_f64()
+        );
+    }
+    if let Some(e) = report.trace_errors.first() {
+        match &args.trace {
+            Some(path) if !e.starts_with("recording ") => {
+                anyhow::bail!("trace file {} is incomplete: {e}", path.display())
+            }
+            _ => anyhow::bail!("{e}"),
+        }
+    }
+    if let Some(path) = &args.expect {
+        expect_trace(path, &report, replay.as_deref(), args.tolerance)?;
+    }
+    if let Some(Err(e)) = &report.program {
+        anyhow::bail!("deliberative program: {e}");
+    }
+    if !args.quiet {
+        say(format_args!(
+            "\nrun ended at {:.3} s ({clock} clock)",
+            report.ended_at.as_secs_f64()
+        ));
+    }
+    Ok(())
+}
+
+/// A replay of a recording made with other versions of the plugins may
+/// part from it: say which plugins changed, before the run.
+fn warn_of_changed_plugins(replay: Option<&[TimedInput]>, system: &System) {
+    let Some(inputs) = replay else { return };
+    let now = system.versions();
+    for input in inputs {
+        if let Input::Plugin { plugin, version } = &input.input {
+            match now.get(plugin) {
+                Some(v) if v == version => {}
+                Some(v) => eprintln!(
+                    "radar: replay: plugin `{plugin}` is version {v}, the recording ran {version}: \
+                     the run may part from the recorded one"
+                ),
+                None => eprintln!(
+                    "radar: replay: the recording had a plugin `{plugin}` this system lacks"
+                ),
+            }
+        }
+    }
+}
+
+/// `--expect`: the run's trace against a trace file; the first divergence
+/// fails the command. A replay of a real-clock recording compares times
+/// within `tolerance` (its records happened at real times the virtual
+/// clock does not reproduce exactly).
+fn expect_trace(
+    path: &Path,
+    report: &radar::RunReport,
+    replay: Option<&[TimedInput]>,
+    tolerance: Option<Duration>,
+) -> Result<()> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read expected trace {}", path.display()))?;
+    let expected = parse_values(&text).with_context(|| path.display().to_string())?;
+    let actual: Vec<serde_json::Value> = report
+        .trace
+        .iter()
+        .map(|r| serde_json::to_value(r).unwrap_or_default())
+        .collect();
+    let recorded_real = replay.is_some_and(|inputs| {
+        inputs
+            .iter()
+            .any(|i| matches!(&i.input, Input::Recording { clock } if clock == "real"))
+    });
+    let tolerance = tolerance.unwrap_or(if recorded_real {
+        REAL_RECORDING_TOLERANCE
+    } else {
+        Duration::ZERO
+    });
+    let slack = u64::try_from(tolerance.as_nanos()).unwrap_or(u64::MAX);
+    let how = Comparison {
+        time_tolerance: slack,
+        ..Comparison::default()
+    };
+    // What happened within the tolerance of the end may have happened on
+    // one side only: the end is not compared.
+    let settled = |records: Vec<serde_json::Value>| -> Vec<serde_json::Value> {
+        let end = u64::try_from(report.ended_at.as_nanos()).unwrap_or(u64::MAX);
+        let cut = end.saturating_sub(slack);
+        records
+            .into_iter()
+            .filter(|r| slack == 0 || r["t"].as_u64().is_none_or(|t| t < cut))
+            .collect()
+    };
+    let (expected, actual) = (settled(expected), settled(actual));
+    if let Some(divergence) = compare(&expected, &actual, &how) {
+        anyhow::bail!(
+            "the run parts from {} (times compared within {:?}): {divergence}",
+            path.display(),
+            tolerance
+        );
+    }
+    say(format_args!(
+        "the trace matches {} ({} records)",
+        path.display(),
+        expected.len()
+    ));
+    Ok(())
+}

@@ -1,0 +1,323 @@
+//! Comparing a trace with an expected one, and saying where they part.
+//!
+//! `radar test` and `radar run --replay --expect` compare whole traces; what
+//! a user needs from a failure is the first record that differs, the records
+//! just before it (what led there) and both versions of it. Records are
+//! compared as JSON objects, so an expected file may hold kinds this build
+//! does not know, and a scenario can choose which kinds matter.
+//!
+//! ```
+//! # use radar::trace::compare::{compare, Comparison};
+//! let expected = r#"{"t":0,"kind":"activate","plugin":"E"}
+//! {"t":1000,"kind":"signal","plugin":"E","signal":"triggered","payload":1}"#;
+//! let actual = r#"{"t":0,"kind":"activate","plugin":"E"}
+//! {"t":1000,"kind":"signal","plugin":"E","signal":"triggered","payload":2}"#;
+//! let parse = |t: &str| radar::trace::compare::parse_values(t).unwrap();
+//! let d = compare(&parse(expected), &parse(actual), &Comparison::default()).unwrap();
+//! assert_eq!(d.index, 1);
+//! assert!(d.to_string().contains(r#""payload":2"#));
+//! ```
+
+use std::collections::{BTreeSet, HashMap};
+use std::fmt;
+
+use serde_json::{Map, Value as Json};
+
+use super::ParseError;
+
+/// What counts as a difference.
+#[derive(Clone, Debug)]
+pub struct Comparison {
+    /// Only records of these kinds are compared (`None`: all).
+    pub kinds: Option<BTreeSet<String>>,
+    /// Plugin versions (component hashes) in swap records compared as
+    /// `v1`, `v2`, ... in order of appearance, so that an expected trace
+    /// says which version ran, not which bytes a toolchain produced.
+    pub versions_by_order: bool,
+    /// Times may differ by this many nanoseconds (0: exactly equal), as
+    /// when a real-clock recording is replayed under the virtual clock.
+    pub time_tolerance: u64,
+    /// Fields never compared (by default `backtrace`: it names code offsets
+    /// of one build).
+    pub ignore_fields: BTreeSet<String>,
+}
+
+impl Default for Comparison {
+    fn default() -> Self {
+        Self {
+            kinds: None,
+            versions_by_order: true,
+            time_tolerance: 0,
+            ignore_fields: BTreeSet::from(["backtrace".to_string()]),
+        }
+    }
+}
+
+/// Fields of swap records that name versions.
+const VERSION_FIELDS: [&str; 3] = ["version", "from", "to"];
+
+impl Comparison {
+    /// The records of `trace` this comparison looks at, in the form it
+    /// compares them (kinds filtered, versions named by order, ignored
+    /// fields removed): what `--bless` writes.
+    pub fn normalize(&self, trace: &[Json]) -> Vec<Json> {
+        // Versions swapped out are named first, in order: a plugin's first
+        // version is `v1` even though a `swap-request` names the new one
+        // before any record names the old.
+        let mut versions: HashMap<String, usize> = HashMap::new();
+        for record in trace.iter().filter(|r| r["kind"] == "swap") {
+            if let Some(from) = record["from"].as_str() {
+                let next = versions.len() + 1;
+                versions.entry(from.to_string()).or_insert(next);
+            }
+        }
+        trace
+            .iter()
+            .filter(|r| self.keeps(r))
+            .map(|r| {
+                let mut r = r.clone();
+                if let Some(object) = r.as_object_mut() {
+                    for field in &self.ignore_fields {
+                        object.remove(field);
+                    }
+                    if self.versions_by_order && is_swap_kind(object) {
+                        name_versions(object, &mut versions);
+                    }
+                }
+                r
+            })
+            .collect()
+    }
+
+    fn keeps(&self, record: &Json) -> bool {
+        match (&self.kinds, record.get("kind").and_then(Json::as_str)) {
+            (None, _) => true,
+            (Some(kinds), Some(kind)) => kinds.contains(kind),
+            (Some(_), None) => false,
+        }
+    }
+
+    fn same(&self, expected: &Json, actual: &Json) -> bool {
+        let (Some(e), Some(a)) = (expected.as_object(), actual.as_object()) else {
+            return expected == actual;
+        };
+        let time = |o: &Map<String, Json>| o.get("t").and_then(Json::as_u64);
+        let times_agree = match (time(e), time(a)) {
+            (Some(x), Some(y)) => x.abs_diff(y) <= self.time_tolerance,
+            (x, y) => x == y,
+        };
+        let fields = |o: &Map<String, Json>| -> Map<String, Json> {
+            o.iter()
+                .filter(|(k, _)| k.as_str() != "t")
+                .map(|(k, v)| (k.clone(), v.clone()))
+                .collect()
+        };
+        times_agree && fields(e) == fields(a)
+    }
+}
+
+fn is_swap_kind(object: &Map<String, Json>) -> bool {
+    object
+        .get("kind")
+        .and_then(Json::as_str)
+        .is_some_and(|k| k.starts_with("swap"))
+}
+
+fn name_versions(object: &mut Map<String, Json>, names: &mut HashMap<String, usize>) {
+    for field in VERSION_FIELDS {
+        if let Some(Json::String(hash)) = object.get(field) {
+            let next = names.len() + 1;
+            let n = *names.entry(hash.clone()).or_insert(next);
+            object.insert(field.to_string(), Json::String(format!("v{n}")));
+        }
+    }
+}
+
+/// Where two traces part: the first record (of the compared ones) that
+/// differs, with what came before it and both versions of what follows.
+#[derive(Clone, Debug)]
+pub struct Divergence {
+    /// Index of the first differing record among the compared records.
+    pub index: usize,
+    /// The compared records both traces agree on, just before it.
+    pub before: Vec<Json>,
+    /// The expected record there and a few after it (empty: the expected
+    /// trace ended).
+    pub expected: Vec<Json>,
+    /// The actual record there and a few after it (empty: the actual trace
+    /// ended).
+    pub actual: Vec<Json>,
+    /// Compared records on each side: expected, actual.
+    pub lengths: (usize, usize),
+}
+
+/// How many records of context a divergence shows on each side.
+const CONTEXT: usize = 3;
+
+/// Compares two traces (JSON records); `None` if they agree.
+pub fn compare(expected: &[Json], actual: &[Json], how: &Comparison) -> Option<Divergence> {
+    let expected = how.normalize(expected);
+    let actual = how.normalize(actual);
+    let index = (0..expected.len().max(actual.len())).find(|&i| {
+        match (expected.get(i), actual.get(i)) {
+            (Some(e), Some(a)) => !how.same(e, a),
+            _ => true,
+        }
+    })?;
+    let after = |records: &[Json]| -> Vec<Json> {
+        records.iter().skip(index).take(CONTEXT).cloned().collect()
+    };
+    Some(Divergence {
+        index,
+        before: expected[index.saturating_sub(CONTEXT)..index].to_vec(),
+        expected: after(&expected),
+        actual: after(&actual),
+        lengths: (expected.len(), actual.len()),
+    })
+}
+
+/// A record as one line, `t` and `kind` first as in a trace file.
+pub fn render(record: &Json) -> String {
+    let Some(object) = record.as_object() else {
+        return record.to_string();
+    };
+    let mut parts = Vec::with_capacity(object.len());
+    let first = ["t", "kind"];
+    for key in first {
+        if let Some(v) = object.get(key) {
+            parts.push(format!("{}:{v}", Json::String(key.into())));
+        }
+    }
+    for (key, v) in object.iter().filter(|(k, _)| !first.contains(&k.as_str())) {
+        parts.push(format!("{}:{v}", Json::String(key.clone())));
+    }
+    format!("{{{}}}", parts.join(","))
+}
+
+fn time_of(record: Option<&Json>) -> Option<f64> {
+    record
+        .and_then(|r| r.get("t"))
+        .and_then(Json::as_u64)
+        .map(|t| t as f64 / 1e9)
+}
+
+impl fmt::Display for Divergence {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let at = time_of(self.expected.first()).or_else(|| time_of(self.actual.first()));
+        write!(f, "first difference at record {}", self.index + 1)?;
+        if let Some(t) = at {
+            write!(f, " (t = {t:.3} s)")?;
+        }
+        writeln!(
+            f,
+            "; {} records expected, {} produced",
+            self.lengths.0, self.lengths.1
+        )?;
+        let first = self.index + 1 - self.before.len();
+        for (i, r) in self.before.iter().enumerate() {
+            writeln!(f, "    {:>6}  {}", first + i, render(r))?;
+        }
+        let side = |f: &mut fmt::Formatter<'_>, mark: &str, records: &[Json]| -> fmt::Result {
+            if records.is_empty() {
+                return writeln!(f, "  {mark} {:>6}  (the trace ends here)", self.index + 1);
+            }
+            for (i, r) in records.iter().enumerate() {
+                writeln!(f, "  {mark} {:>6}  {}", self.index + 1 + i, render(r))?;
+            }
+            Ok(())
+        };
+        writeln!(f, "  expected:")?;
+        side(f, "-", &self.expected)?;
+        writeln!(f, "  actual:")?;
+        side(f, "+", &self.actual)
+    }
+}
+
+/// Parses JSON Lines into JSON values (blank lines are skipped).
+pub fn parse_values(text: &str) -> Result<Vec<Json>, ParseError> {
+    text.lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty())
+        .map(|(i, l)| {
+            serde_json::from_str(l).map_err(|e| ParseError {
+                line: i + 1,
+                cause: e.to_string(),
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn swap(version: &str) -> Json {
+        json!({"t": 5, "kind": "swap-request", "plugin": "E", "version": version, "policy": "drain"})
+    }
+
+    #[test]
+    fn equal_traces_agree_and_versions_compare_by_order() {
+        let a = vec![swap("aaaa"), swap("bbbb"), swap("aaaa")];
+        let b = vec![swap("cccc"), swap("dddd"), swap("cccc")];
+        assert!(compare(&a, &b, &Comparison::default()).is_none());
+        let c = vec![swap("cccc"), swap("dddd"), swap("dddd")];
+        let d = compare(&a, &c, &Comparison::default()).expect("third differs");
+        assert_eq!(d.index, 2);
+        assert_eq!(d.expected[0]["version"], "v1");
+        assert_eq!(d.actual[0]["version"], "v2");
+        let exact = Comparison {
+            versions_by_order: false,
+            ..Comparison::default()
+        };
+        assert_eq!(compare(&a, &b, &exact).map(|d| d.index), Some(0));
+    }
+
+    #[test]
+    fn a_shorter_trace_diverges_where_it_ends() {
+        let a = vec![json!({"t":0,"kind":"activate","plugin":"E"}), swap("x")];
+        let d = compare(&a, &a[..1], &Comparison::default()).expect("differs");
+        assert_eq!((d.index, d.actual.len(), d.lengths), (1, 0, (2, 1)));
+        assert!(d.to_string().contains("(the trace ends here)"));
+    }
+
+    #[test]
+    fn kinds_filter_and_time_tolerance() {
+        let a = vec![
+            json!({"t":0,"kind":"log","plugin":"E","level":"info","message":"a"}),
+            json!({"t":1_000_000,"kind":"activate","plugin":"E"}),
+        ];
+        let b = vec![json!({"t":1_000_400,"kind":"activate","plugin":"E"})];
+        let only = Comparison {
+            kinds: Some(BTreeSet::from(["activate".to_string()])),
+            ..Comparison::default()
+        };
+        assert_eq!(compare(&a, &b, &only).map(|d| d.index), Some(0));
+        let loose = Comparison {
+            time_tolerance: 500,
+            ..only
+        };
+        assert!(compare(&a, &b, &loose).is_none());
+    }
+
+    #[test]
+    fn a_divergence_shows_context_and_both_sides() {
+        let rec = |t: u64, p: &str| json!({"t": t, "kind": "activate", "plugin": p});
+        let a: Vec<Json> = (0..6).map(|i| rec(i, "E")).collect();
+        let mut b = a.clone();
+        b[4] = rec(4, "F");
+        let text = compare(&a, &b, &Comparison::default())
+            .expect("differs")
+            .to_string();
+        assert!(text.starts_with("first difference at record 5"), "{text}");
+        assert!(
+            text.contains(r#"       4  {"t":3,"kind":"activate","plugin":"E"}"#),
+            "{text}"
+        );
+        assert!(text.contains("-      5  "), "{text}");
+        assert!(
+            text.contains("+      5  ") && text.contains("\"F\""),
+            "{text}"
+        );
+    }
+}

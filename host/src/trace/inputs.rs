@@ -1,0 +1,254 @@
+//! Inputs from outside a system, with their times: what `radar run --record`
+//! writes, `--replay` and a scenario's `inputs.jsonl` feed back (DESIGN
+//! §3.4).
+//!
+//! Under the virtual clock a run is a pure function of its system and its
+//! inputs, so the inputs are all a recording needs: injections, blackboard
+//! writes and swaps that came from outside the run (the CLI, a driver
+//! thread, a file watcher), not those the system's own deliberative code
+//! made (it makes them again when replayed). A recording also names each
+//! plugin's version when it began, so that a replay with changed plugins
+//! says so, and the time the run ended, so that a replay stops there.
+//!
+//! ```
+//! # use radar::trace::inputs::{parse, Input};
+//! let inputs = parse(r#"
+//! {"t":2000000000,"kind":"inject","to":"R.start","payload":7}
+//! {"t":3000000000,"kind":"board-write","entry":"range","value":0.4}
+//! "#, std::path::Path::new(".")).unwrap();
+//! assert!(matches!(&inputs[0].input, Input::Inject { to, .. } if to == "R.start"));
+//! ```
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value as Json;
+
+use super::ParseError;
+
+/// One line of an inputs file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TimedInput {
+    /// Nanoseconds since the run began.
+    pub t: u64,
+    /// What came in.
+    #[serde(flatten)]
+    pub input: Input,
+}
+
+/// What came in from outside, or what a recording says about its run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+pub enum Input {
+    /// A payload sent straight into a slot (`--inject`, `Radar::inject`).
+    Inject {
+        /// `Plugin.slot`.
+        to: String,
+        /// The payload, as JSON.
+        #[serde(default)]
+        payload: Json,
+    },
+    /// A blackboard entry written (`--write`, `Radar::board_write`).
+    BoardWrite {
+        /// The entry.
+        entry: String,
+        /// Its new value.
+        value: Json,
+    },
+    /// A swap asked for (`--swap`, `--watch`, `Radar::swap`).
+    Swap {
+        /// The plugin replaced.
+        plugin: String,
+        /// The new component: a path (relative to the inputs file) or
+        /// `builtin:NAME`.
+        wasm: String,
+        /// `drain` (default) or `restart`.
+        #[serde(default = "drain")]
+        policy: String,
+        /// The version (component hash) the recording swapped in.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        version: Option<String>,
+    },
+    /// A recording's first line: the clock it was made on.
+    Recording {
+        /// `virtual` or `real`.
+        clock: String,
+    },
+    /// A plugin's version when the recorded run began.
+    Plugin {
+        /// The plugin.
+        plugin: String,
+        /// Its version.
+        version: String,
+    },
+    /// The recorded run ended here.
+    End,
+}
+
+fn drain() -> String {
+    "drain".into()
+}
+
+/// Parses an inputs file; relative swap paths are made relative to `dir`
+/// (the file's folder).
+pub fn parse(text: &str, dir: &Path) -> Result<Vec<TimedInput>, ParseError> {
+    let mut inputs = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let mut input: TimedInput = serde_json::from_str(line).map_err(|e| ParseError {
+            line: i + 1,
+            cause: e.to_string(),
+        })?;
+        if let Input::Swap { wasm, policy, .. } = &mut input.input {
+            if policy != "drain" && policy != "restart" {
+                return Err(ParseError {
+                    line: i + 1,
+                    cause: format!("swap policy `{policy}`: expected drain or restart"),
+                });
+            }
+            if !wasm.starts_with("builtin:") && Path::new(wasm).is_relative() {
+                *wasm = dir.join(&*wasm).display().to_string();
+            }
+        }
+        inputs.push(input);
+    }
+    Ok(inputs)
+}
+
+/// Reads and parses an inputs file.
+pub fn load(path: &Path) -> Result<Vec<TimedInput>, String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("cannot read inputs file {}: {e}", path.display()))?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    parse(&text, dir).map_err(|e| format!("inputs file {}: {e}", path.display()))
+}
+
+/// Where a swapped-in component came from, for a recording.
+#[derive(Clone, Debug)]
+pub(crate) enum Origin {
+    /// A component file.
+    File(PathBuf),
+    /// `builtin:NAME`.
+    Builtin(String),
+}
+
+/// Writes a recording as inputs arrive (`radar run --record FILE`).
+///
+/// Swapped-in component files are copied beside it, into
+/// `FILE.components/VERSION.wasm`, so that a replay finds the version that
+/// ran even after the file was rebuilt. A write that fails does not stop the
+/// run: the first error is kept and reported when the run ends.
+pub struct InputRecorder {
+    out: BufWriter<File>,
+    path: PathBuf,
+    error: Option<String>,
+}
+
+impl InputRecorder {
+    /// Creates (or truncates) the recording file.
+    pub fn create(path: &Path) -> std::io::Result<Self> {
+        Ok(Self {
+            out: BufWriter::new(File::create(path)?),
+            path: path.to_path_buf(),
+            error: None,
+        })
+    }
+
+    /// Writes one line.
+    pub fn write(&mut self, input: &TimedInput) {
+        if self.error.is_some() {
+            return;
+        }
+        let line = serde_json::to_string(input).unwrap_or_default();
+        if let Err(e) = writeln!(self.out, "{line}") {
+            self.error = Some(format!("{}: {e}", self.path.display()));
+        }
+    }
+
+    /// What a swap's `wasm` field says for a component from `origin`:
+    /// a file is copied beside the recording.
+    pub(crate) fn component(&mut self, origin: &Origin, version: &str) -> String {
+        match origin {
+            Origin::Builtin(name) => format!("builtin:{name}"),
+            Origin::File(source) => {
+                let folder_name = format!(
+                    "{}.components",
+                    self.path.file_name().unwrap_or_default().to_string_lossy()
+                );
+                let folder = self.path.with_file_name(&folder_name);
+                let copy = folder.join(format!("{version}.wasm"));
+                let copied = std::fs::create_dir_all(&folder)
+                    .and_then(|()| std::fs::copy(source, &copy).map(drop));
+                match copied {
+                    // Relative to the recording, as `parse` reads it.
+                    Ok(()) => format!("{folder_name}/{version}.wasm"),
+                    Err(e) => {
+                        self.error.get_or_insert_with(|| {
+                            format!("cannot copy {} beside the recording: {e}", source.display())
+                        });
+                        source.display().to_string()
+                    }
+                }
+            }
+        }
+    }
+
+    /// Flushes the file; the first error, if a write failed.
+    pub fn finish(&mut self) -> Result<(), String> {
+        let flushed = self.out.flush().map_err(|e| e.to_string());
+        match self.error.take() {
+            Some(e) => Err(e),
+            None => flushed,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_kind_round_trips_and_relative_paths_follow_the_file() {
+        let lines = [
+            r#"{"t":0,"kind":"recording","clock":"real"}"#,
+            r#"{"t":0,"kind":"plugin","plugin":"E","version":"abc"}"#,
+            r#"{"t":5,"kind":"inject","to":"R.start","payload":[1,2]}"#,
+            r#"{"t":6,"kind":"board-write","entry":"range","value":0.5}"#,
+            r#"{"t":7,"kind":"swap","plugin":"E","wasm":"v2.wasm","policy":"restart","version":"def"}"#,
+            r#"{"t":8,"kind":"swap","plugin":"E","wasm":"builtin:timer-event","policy":"drain"}"#,
+            r#"{"t":9,"kind":"end"}"#,
+        ];
+        let inputs = parse(&lines.join("\n"), Path::new("/rec")).expect("parses");
+        assert_eq!(inputs.len(), 7);
+        match &inputs[4].input {
+            Input::Swap { wasm, .. } => assert_eq!(wasm, "/rec/v2.wasm"),
+            other => panic!("{other:?}"),
+        }
+        match &inputs[5].input {
+            Input::Swap { wasm, .. } => assert_eq!(wasm, "builtin:timer-event"),
+            other => panic!("{other:?}"),
+        }
+        let again = serde_json::to_string(&inputs[2]).expect("serializes");
+        assert_eq!(again, lines[2]);
+    }
+
+    #[test]
+    fn a_bad_line_is_named() {
+        let err = parse(
+            "{\"t\":0,\"kind\":\"inject\",\"to\":\"R\"}\n{\"t\":1,\"kind\":\"teleport\"}",
+            Path::new("."),
+        )
+        .expect_err("unknown kind");
+        assert_eq!(err.line, 2);
+        let err = parse(
+            r#"{"t":1,"kind":"swap","plugin":"E","wasm":"x.wasm","policy":"now"}"#,
+            Path::new("."),
+        )
+        .expect_err("bad policy");
+        assert!(err.cause.contains("drain or restart"), "{}", err.cause);
+    }
+}
