@@ -65,6 +65,9 @@ fn the_native_listing_1_program_finishes() {
     );
 }
 
+/// Runs one example to its end.
+type Example = fn() -> RunReport;
+
 /// Busy loops in other processes, one per core, for as long as they live.
 struct Load(Vec<Child>);
 
@@ -95,7 +98,7 @@ impl Drop for Load {
 
 #[test]
 fn a_hundred_runs_of_each_example_are_byte_identical_also_under_load() {
-    let examples: [(&str, fn() -> RunReport); 4] = [
+    let examples: [(&str, Example); 4] = [
         ("listing23 (native program)", listing23_native),
         ("listing23 (component program)", listing23_component),
         ("listing1", listing1_native),

@@ -1,0 +1,367 @@
+//! `radar test` (scenario folders, DESIGN §3.4) and `radar run --record /
+//! --replay`, through the command line as users run them. The project's
+//! own scenarios (`tests/scenarios`) run here, so the README's test
+//! command runs them.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn radar(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_radar"))
+        .args(args)
+        .output()
+        .expect("the radar binary runs")
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+fn last_line(text: &str) -> &str {
+    text.lines().last().unwrap_or_default()
+}
+
+fn scenarios() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenarios")
+}
+
+fn arg(path: &Path) -> &str {
+    path.to_str().expect("utf-8 path")
+}
+
+#[test]
+fn the_project_scenarios_pass_with_a_runner_summary() {
+    let count = std::fs::read_dir(scenarios())
+        .expect("tests/scenarios")
+        .filter_map(Result::ok)
+        .filter(|e| e.path().join("radar.toml").is_file())
+        .count();
+    assert!(count >= 7, "the scenarios are there");
+    let out = radar(&["test", arg(&scenarios())]);
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{stdout}{}", text(&out.stderr));
+    assert!(
+        stdout.starts_with(&format!("running {count} scenarios\n")),
+        "{stdout}"
+    );
+    assert!(stdout.contains("scenario listing23 ... ok ("), "{stdout}");
+    let last = stdout.lines().last().expect("a summary");
+    assert!(
+        last.starts_with(&format!("{count} passed, 0 failed (")),
+        "{stdout}"
+    );
+    // One at a time gives the same verdicts as all at once.
+    let serial = radar(&["test", arg(&scenarios()), "--jobs", "1"]);
+    assert!(serial.status.success(), "{}", text(&serial.stdout));
+}
+
+/// A copy of scenario `name` in a temporary folder.
+fn copy_scenario(name: &str, into: &Path) -> PathBuf {
+    let to = into.join(name);
+    std::fs::create_dir_all(&to).expect("mkdir");
+    for entry in std::fs::read_dir(scenarios().join(name)).expect("scenario") {
+        let entry = entry.expect("entry");
+        std::fs::copy(entry.path(), to.join(entry.file_name())).expect("copy");
+    }
+    to
+}
+
+#[test]
+fn a_changed_trace_fails_showing_the_first_difference_and_bless_accepts_it() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let scenario = copy_scenario("swap-event-drain", dir.path());
+    copy_scenario("listing1", dir.path());
+    let expect = scenario.join("expect.jsonl");
+    let original = std::fs::read_to_string(&expect).expect("expect.jsonl");
+    std::fs::write(
+        &expect,
+        original.replace(r#""payload":600"#, r#""payload":601"#),
+    )
+    .expect("edit");
+
+    let out = radar(&["test", arg(dir.path())]);
+    let stdout = text(&out.stdout);
+    assert!(!out.status.success(), "{stdout}");
+    assert!(stdout.contains("scenario listing1 ... ok"), "{stdout}");
+    assert!(
+        stdout.contains("scenario swap-event-drain ... FAILED"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("---- swap-event-drain ----"), "{stdout}");
+    assert!(stdout.contains("first difference at record"), "{stdout}");
+    assert!(stdout.contains("(t = 6.000 s)"), "{stdout}");
+    let minus = stdout
+        .lines()
+        .find(|l| l.trim_start().starts_with("- "))
+        .expect("expected side");
+    let plus = stdout
+        .lines()
+        .find(|l| l.trim_start().starts_with("+ "))
+        .expect("actual side");
+    assert!(minus.contains(r#""payload":601"#), "{minus}");
+    assert!(plus.contains(r#""payload":600"#), "{plus}");
+    assert!(
+        last_line(&stdout).starts_with("1 passed, 1 failed"),
+        "{stdout}"
+    );
+    assert!(text(&out.stderr).contains("1 scenario(s) failed"));
+
+    // A filter picks scenarios by name.
+    let out = radar(&["test", arg(dir.path()), "--filter", "listing"]);
+    assert!(out.status.success(), "{}", text(&out.stdout));
+    assert!(text(&out.stdout).contains("(1 filtered out)"));
+
+    // --bless writes the expected trace from the run; then it passes.
+    let out = radar(&["test", arg(dir.path()), "--bless"]);
+    assert!(out.status.success(), "{}", text(&out.stdout));
+    assert!(text(&out.stdout).contains("swap-event-drain ... blessed"));
+    assert_eq!(std::fs::read_to_string(&expect).expect("blessed"), original);
+    assert!(radar(&["test", arg(dir.path())]).status.success());
+}
+
+#[test]
+fn a_scenario_that_cannot_run_says_why() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let no_expect = dir.path().join("no-expect");
+    std::fs::create_dir_all(&no_expect).expect("mkdir");
+    std::fs::write(
+        no_expect.join("radar.toml"),
+        "[plugins.E]\nwasm = \"builtin:timer-event\"\n",
+    )
+    .expect("write");
+    std::fs::write(no_expect.join("scenario.toml"), "for = \"2s\"\n").expect("write");
+    let no_time = dir.path().join("no-time");
+    std::fs::create_dir_all(&no_time).expect("mkdir");
+    std::fs::copy(no_expect.join("radar.toml"), no_time.join("radar.toml")).expect("copy");
+    let bad_inputs = dir.path().join("bad-inputs");
+    std::fs::create_dir_all(&bad_inputs).expect("mkdir");
+    std::fs::copy(no_expect.join("radar.toml"), bad_inputs.join("radar.toml")).expect("copy");
+    std::fs::copy(
+        no_expect.join("scenario.toml"),
+        bad_inputs.join("scenario.toml"),
+    )
+    .expect("copy");
+    std::fs::write(
+        bad_inputs.join("inputs.jsonl"),
+        "{\"t\":1,\"kind\":\"inject\",\"to\":\"E.start\"}\n{\"t\":2,\"kind\":\"teleport\"}\n",
+    )
+    .expect("write");
+
+    let out = radar(&["test", arg(dir.path())]);
+    let stdout = text(&out.stdout);
+    assert!(!out.status.success());
+    assert!(
+        stdout.contains("no expect.jsonl: run `radar test --bless`"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("say how long to run"), "{stdout}");
+    assert!(stdout.contains("inputs.jsonl: trace line 2"), "{stdout}");
+    assert!(
+        last_line(&stdout).starts_with("0 passed, 3 failed"),
+        "{stdout}"
+    );
+
+    let out = radar(&["test", arg(&dir.path().join("nowhere"))]);
+    assert!(!out.status.success());
+    assert!(text(&out.stderr).contains("no such folder"));
+}
+
+#[test]
+fn a_real_clock_run_recorded_replays_to_the_same_trace() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (inputs, trace) = (dir.path().join("in.jsonl"), dir.path().join("real.jsonl"));
+    let component = dir.path().join("timer.wasm");
+    std::fs::write(&component, radar::example::wasm::TIMER_EVENT).expect("write");
+    let swap = format!("1.2s:TestEvent2={}:restart", arg(&component));
+    let out = radar(&[
+        "run",
+        "-q",
+        "--clock",
+        "real",
+        "--for",
+        "4s",
+        "--inject",
+        "2.5s:TestResponse.interrupt",
+        "--swap",
+        &swap,
+        "--record",
+        arg(&inputs),
+        "--trace",
+        arg(&trace),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let recorded = std::fs::read_to_string(&inputs).expect("recording");
+    let kinds: Vec<String> = recorded
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).expect("JSON")["kind"].to_string())
+        .collect();
+    assert_eq!(
+        kinds,
+        [
+            r#""recording""#,
+            r#""plugin""#,
+            r#""plugin""#,
+            r#""plugin""#,
+            r#""swap""#,
+            r#""inject""#,
+            r#""end""#
+        ],
+        "{recorded}"
+    );
+    // The swapped-in component is kept beside the recording: a replay does
+    // not depend on the file, which a rebuild may have changed since.
+    std::fs::remove_file(&component).expect("rm");
+    assert!(
+        recorded.contains(r#""wasm":"in.jsonl.components/"#),
+        "{recorded}"
+    );
+
+    let replayed = dir.path().join("replayed.jsonl");
+    let out = radar(&[
+        "run",
+        "-q",
+        "--replay",
+        arg(&inputs),
+        "--trace",
+        arg(&replayed),
+        "--expect",
+        arg(&trace),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}{}",
+        text(&out.stdout),
+        text(&out.stderr)
+    );
+    assert!(text(&out.stdout).contains("the trace matches"));
+    // Twice: the same bytes.
+    let again = dir.path().join("again.jsonl");
+    let out = radar(&[
+        "run",
+        "-q",
+        "--replay",
+        arg(&inputs),
+        "--trace",
+        arg(&again),
+    ]);
+    assert!(out.status.success());
+    assert_eq!(
+        std::fs::read(&replayed).expect("replay"),
+        std::fs::read(&again).expect("replay")
+    );
+}
+
+#[test]
+fn a_replay_with_a_changed_plugin_names_it_and_the_first_divergence() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let manifest = dir.path().join("radar.toml");
+    let write_manifest = |count_to: u32, wasm: &str| {
+        std::fs::write(
+            &manifest,
+            format!(
+                "[plugins.E]\nwasm = \"builtin:test-event\"\nconfig = {{ count_to = {count_to}, interval_s = 1 }}\n\
+                 [plugins.R]\nwasm = \"{wasm}\"\nconfig = {{ count_for_s = 1, interval_s = 1, count_to = 2 }}\n\
+                 [[connect]]\nmode = \"whenever\"\nfrom = \"E.triggered\"\nto = \"R.start\"\n"
+            ),
+        )
+        .expect("write manifest")
+    };
+    write_manifest(3, "builtin:test-response");
+    let (inputs, trace) = (dir.path().join("in.jsonl"), dir.path().join("t.jsonl"));
+    let out = radar(&[
+        "run",
+        arg(&manifest),
+        "-q",
+        "--for",
+        "10s",
+        "--inject",
+        "4s:R.start=9",
+        "--record",
+        arg(&inputs),
+        "--trace",
+        arg(&trace),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+
+    // The same plugins: the same trace, byte for byte.
+    let out = radar(&[
+        "run",
+        arg(&manifest),
+        "-q",
+        "--replay",
+        arg(&inputs),
+        "--expect",
+        arg(&trace),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+
+    // R is now another component: the replay says so, and where it parts.
+    write_manifest(3, "builtin:count-up");
+    let out = radar(&[
+        "run",
+        arg(&manifest),
+        "-q",
+        "--replay",
+        arg(&inputs),
+        "--expect",
+        arg(&trace),
+    ]);
+    assert!(!out.status.success());
+    let stderr = text(&out.stderr);
+    assert!(stderr.contains("replay: plugin `R` is version"), "{stderr}");
+    assert!(stderr.contains("the recording ran"), "{stderr}");
+    assert!(stderr.contains("first difference at record"), "{stderr}");
+}
+
+#[test]
+fn fuel_as_time_delays_what_compute_precedes() {
+    let plain = radar(&["run", "-q", "--for", "12s", "--trace", "/dev/stdout"]);
+    let timed = radar(&[
+        "run",
+        "-q",
+        "--for",
+        "12s",
+        "--fuel-as-time",
+        "1000000",
+        "--trace",
+        "/dev/stdout",
+    ]);
+    assert!(
+        plain.status.success() && timed.status.success(),
+        "{}",
+        text(&timed.stderr)
+    );
+    let first_trigger = |out: &Output| -> u64 {
+        text(&out.stdout)
+            .lines()
+            .map(|l| serde_json::from_str::<serde_json::Value>(l).expect("JSON"))
+            .find(|r| r["kind"] == "signal" && r["plugin"] == "TestEvent")
+            .and_then(|r| r["t"].as_u64())
+            .expect("TestEvent triggers")
+    };
+    assert_eq!(first_trigger(&plain), 5_000_000_000);
+    assert!(first_trigger(&timed) > 5_000_000_000);
+    let again = radar(&[
+        "run",
+        "-q",
+        "--for",
+        "12s",
+        "--fuel-as-time",
+        "1000000",
+        "--trace",
+        "/dev/stdout",
+    ]);
+    assert_eq!(timed.stdout, again.stdout, "deterministic");
+    let refused = radar(&[
+        "run",
+        "-q",
+        "--clock",
+        "real",
+        "--for",
+        "1s",
+        "--fuel-as-time",
+        "1000",
+    ]);
+    assert!(!refused.status.success());
+    assert!(text(&refused.stderr).contains("--fuel-as-time goes with the virtual clock"));
+}
