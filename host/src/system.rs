@@ -244,13 +244,22 @@ impl Deliberative {
 /// The name a deliberative component has in the trace (its log lines).
 const PROGRAM_NAME: &str = "(deliberative)";
 
+/// A `swap_at` (or a recorded swap) before its component is loaded.
+struct BuilderSwap {
+    at: Duration,
+    step: Option<u64>,
+    plugin: String,
+    path: PathBuf,
+    policy: SwapPolicy,
+}
+
 /// Builds a [`System`]; see the module docs.
 pub struct SystemBuilder {
     clock: ClockKind,
     plugins: Vec<Plugin>,
     links: Vec<Link>,
     injections: Vec<StaticInjection>,
-    swaps: Vec<(Duration, String, PathBuf, SwapPolicy)>,
+    swaps: Vec<BuilderSwap>,
     writes: Vec<StaticWrite>,
     deliberative: Option<Deliberative>,
     sinks: Vec<Box<dyn TraceSink>>,
@@ -311,6 +320,7 @@ impl SystemBuilder {
     pub fn inject_at(mut self, at: Duration, slot: impl Into<String>, payload: Json) -> Self {
         self.injections.push(StaticInjection {
             at,
+            step: None,
             to: slot.into(),
             payload,
         });
@@ -331,6 +341,7 @@ impl SystemBuilder {
     pub fn write_at(mut self, at: Duration, entry: impl Into<String>, value: Json) -> Self {
         self.writes.push(StaticWrite {
             at,
+            step: None,
             entry: entry.into(),
             value,
         });
@@ -348,7 +359,13 @@ impl SystemBuilder {
         path: impl Into<PathBuf>,
         policy: SwapPolicy,
     ) -> Self {
-        self.swaps.push((at, plugin.into(), path.into(), policy));
+        self.swaps.push(BuilderSwap {
+            at,
+            step: None,
+            plugin: plugin.into(),
+            path: path.into(),
+            policy,
+        });
         self
     }
 
@@ -372,26 +389,42 @@ impl SystemBuilder {
     /// times. A recording's own lines (its clock, plugin versions, end) are
     /// not inputs and are skipped here.
     pub fn inputs(mut self, inputs: &[TimedInput]) -> Self {
-        for TimedInput { t, input } in inputs {
+        for TimedInput { t, step, input } in inputs {
             let at = Duration::from_nanos(*t);
-            self = match input {
-                Input::Inject { to, payload } => self.inject_at(at, to, payload.clone()),
-                Input::BoardWrite { entry, value } => self.write_at(at, entry, value.clone()),
+            // A recording's inputs carry their place in their instant: they
+            // are applied there, not where a timer would put them.
+            let step = *step;
+            match input {
+                Input::Inject { to, payload } => self.injections.push(StaticInjection {
+                    at,
+                    step,
+                    to: to.clone(),
+                    payload: payload.clone(),
+                }),
+                Input::BoardWrite { entry, value } => self.writes.push(StaticWrite {
+                    at,
+                    step,
+                    entry: entry.clone(),
+                    value: value.clone(),
+                }),
                 Input::Swap {
                     plugin,
                     wasm,
                     policy,
                     ..
-                } => {
-                    let policy = if policy == "restart" {
+                } => self.swaps.push(BuilderSwap {
+                    at,
+                    step,
+                    plugin: plugin.clone(),
+                    path: PathBuf::from(wasm),
+                    policy: if policy == "restart" {
                         SwapPolicy::Restart
                     } else {
                         SwapPolicy::Drain
-                    };
-                    self.swap_at(at, plugin, wasm, policy)
-                }
-                Input::Recording { .. } | Input::Plugin { .. } | Input::End => self,
-            };
+                    },
+                }),
+                Input::Recording { .. } | Input::Plugin { .. } | Input::End => {}
+            }
         }
         self
     }
@@ -498,12 +531,13 @@ impl SystemBuilder {
         let swaps = self
             .swaps
             .into_iter()
-            .map(|(at, plugin, path, policy)| StaticSwap {
-                at,
-                code: load_version(&mut loader, &plugin, &path),
-                origin: origin_of(&path),
-                plugin,
-                policy,
+            .map(|swap| StaticSwap {
+                at: swap.at,
+                step: swap.step,
+                code: load_version(&mut loader, &swap.plugin, &swap.path),
+                origin: origin_of(&swap.path),
+                plugin: swap.plugin,
+                policy: swap.policy,
             })
             .collect();
         let inputs = match &self.record {

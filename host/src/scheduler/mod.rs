@@ -31,7 +31,7 @@ use wasmtime::component::Val;
 
 use crate::clock::{ClockKind, StopFlag, StopReason, TimeBase};
 use crate::error::RadarError;
-use crate::executor::{block_on, Executor, LocalTask, TaskId};
+use crate::executor::{Executor, LocalTask, TaskId};
 use crate::payload::{json_to_val, val_to_json, Payload, PayloadType};
 use crate::plugin::{Fault, InstanceSetup, Kind, Limits, PluginCode, PluginInstance};
 use crate::trace::inputs::{Input, InputRecorder, Origin, TimedInput};
@@ -49,6 +49,9 @@ pub(crate) use swap::NewVersion;
 pub use swap::SwapPolicy;
 
 use turns::Turns;
+
+mod inputs;
+pub(crate) use inputs::{StaticInjection, StaticSwap, StaticWrite};
 
 use actors::{event_actor, response_actor};
 
@@ -250,22 +253,6 @@ impl std::fmt::Display for ProgramFailure {
             Self::Panicked(m) => write!(f, "panicked: {m}"),
         }
     }
-}
-
-/// An injection given when the system was built (`radar run --inject`).
-pub(crate) struct StaticInjection {
-    pub at: Duration,
-    pub to: String,
-    pub payload: Json,
-}
-
-/// A swap given when the system was built (`radar run --swap`).
-pub(crate) struct StaticSwap {
-    pub at: Duration,
-    pub plugin: String,
-    pub code: Result<Box<NewVersion>, (String, RadarError)>,
-    pub policy: SwapPolicy,
-    pub origin: Origin,
 }
 
 /// A payload for a slot, checked against the slot's type.
@@ -621,8 +608,15 @@ impl State {
     /// Writes an input from outside into the recording, if there is one.
     pub(super) fn record_input(&mut self, input: Input) {
         let t = self.now();
+        // Under the virtual clock an input's place in its instant is part
+        // of what happened (see `inputs`).
+        let placed = matches!(
+            input,
+            Input::Inject { .. } | Input::BoardWrite { .. } | Input::Swap { .. }
+        );
+        let step = (placed && self.base.kind() == ClockKind::Virtual).then(|| self.moves_now());
         if let Some(recorder) = &mut self.trace.inputs {
-            recorder.write(&TimedInput { t, input });
+            recorder.write(&TimedInput { t, step, input });
         }
     }
 }
@@ -667,6 +661,8 @@ pub(crate) struct State {
     route_buffer: Vec<u64>,
     board: board::Blackboard,
     mailboxes: HashMap<u64, Mailbox>,
+    /// The scheduler's moves at the current instant (see `inputs`).
+    moves: inputs::Moves,
 }
 
 /// A spawned native context, running or ended.
@@ -762,14 +758,6 @@ pub(crate) struct RunSetup {
     pub writes: Vec<StaticWrite>,
 }
 
-/// A blackboard write given when the system was built (`radar run
-/// --write`).
-pub(crate) struct StaticWrite {
-    pub at: Duration,
-    pub entry: String,
-    pub value: Json,
-}
-
 /// Under the real clock, how long before a deadline the scheduler stops
 /// sleeping and spins: waking a sleeping thread costs tens of µs on a busy
 /// machine (`benches/dispatch.rs` and `benches/swap.rs` measure the
@@ -787,6 +775,8 @@ pub(crate) struct Scheduler {
     injections: Vec<StaticInjection>,
     swaps: Vec<StaticSwap>,
     writes: Vec<StaticWrite>,
+    /// Static inputs applied at their recorded places (see `inputs`).
+    placed: inputs::Placed,
 }
 
 impl Scheduler {
@@ -863,6 +853,7 @@ impl Scheduler {
             route_buffer: Vec::new(),
             board: board::Blackboard::new(board),
             mailboxes: HashMap::new(),
+            moves: inputs::Moves::default(),
         };
         Self {
             core: Rc::new(Core {
@@ -876,6 +867,7 @@ impl Scheduler {
             injections,
             swaps,
             writes,
+            placed: inputs::Placed::new(),
         }
     }
 
@@ -930,47 +922,13 @@ impl Scheduler {
             for link in std::mem::take(&mut self.links) {
                 st.connect(link)?;
             }
-            for i in std::mem::take(&mut self.injections) {
-                let mut injection = st.prepare_inject(&i.to, i.payload)?;
-                injection.external = true;
-                st.inject_at(&core, injection, Some(i.at));
-            }
-            for write in std::mem::take(&mut self.writes) {
-                let ty = st.board_type(&write.entry)?;
-                let value = json_to_val(&write.value, &ty).map_err(|cause| {
-                    RadarError::Blackboard(format!("entry `{}` is {ty}: {cause}", write.entry))
-                })?;
-                let core = core.clone();
-                let at = duration_nanos(write.at);
-                st.spawn(Box::pin(async move {
-                    let _ = core.base.sleep_until(at, None).await;
-                    core.with(|st| {
-                        st.board_write("(native)", &write.entry, value);
-                        st.record_input(Input::BoardWrite {
-                            entry: write.entry,
-                            value: write.value,
-                        });
-                    });
-                }));
-            }
-            for mut swap in std::mem::take(&mut self.swaps) {
-                let pid = st.plugin(&swap.plugin)?;
-                // Instantiated now, before anything runs, so that the swap
-                // itself only switches.
-                if let Ok(new) = swap.code.as_mut() {
-                    let setup = st.setup(pid).1;
-                    new.instance = Some(block_on(new.code.instantiate(setup)));
-                }
-                let core = core.clone();
-                let at = duration_nanos(swap.at);
-                st.spawn(Box::pin(async move {
-                    let _ = core.base.sleep_until(at, None).await;
-                    // A refusal is recorded; the run goes on.
-                    let _ = core.with(|st| {
-                        st.request_swap(&swap.plugin, swap.code, swap.policy, Some(&swap.origin))
-                    });
-                }));
-            }
+            let placeable = kind == ClockKind::Virtual;
+            let (injections, writes, swaps) = (
+                std::mem::take(&mut self.injections),
+                std::mem::take(&mut self.writes),
+                std::mem::take(&mut self.swaps),
+            );
+            self.placed = st.schedule_static_inputs(&core, injections, writes, swaps, placeable)?;
             Ok(())
         })?;
         self.absorb();
@@ -978,6 +936,13 @@ impl Scheduler {
             let (stop, lockstep) = self.core.with(|st| (st.stop, st.turns.running()));
             if stop {
                 break;
+            }
+            if !self.placed.is_empty() {
+                let placed = &mut self.placed;
+                if self.core.with(|st| st.apply_placed(placed, false)) {
+                    self.absorb();
+                    continue;
+                }
             }
             if kind == ClockKind::Virtual && lockstep {
                 // Native code is running: nothing else may happen until it
@@ -1001,12 +966,29 @@ impl Scheduler {
             }
             if self.executor.run_one() {
                 if kind == ClockKind::Virtual {
-                    self.core.with(|st| st.count_in_instant(true));
+                    self.core.with(|st| {
+                        st.count_in_instant(true);
+                        st.count_step();
+                    });
                 }
                 self.absorb();
                 continue;
             }
-            let next = self.core.base.next_deadline();
+            let mut next = self.core.base.next_deadline();
+            if kind == ClockKind::Virtual {
+                if let Some(input) = self.placed.front() {
+                    let now = self.core.base.now();
+                    if input.at <= now {
+                        // Nothing else can happen now: the replay has
+                        // parted from the recording; the input goes in.
+                        let placed = &mut self.placed;
+                        self.core.with(|st| st.apply_placed(placed, true));
+                        self.absorb();
+                        continue;
+                    }
+                    next = Some(next.map_or(input.at, |d| d.min(input.at)));
+                }
+            }
             match kind {
                 ClockKind::Virtual => match next {
                     Some(d) if self.limit.is_none_or(|l| d <= l) => {
@@ -1122,6 +1104,9 @@ impl Scheduler {
 
     fn handle(&mut self, cmd: Command) {
         let core = self.core.clone();
+        if !cmd.is_outside_input() {
+            core.with(State::count_move);
+        }
         match cmd {
             Command::Connect { link, reply } => {
                 let result = core.with(|st| st.connect(link));

@@ -844,11 +844,18 @@ impl State {
     ) {
         match at.map(duration_nanos) {
             Some(at) if at > self.now() => {
-                let core = core.clone();
-                self.spawn(Box::pin(async move {
-                    let _ = core.base.sleep_until(at, None).await;
-                    core.with(|st| st.inject(injection));
-                }));
+                let waiting = core.clone();
+                let external = injection.external;
+                let task = async move {
+                    let _ = waiting.base.sleep_until(at, None).await;
+                    waiting.with(|st| st.inject(injection));
+                };
+                // An input's own task is not one of the run's moves.
+                self.spawn(if external {
+                    super::inputs::input_task(core.clone(), task)
+                } else {
+                    Box::pin(task)
+                });
             }
             _ => self.inject(injection),
         }

@@ -33,6 +33,12 @@ use super::ParseError;
 pub struct TimedInput {
     /// Nanoseconds since the run began.
     pub t: u64,
+    /// Recorded under the virtual clock: how many of the scheduler's moves
+    /// (task steps and commands) at that instant came before the input, so
+    /// that a replay applies it exactly there (an input from a thread
+    /// outside the run lands wherever the scheduler happened to be).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub step: Option<u64>,
     /// What came in.
     #[serde(flatten)]
     pub input: Input,

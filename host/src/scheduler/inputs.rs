@@ -1,0 +1,244 @@
+//! Inputs from outside the run as the scheduler applies them: the static
+//! ones given when the system was built (`--inject`, `--write`, `--swap`,
+//! an inputs file), and where each input lands within its instant.
+//!
+//! Under the virtual clock an input from a thread outside the run (a
+//! driver, a watcher) lands wherever the scheduler happened to be when it
+//! arrived: after some of the steps of its instant, before others. So a
+//! recording notes, with the input's time, the scheduler's *moves* at that
+//! instant before it (executor steps and commands, not counting the inputs'
+//! own), and a replay applies the input at that time after that many moves:
+//! it sees what the original saw. Static inputs without a recorded place
+//! wake at their time like any timer.
+
+use std::collections::VecDeque;
+use std::future::{poll_fn, Future};
+use std::rc::Rc;
+use std::time::Duration;
+
+use serde_json::Value as Json;
+use wasmtime::component::Val;
+
+use super::{duration_nanos, Command, Core, Injection, NewVersion, State, SwapPolicy};
+use crate::error::RadarError;
+use crate::executor::{block_on, LocalTask};
+use crate::payload::json_to_val;
+use crate::trace::inputs::{Input, Origin};
+
+/// An injection given when the system was built (`radar run --inject`).
+pub(crate) struct StaticInjection {
+    pub at: Duration,
+    /// Its place in its instant, when a recording gave one.
+    pub step: Option<u64>,
+    pub to: String,
+    pub payload: Json,
+}
+
+/// A swap given when the system was built (`radar run --swap`).
+pub(crate) struct StaticSwap {
+    pub at: Duration,
+    pub step: Option<u64>,
+    pub plugin: String,
+    pub code: Result<Box<NewVersion>, (String, crate::error::RadarError)>,
+    pub policy: SwapPolicy,
+    pub origin: Origin,
+}
+
+/// A blackboard write given when the system was built (`radar run
+/// --write`).
+pub(crate) struct StaticWrite {
+    pub at: Duration,
+    pub step: Option<u64>,
+    pub entry: String,
+    pub value: Json,
+}
+
+/// The scheduler's moves at the current virtual instant.
+#[derive(Default)]
+pub(crate) struct Moves {
+    at: u64,
+    count: u64,
+    /// The executor step just taken polled an input's own task.
+    input_polled: bool,
+}
+
+/// What an input does when it is applied.
+enum Action {
+    Inject(Injection),
+    Write {
+        entry: String,
+        json: Json,
+        value: Val,
+    },
+    Swap(StaticSwap),
+}
+
+/// A static input to apply at a recorded place: `at`, after `after` moves.
+pub(crate) struct PlacedInput {
+    pub(super) at: u64,
+    after: u64,
+    action: Action,
+}
+
+/// Static inputs with recorded places, in order.
+pub(crate) type Placed = VecDeque<PlacedInput>;
+
+impl Command {
+    /// A command that is itself an input from outside the run: not one of
+    /// the run's own moves.
+    pub(super) fn is_outside_input(&self) -> bool {
+        matches!(
+            self,
+            Command::Inject { external: true, .. }
+                | Command::BoardWrite { external: true, .. }
+                | Command::Swap {
+                    origin: Some(_),
+                    ..
+                }
+        )
+    }
+}
+
+impl State {
+    /// Counts one of the scheduler's moves at the current instant.
+    pub(super) fn count_move(&mut self) {
+        let now = self.now();
+        if self.moves.at != now {
+            self.moves = Moves {
+                at: now,
+                ..Moves::default()
+            };
+        }
+        self.moves.count += 1;
+    }
+
+    /// After an executor step: counts it unless it was an input's task.
+    pub(super) fn count_step(&mut self) {
+        if !std::mem::take(&mut self.moves.input_polled) {
+            self.count_move();
+        }
+    }
+
+    /// The scheduler's moves at the current instant so far.
+    pub(super) fn moves_now(&self) -> u64 {
+        if self.moves.at == self.now() {
+            self.moves.count
+        } else {
+            0
+        }
+    }
+
+    /// Checks the static inputs against the system and schedules them: at
+    /// a recorded place (returned, for the scheduler's loop), or by a timer.
+    pub(super) fn schedule_static_inputs(
+        &mut self,
+        core: &Rc<Core>,
+        injections: Vec<StaticInjection>,
+        writes: Vec<StaticWrite>,
+        swaps: Vec<StaticSwap>,
+        placeable: bool,
+    ) -> Result<Placed, RadarError> {
+        let mut placed = Vec::new();
+        for i in injections {
+            let mut injection = self.prepare_inject(&i.to, i.payload)?;
+            injection.external = true;
+            match i.step.filter(|_| placeable) {
+                Some(after) => placed.push((i.at, after, Action::Inject(injection))),
+                None => self.inject_at(core, injection, Some(i.at)),
+            }
+        }
+        for write in writes {
+            let ty = self.board_type(&write.entry)?;
+            let value = json_to_val(&write.value, &ty).map_err(|cause| {
+                RadarError::Blackboard(format!("entry `{}` is {ty}: {cause}", write.entry))
+            })?;
+            let action = Action::Write {
+                entry: write.entry,
+                json: write.value,
+                value,
+            };
+            match write.step.filter(|_| placeable) {
+                Some(after) => placed.push((write.at, after, action)),
+                None => self.apply_at(core, write.at, action),
+            }
+        }
+        for mut swap in swaps {
+            let pid = self.plugin(&swap.plugin)?;
+            // Instantiated now, before anything runs, so that the swap
+            // itself only switches.
+            if let Ok(new) = swap.code.as_mut() {
+                let setup = self.setup(pid).1;
+                new.instance = Some(block_on(new.code.instantiate(setup)));
+            }
+            let at = swap.at;
+            match swap.step.filter(|_| placeable) {
+                Some(after) => placed.push((at, after, Action::Swap(swap))),
+                None => self.apply_at(core, at, Action::Swap(swap)),
+            }
+        }
+        // In time order, then place; the sort is stable, so inputs at the
+        // same place keep the order they were given in.
+        placed.sort_by_key(|(at, after, _)| (*at, *after));
+        Ok(placed
+            .into_iter()
+            .map(|(at, after, action)| PlacedInput {
+                at: duration_nanos(at),
+                after,
+                action,
+            })
+            .collect())
+    }
+
+    /// Applies `action` at `at` from an input task (see [`input_task`]).
+    fn apply_at(&mut self, core: &Rc<Core>, at: Duration, action: Action) {
+        let at = duration_nanos(at);
+        let waiting = core.clone();
+        let task = async move {
+            let _ = waiting.base.sleep_until(at, None).await;
+            waiting.with(|st| st.apply(action));
+        };
+        self.spawn(input_task(core.clone(), task));
+    }
+
+    fn apply(&mut self, action: Action) {
+        match action {
+            Action::Inject(injection) => self.inject(injection),
+            Action::Write { entry, json, value } => {
+                self.board_write("(native)", &entry, value);
+                self.record_input(Input::BoardWrite { entry, value: json });
+            }
+            Action::Swap(swap) => {
+                // A refusal is recorded; the run goes on.
+                let _ = self.request_swap(&swap.plugin, swap.code, swap.policy, Some(&swap.origin));
+            }
+        }
+    }
+
+    /// Applies the placed inputs that are due: their time has come and the
+    /// moves before them have been made (or, `force`, nothing else can
+    /// happen at this instant: the replay has parted from the recording).
+    /// Whether one was applied.
+    pub(super) fn apply_placed(&mut self, placed: &mut Placed, force: bool) -> bool {
+        let now = self.now();
+        let moves = self.moves_now();
+        let due = placed
+            .front()
+            .is_some_and(|p| p.at < now || (p.at == now && (p.after <= moves || force)));
+        if !due {
+            return false;
+        }
+        if let Some(input) = placed.pop_front() {
+            self.apply(input.action);
+        }
+        true
+    }
+}
+
+/// A task that applies an input: its polls are not the run's own moves.
+pub(super) fn input_task(core: Rc<Core>, task: impl Future<Output = ()> + 'static) -> LocalTask {
+    let mut task = Box::pin(task);
+    Box::pin(poll_fn(move |cx| {
+        core.with(|st| st.moves.input_polled = true);
+        task.as_mut().poll(cx)
+    }))
+}
