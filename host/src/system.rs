@@ -85,7 +85,7 @@ thread_local! {
     /// here take part in that system's lockstep (see the module docs).
     static NATIVE_CONTEXT: Cell<u64> = const { Cell::new(0) };
 }
-use crate::trace::inputs::{Input, InputRecorder, Origin, TimedInput};
+use crate::trace::inputs::{Input, InputRecorder, Origin, ReplayCheck, TimedInput, TraceDigest};
 use crate::trace::{Record, TraceSink};
 
 /// Where a plugin's component comes from.
@@ -248,6 +248,7 @@ const PROGRAM_NAME: &str = "(deliberative)";
 struct BuilderSwap {
     at: Duration,
     step: Option<u64>,
+    records: Option<u64>,
     plugin: String,
     path: PathBuf,
     policy: SwapPolicy,
@@ -264,6 +265,7 @@ pub struct SystemBuilder {
     deliberative: Option<Deliberative>,
     sinks: Vec<Box<dyn TraceSink>>,
     record: Option<PathBuf>,
+    replay: ReplayCheck,
     fuel_per_second: Option<u64>,
     keep_trace: bool,
     cache_dir: Option<PathBuf>,
@@ -284,6 +286,7 @@ impl Default for SystemBuilder {
             deliberative: None,
             sinks: Vec::new(),
             record: None,
+            replay: ReplayCheck::default(),
             fuel_per_second: None,
             keep_trace: true,
             cache_dir: default_cache_dir(),
@@ -321,6 +324,7 @@ impl SystemBuilder {
         self.injections.push(StaticInjection {
             at,
             step: None,
+            records: None,
             to: slot.into(),
             payload,
         });
@@ -342,6 +346,7 @@ impl SystemBuilder {
         self.writes.push(StaticWrite {
             at,
             step: None,
+            records: None,
             entry: entry.into(),
             value,
         });
@@ -362,6 +367,7 @@ impl SystemBuilder {
         self.swaps.push(BuilderSwap {
             at,
             step: None,
+            records: None,
             plugin: plugin.into(),
             path: path.into(),
             policy,
@@ -389,21 +395,30 @@ impl SystemBuilder {
     /// times. A recording's own lines (its clock, plugin versions, end) are
     /// not inputs and are skipped here.
     pub fn inputs(mut self, inputs: &[TimedInput]) -> Self {
-        for TimedInput { t, step, input } in inputs {
+        for TimedInput {
+            t,
+            step,
+            records,
+            input,
+        } in inputs
+        {
             let at = Duration::from_nanos(*t);
             // A recording's inputs carry their place in their instant: they
-            // are applied there, not where a timer would put them.
-            let step = *step;
+            // are applied there, not where a timer would put them; and the
+            // records made before them, which the replay checks.
+            let (step, records) = (*step, *records);
             match input {
                 Input::Inject { to, payload } => self.injections.push(StaticInjection {
                     at,
                     step,
+                    records,
                     to: to.clone(),
                     payload: payload.clone(),
                 }),
                 Input::BoardWrite { entry, value } => self.writes.push(StaticWrite {
                     at,
                     step,
+                    records,
                     entry: entry.clone(),
                     value: value.clone(),
                 }),
@@ -415,6 +430,7 @@ impl SystemBuilder {
                 } => self.swaps.push(BuilderSwap {
                     at,
                     step,
+                    records,
                     plugin: plugin.clone(),
                     path: PathBuf::from(wasm),
                     policy: if policy == "restart" {
@@ -423,7 +439,12 @@ impl SystemBuilder {
                         SwapPolicy::Drain
                     },
                 }),
-                Input::Recording { .. } | Input::Plugin { .. } | Input::End => {}
+                Input::End {
+                    digest: Some(digest),
+                } if records.is_some() => {
+                    self.replay.end = records.map(|r| (r, digest.clone()));
+                }
+                Input::Recording { .. } | Input::Plugin { .. } | Input::End { .. } => {}
             }
         }
         self
@@ -534,6 +555,7 @@ impl SystemBuilder {
             .map(|swap| StaticSwap {
                 at: swap.at,
                 step: swap.step,
+                records: swap.records,
                 code: load_version(&mut loader, &swap.plugin, &swap.path),
                 origin: origin_of(&swap.path),
                 plugin: swap.plugin,
@@ -561,6 +583,7 @@ impl SystemBuilder {
             program,
             sinks: self.sinks,
             inputs,
+            replay: self.replay,
             fuel_per_second: self.fuel_per_second,
             keep_trace: self.keep_trace,
             seed: self.seed,
@@ -586,6 +609,7 @@ pub struct System {
     program: Option<ProgramCode>,
     sinks: Vec<Box<dyn TraceSink>>,
     inputs: Option<InputRecorder>,
+    replay: ReplayCheck,
     fuel_per_second: Option<u64>,
     keep_trace: bool,
     seed: u64,
@@ -615,6 +639,9 @@ pub struct RunReport {
     /// used in the run, all its instances together, instantiation aside.
     /// Deterministic for a given compiler: the same run uses the same fuel.
     pub fuel: BTreeMap<String, u64>,
+    /// A replay ([`SystemBuilder::inputs`] from a virtual-clock recording)
+    /// that parted from its recording: where it first did.
+    pub replay_divergence: Option<String>,
 }
 
 impl RunReport {
@@ -726,10 +753,23 @@ impl System {
         let scheduler = Scheduler::new(RunSetup {
             base,
             plugins: self.plugins,
-            trace: TraceOut {
-                sinks: self.sinks,
-                kept: self.keep_trace.then(Vec::new),
-                inputs: self.inputs.take(),
+            trace: {
+                // The records are counted and hashed when a recording notes
+                // them or a replay checks them (virtual clock only: real
+                // times never repeat).
+                let checked = self.replay.end.is_some()
+                    || self.injections.iter().any(|i| i.records.is_some())
+                    || self.writes.iter().any(|w| w.records.is_some())
+                    || self.swaps.iter().any(|w| w.records.is_some());
+                let digest = self.clock == ClockKind::Virtual && (self.inputs.is_some() || checked);
+                TraceOut {
+                    sinks: self.sinks,
+                    kept: self.keep_trace.then(Vec::new),
+                    inputs: self.inputs.take(),
+                    digest: digest.then(TraceDigest::default),
+                    replay: self.replay,
+                    divergence: None,
+                }
             },
             commands: self.rx,
             anonymous_jobs: job_tx,
@@ -759,6 +799,7 @@ impl System {
             trace_errors: end.trace_errors,
             livelock: end.livelock.map(Duration::from_nanos),
             fuel: end.fuel,
+            replay_divergence: end.divergence,
         })
     }
 }

@@ -311,6 +311,36 @@ fn a_replay_with_a_changed_plugin_names_it_and_the_first_divergence() {
     assert!(stderr.contains("replay: plugin `R` is version"), "{stderr}");
     assert!(stderr.contains("the recording ran"), "{stderr}");
     assert!(stderr.contains("first difference at record"), "{stderr}");
+    // Without the trace file too: the recording's record counts say where.
+    let out = radar(&["run", arg(&manifest), "-q", "--replay", arg(&inputs)]);
+    assert!(!out.status.success());
+    let stderr = text(&out.stderr);
+    assert!(
+        stderr.contains(
+            "the replay parts from the recording before the injection into R.start at 4.000 s"
+        ),
+        "{stderr}"
+    );
+    // A change that shows only after the last input is caught by the
+    // digest of the whole trace.
+    write_manifest(3, "builtin:test-response");
+    let lines = std::fs::read_to_string(&inputs).expect("recording");
+    let end = lines.lines().last().expect("an end line").to_string();
+    let earlier = lines.replace(
+        &end,
+        &end.replace(
+            &end[end.find(r#""digest":""#).expect("a digest")..],
+            r#""digest":"0000000000000000"}"#,
+        ),
+    );
+    std::fs::write(&inputs, earlier).expect("write");
+    let out = radar(&["run", arg(&manifest), "-q", "--replay", arg(&inputs)]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out.stderr).contains("the replay parts from the recording after its last input"),
+        "{}",
+        text(&out.stderr)
+    );
 }
 
 #[test]

@@ -124,6 +124,8 @@ fn writes_from_a_driver_thread_are_recorded_and_replay_to_the_same_trace() {
             replayed.report().trace_json_lines(),
             first.trace_json_lines()
         );
+        // Its record counts and digest agree with the recording's.
+        assert_eq!(replayed.report().replay_divergence, None);
     }
     // The program's own calls are not inputs: a native program's write is
     // not in a recording.

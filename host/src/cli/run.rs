@@ -235,7 +235,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     // A replay runs as long as the recorded run did, unless told otherwise.
     let recorded_end = replay.as_ref().and_then(|inputs| {
         inputs.iter().find_map(|i| match i.input {
-            Input::End => Some(Duration::from_nanos(i.t)),
+            Input::End { .. } => Some(Duration::from_nanos(i.t)),
             _ => None,
         })
     });
@@ -321,6 +321,9 @@ pub fn run(args: RunArgs) -> Result<()> {
     }
     if let Some(path) = &args.expect {
         expect_trace(path, &report, replay.as_deref(), args.tolerance)?;
+    }
+    if let Some(divergence) = &report.replay_divergence {
+        anyhow::bail!("{divergence}");
     }
     if let Some(Err(e)) = &report.program {
         anyhow::bail!("deliberative program: {e}");

@@ -23,13 +23,15 @@ use super::{duration_nanos, Command, Core, Injection, NewVersion, State, SwapPol
 use crate::error::RadarError;
 use crate::executor::{block_on, LocalTask};
 use crate::payload::json_to_val;
-use crate::trace::inputs::{Input, Origin};
+use crate::trace::inputs::{Input, Origin, TraceDigest};
 
 /// An injection given when the system was built (`radar run --inject`).
 pub(crate) struct StaticInjection {
     pub at: Duration,
     /// Its place in its instant, when a recording gave one.
     pub step: Option<u64>,
+    /// The trace records a recording had made before it.
+    pub records: Option<u64>,
     pub to: String,
     pub payload: Json,
 }
@@ -38,6 +40,7 @@ pub(crate) struct StaticInjection {
 pub(crate) struct StaticSwap {
     pub at: Duration,
     pub step: Option<u64>,
+    pub records: Option<u64>,
     pub plugin: String,
     pub code: Result<Box<NewVersion>, (String, crate::error::RadarError)>,
     pub policy: SwapPolicy,
@@ -49,6 +52,7 @@ pub(crate) struct StaticSwap {
 pub(crate) struct StaticWrite {
     pub at: Duration,
     pub step: Option<u64>,
+    pub records: Option<u64>,
     pub entry: String,
     pub value: Json,
 }
@@ -77,6 +81,8 @@ enum Action {
 pub(crate) struct PlacedInput {
     pub(super) at: u64,
     after: u64,
+    /// The trace records the recording had made before it.
+    records: Option<u64>,
     action: Action,
 }
 
@@ -143,7 +149,7 @@ impl State {
             let mut injection = self.prepare_inject(&i.to, i.payload)?;
             injection.external = true;
             match i.step.filter(|_| placeable) {
-                Some(after) => placed.push((i.at, after, Action::Inject(injection))),
+                Some(after) => placed.push((i.at, after, i.records, Action::Inject(injection))),
                 None => self.inject_at(core, injection, Some(i.at)),
             }
         }
@@ -158,7 +164,7 @@ impl State {
                 value,
             };
             match write.step.filter(|_| placeable) {
-                Some(after) => placed.push((write.at, after, action)),
+                Some(after) => placed.push((write.at, after, write.records, action)),
                 None => self.apply_at(core, write.at, action),
             }
         }
@@ -170,20 +176,21 @@ impl State {
                 let setup = self.setup(pid).1;
                 new.instance = Some(block_on(new.code.instantiate(setup)));
             }
-            let at = swap.at;
+            let (at, records) = (swap.at, swap.records);
             match swap.step.filter(|_| placeable) {
-                Some(after) => placed.push((at, after, Action::Swap(swap))),
+                Some(after) => placed.push((at, after, records, Action::Swap(swap))),
                 None => self.apply_at(core, at, Action::Swap(swap)),
             }
         }
         // In time order, then place; the sort is stable, so inputs at the
         // same place keep the order they were given in.
-        placed.sort_by_key(|(at, after, _)| (*at, *after));
+        placed.sort_by_key(|(at, after, _, _)| (*at, *after));
         Ok(placed
             .into_iter()
-            .map(|(at, after, action)| PlacedInput {
+            .map(|(at, after, records, action)| PlacedInput {
                 at: duration_nanos(at),
                 after,
+                records,
                 action,
             })
             .collect())
@@ -204,8 +211,11 @@ impl State {
         match action {
             Action::Inject(injection) => self.inject(injection),
             Action::Write { entry, json, value } => {
+                self.record_input(Input::BoardWrite {
+                    entry: entry.clone(),
+                    value: json,
+                });
                 self.board_write("(native)", &entry, value);
-                self.record_input(Input::BoardWrite { entry, value: json });
             }
             Action::Swap(swap) => {
                 // A refusal is recorded; the run goes on.
@@ -228,9 +238,54 @@ impl State {
             return false;
         }
         if let Some(input) = placed.pop_front() {
+            if let Some(expected) = input.records {
+                self.check_replay_position(expected, &input.action);
+            }
             self.apply(input.action);
         }
         true
+    }
+
+    /// A replay's first divergence, if the records made before this input
+    /// are not as many as the recording's.
+    fn check_replay_position(&mut self, expected: u64, action: &Action) {
+        let made = self.trace.digest.as_ref().map_or(0, |d| d.records);
+        if made == expected || self.trace.divergence.is_some() {
+            return;
+        }
+        let what = match action {
+            Action::Inject(injection) => format!("the injection into {}", injection.label),
+            Action::Write { entry, .. } => format!("the write of `{entry}`"),
+            Action::Swap(swap) => format!("the swap of {}", swap.plugin),
+        };
+        self.trace.divergence = Some(format!(
+            "the replay parts from the recording before {what} at {:.3} s: the recorded run \
+             had made {expected} trace records by then, the replay {made} (a plugin, the \
+             manifest or Radar changed)",
+            self.now() as f64 / 1e9
+        ));
+    }
+
+    /// At the end of a replay: the whole trace against the recording's.
+    pub(super) fn check_replay_end(&mut self) {
+        let (Some((records, digest)), None) = (&self.trace.replay.end, &self.trace.divergence)
+        else {
+            return;
+        };
+        let made = self.trace.digest.as_ref().map_or(0, |d| d.records);
+        let hex = self
+            .trace
+            .digest
+            .as_ref()
+            .map(TraceDigest::hex)
+            .unwrap_or_default();
+        if made != *records || hex != *digest {
+            self.trace.divergence = Some(format!(
+                "the replay parts from the recording after its last input: the recorded run \
+                 made {records} trace records (digest {digest}), the replay {made} (digest \
+                 {hex})"
+            ));
+        }
     }
 }
 

@@ -34,7 +34,7 @@ use crate::error::RadarError;
 use crate::executor::{Executor, LocalTask, TaskId};
 use crate::payload::{json_to_val, val_to_json, Payload, PayloadType};
 use crate::plugin::{Fault, InstanceSetup, Kind, Limits, PluginCode, PluginInstance};
-use crate::trace::inputs::{Input, InputRecorder, Origin, TimedInput};
+use crate::trace::inputs::{Input, InputRecorder, Origin, ReplayCheck, TimedInput, TraceDigest};
 use crate::trace::{Entry, Record, TraceSink};
 
 mod actors;
@@ -614,9 +614,28 @@ impl State {
             input,
             Input::Inject { .. } | Input::BoardWrite { .. } | Input::Swap { .. }
         );
-        let step = (placed && self.base.kind() == ClockKind::Virtual).then(|| self.moves_now());
+        let virtual_clock = self.base.kind() == ClockKind::Virtual;
+        let step = (placed && virtual_clock).then(|| self.moves_now());
+        let end = matches!(input, Input::End { .. });
+        let records = self
+            .trace
+            .digest
+            .as_ref()
+            .filter(|_| (placed || end) && virtual_clock)
+            .map(|d| d.records);
+        let input = match input {
+            Input::End { .. } => Input::End {
+                digest: self.trace.digest.as_ref().map(TraceDigest::hex),
+            },
+            other => other,
+        };
         if let Some(recorder) = &mut self.trace.inputs {
-            recorder.write(&TimedInput { t, step, input });
+            recorder.write(&TimedInput {
+                t,
+                step,
+                records,
+                input,
+            });
         }
     }
 }
@@ -627,6 +646,12 @@ pub(crate) struct TraceOut {
     pub kept: Option<Vec<Record>>,
     /// `--record`: inputs from outside, as they are applied.
     pub inputs: Option<InputRecorder>,
+    /// The records so far, counted and hashed, when a recording notes them
+    /// or a replay checks them (virtual clock).
+    pub digest: Option<TraceDigest>,
+    /// What a replay checks, and where it first parted from its recording.
+    pub replay: ReplayCheck,
+    pub divergence: Option<String>,
 }
 
 pub(crate) struct State {
@@ -736,6 +761,8 @@ pub(crate) struct RunEnd {
     pub livelock: Option<u64>,
     /// Fuel each plugin's calls used, by plugin name.
     pub fuel: BTreeMap<String, u64>,
+    /// A replay that parted from its recording: where.
+    pub divergence: Option<String>,
 }
 
 /// What a run is made of.
@@ -1053,11 +1080,12 @@ impl Scheduler {
                 })
                 .collect()
         });
-        let (trace, program_outcome, trace_errors) = self.core.with(|st| {
+        let (trace, program_outcome, trace_errors, divergence) = self.core.with(|st| {
             st.record_logs();
             st.waiters.clear();
             st.turns.abandon();
-            st.record_input(Input::End);
+            st.record_input(Input::End { digest: None });
+            st.check_replay_end();
             let mut errors: Vec<String> = st
                 .trace
                 .sinks
@@ -1071,6 +1099,7 @@ impl Scheduler {
                 st.trace.kept.take().unwrap_or_default(),
                 st.program_outcome.take(),
                 errors,
+                st.trace.divergence.take(),
             )
         });
         drop(self.executor);
@@ -1081,6 +1110,7 @@ impl Scheduler {
             trace_errors,
             livelock,
             fuel,
+            divergence,
         }
     }
 
@@ -1228,11 +1258,19 @@ impl Scheduler {
                 reply,
             } => {
                 let _ = reply.send(core.with(|st| {
-                    st.board_write_json(&entry, &value)?;
                     if external {
-                        st.record_input(Input::BoardWrite { entry, value });
+                        // Recorded before the write's own record (a replay
+                        // counts the records made before each input), and
+                        // only if it fits.
+                        let ty = st.board_type(&entry)?;
+                        if json_to_val(&value, &ty).is_ok() {
+                            st.record_input(Input::BoardWrite {
+                                entry: entry.clone(),
+                                value: value.clone(),
+                            });
+                        }
                     }
-                    Ok(())
+                    st.board_write_json(&entry, &value)
                 }));
             }
             Command::BoardRead { entry, reply } => {

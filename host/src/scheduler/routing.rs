@@ -18,7 +18,7 @@ impl State {
     }
 
     pub(super) fn tracing(&self) -> bool {
-        !self.trace.sinks.is_empty() || self.trace.kept.is_some()
+        !self.trace.sinks.is_empty() || self.trace.kept.is_some() || self.trace.digest.is_some()
     }
 
     pub(super) fn record(&mut self, entry: Entry) {
@@ -32,6 +32,9 @@ impl State {
     }
 
     pub(super) fn write(&mut self, record: Record) {
+        if let Some(digest) = &mut self.trace.digest {
+            digest.observe(&record);
+        }
         for sink in &mut self.trace.sinks {
             sink.record(&record);
         }

@@ -157,7 +157,7 @@ impl Scenario {
             Vec::new()
         };
         let end = inputs.iter().find_map(|i| match i.input {
-            Input::End => Some(Duration::from_nanos(i.t)),
+            Input::End { .. } => Some(Duration::from_nanos(i.t)),
             _ => None,
         });
         let run_for = match (&settings.run_for, end) {

@@ -39,6 +39,12 @@ pub struct TimedInput {
     /// outside the run lands wherever the scheduler happened to be).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub step: Option<u64>,
+    /// Recorded under the virtual clock: how many trace records the run
+    /// had made before the input (on the `end` line: in all). A replay that
+    /// has made another number there has parted from the recording, and
+    /// says so.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub records: Option<u64>,
     /// What came in.
     #[serde(flatten)]
     pub input: Input,
@@ -89,8 +95,14 @@ pub enum Input {
         /// Its version.
         version: String,
     },
-    /// The recorded run ended here.
-    End,
+    /// The recorded run ended here; under the virtual clock, with how many
+    /// trace records it made (`records`) and a digest of them, which a
+    /// replay checks.
+    End {
+        /// The first 16 hex digits of the sha256 of the trace's JSON lines.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        digest: Option<String>,
+    },
 }
 
 fn drain() -> String {
@@ -131,6 +143,37 @@ pub fn load(path: &Path) -> Result<Vec<TimedInput>, String> {
         .map_err(|e| format!("cannot read inputs file {}: {e}", path.display()))?;
     let dir = path.parent().unwrap_or(Path::new("."));
     parse(&text, dir).map_err(|e| format!("inputs file {}: {e}", path.display()))
+}
+
+/// A running count and digest of a run's trace records: what a recording
+/// notes and a replay checks, without keeping the trace.
+#[derive(Clone, Default)]
+pub(crate) struct TraceDigest {
+    pub records: u64,
+    hasher: sha2::Sha256,
+}
+
+impl TraceDigest {
+    pub fn observe(&mut self, record: &super::Record) {
+        use sha2::Digest;
+        self.records += 1;
+        self.hasher.update(record.to_json_line().as_bytes());
+        self.hasher.update(b"\n");
+    }
+
+    /// The first 16 hex digits of the digest so far.
+    pub fn hex(&self) -> String {
+        use sha2::Digest;
+        let digest = self.hasher.clone().finalize();
+        digest.iter().take(8).map(|b| format!("{b:02x}")).collect()
+    }
+}
+
+/// What a replay checks against its recording: the records made before
+/// each input, and at the end the count and digest of the whole trace.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct ReplayCheck {
+    pub end: Option<(u64, String)>,
 }
 
 /// Where a swapped-in component came from, for a recording.
@@ -226,7 +269,7 @@ mod tests {
             r#"{"t":6,"kind":"board-write","entry":"range","value":0.5}"#,
             r#"{"t":7,"kind":"swap","plugin":"E","wasm":"v2.wasm","policy":"restart","version":"def"}"#,
             r#"{"t":8,"kind":"swap","plugin":"E","wasm":"builtin:timer-event","policy":"drain"}"#,
-            r#"{"t":9,"kind":"end"}"#,
+            r#"{"t":9,"records":12,"kind":"end","digest":"0011223344556677"}"#,
         ];
         let inputs = parse(&lines.join("\n"), Path::new("/rec")).expect("parses");
         assert_eq!(inputs.len(), 7);
