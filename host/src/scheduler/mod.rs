@@ -659,6 +659,10 @@ pub(crate) struct State {
     plugins: Vec<PluginEntry>,
     by_name: BTreeMap<String, usize>,
     connections: BTreeMap<u64, Connection>,
+    /// The live connections of each plugin's signals, by plugin, in the
+    /// order they were made: what an emission reaches, found without
+    /// looking at any other connection.
+    routes: Vec<Vec<(Signal, Vec<u64>)>>,
     next_connection: u64,
     anonymous: HashMap<u64, Anonymous>,
     waiters: HashMap<u64, Waiter>,
@@ -859,6 +863,7 @@ impl Scheduler {
             plugins,
             by_name,
             connections: BTreeMap::new(),
+            routes: vec![Vec::new(); plugin_count],
             next_connection: 0,
             anonymous: HashMap::new(),
             waiters: HashMap::new(),

@@ -195,6 +195,11 @@ impl State {
             mode: conn.mode.as_str().into(),
             busy: conn.busy.as_str().into(),
         });
+        let routes = &mut self.routes[from.0];
+        match routes.iter_mut().find(|(signal, _)| *signal == from.1) {
+            Some((_, ids)) => ids.push(id),
+            None => routes.push((from.1, vec![id])),
+        }
         self.connections.insert(
             id,
             Connection {
@@ -322,6 +327,12 @@ impl State {
         let Some(conn) = self.connections.remove(&id) else {
             return; // already gone (a once that fired, an until that ended)
         };
+        if let Some((_, ids)) = self.routes[conn.from.0]
+            .iter_mut()
+            .find(|(signal, _)| *signal == conn.from.1)
+        {
+            ids.retain(|i| *i != id);
+        }
         self.record(Entry::Disconnect {
             id,
             reason: reason.into(),
@@ -379,12 +390,9 @@ impl State {
         // Deliveries may remove connections, so the matching ids are taken
         // first, into a buffer kept between signals (no allocation here).
         let mut ids = std::mem::take(&mut self.route_buffer);
-        ids.extend(
-            self.connections
-                .iter()
-                .filter(|(_, c)| c.from == (pid, signal))
-                .map(|(id, _)| *id),
-        );
+        if let Some((_, live)) = self.routes[pid].iter().find(|(s, _)| *s == signal) {
+            ids.extend_from_slice(live);
+        }
         for &id in &ids {
             self.deliver(id, &payload);
         }
