@@ -492,11 +492,12 @@ impl SystemBuilder {
     pub fn build(self) -> Result<System, RadarError> {
         let mut loader = Loader::new(self.cache_dir)?;
         let mut defs: Vec<PluginDef> = Vec::new();
+        let mut names = std::collections::HashSet::new();
         for p in self.plugins {
             if p.name.is_empty() || p.name.contains(|c: char| c == '.' || c.is_whitespace()) {
                 return Err(RadarError::BadName(p.name));
             }
-            if defs.iter().any(|d| d.name == p.name) {
+            if !names.insert(p.name.clone()) {
                 return Err(RadarError::DuplicatePlugin(p.name));
             }
             if p.period.is_some_and(|d| d.is_zero()) {
