@@ -17,6 +17,7 @@ pub mod clock;
 pub mod error;
 pub mod example;
 pub(crate) mod executor;
+mod limits;
 pub mod manifest;
 pub mod payload;
 pub mod plugin;

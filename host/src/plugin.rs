@@ -260,8 +260,12 @@ pub(crate) fn describe_fault(err: &wasmtime::Error) -> String {
     } else {
         chain.join(": ")
     };
-    match err.downcast_ref::<Trap>() {
+    let text = match err.downcast_ref::<Trap>() {
         Some(_) => format!("trapped: {}", text.trim_start_matches("wasm trap: ")),
+        None => text,
+    };
+    match crate::limits::explain(&text) {
+        Some(limit) => format!("{text}: {limit}"),
         None => text,
     }
 }

@@ -643,6 +643,10 @@ pub struct RunReport {
     /// A replay ([`SystemBuilder::inputs`] from a virtual-clock recording)
     /// that parted from its recording: where it first did.
     pub replay_divergence: Option<String>,
+    /// Plugins that faulted on a limit of the machine (memory, the
+    /// kernel's memory mappings): how many, and the first one's fault,
+    /// which names the limit and how to raise it.
+    pub machine_limit: Option<(usize, String)>,
 }
 
 impl RunReport {
@@ -801,6 +805,7 @@ impl System {
             livelock: end.livelock.map(Duration::from_nanos),
             fuel: end.fuel,
             replay_divergence: end.divergence,
+            machine_limit: end.machine_limit,
         })
     }
 }

@@ -560,3 +560,45 @@ fn a_manifests_deliberative_program_runs_and_its_errors_name_the_key() {
     let err = text(&out.stderr);
     assert!(err.contains("speed") && err.lines().count() == 1, "{err}");
 }
+
+#[test]
+fn a_plugin_that_hits_the_kernels_mapping_limit_says_which_limit_and_how_to_raise_it() {
+    // Each plugin instance takes about 7 memory mappings; with the kernel's
+    // default vm.max_map_count (65,530) some 5,000 pairs are more than fit.
+    let limit: usize = std::fs::read_to_string("/proc/sys/vm/max_map_count")
+        .ok()
+        .and_then(|l| l.trim().parse().ok())
+        .unwrap_or(usize::MAX);
+    if limit > 200_000 {
+        eprintln!("vm.max_map_count is {limit}: too many plugins to try here");
+        return;
+    }
+    let pairs = limit / 14 + 400;
+    let dir = tempfile::tempdir().expect("temp dir");
+    let manifest = dir.path().join("radar.toml");
+    let mut plugins = String::new();
+    for i in 0..pairs {
+        plugins.push_str(&format!(
+            "[plugins.E{i}]\nwasm = \"builtin:test-event\"\nconfig = {{ count_to = 1, interval_s = 0.01 }}\n\
+             [plugins.R{i}]\nwasm = \"builtin:test-response\"\nconfig = {{ count_for_s = 100, interval_s = 1 }}\n\
+             [[connect]]\nmode = \"once\"\nfrom = \"E{i}.triggered\"\nto = \"R{i}.start\"\n"
+        ));
+    }
+    std::fs::write(&manifest, plugins).expect("write manifest");
+    let out = radar(&[
+        "run",
+        manifest.to_str().expect("utf-8"),
+        "-q",
+        "--for",
+        "1s",
+    ]);
+    assert!(!out.status.success());
+    let stderr = text(&out.stderr);
+    assert_eq!(stderr.lines().count(), 1, "one line: {stderr}");
+    assert!(
+        stderr.contains("faulted on a limit of the machine"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("vm.max_map_count"), "{stderr}");
+    assert!(stderr.contains("sysctl -w vm.max_map_count="), "{stderr}");
+}

@@ -311,6 +311,9 @@ pub fn run(args: RunArgs) -> Result<()> {
             at.as_secs_f64()
         );
     }
+    if let Some((count, first)) = &report.machine_limit {
+        anyhow::bail!("{count} plugin(s) faulted on a limit of the machine; the first, {first}");
+    }
     if let Some(e) = report.trace_errors.first() {
         match &args.trace {
             Some(path) if !e.starts_with("recording ") => {

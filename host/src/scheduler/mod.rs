@@ -692,6 +692,9 @@ pub(crate) struct State {
     mailboxes: HashMap<u64, Mailbox>,
     /// The scheduler's moves at the current instant (see `inputs`).
     moves: inputs::Moves,
+    /// Plugins that faulted on a limit of the machine: how many, and the
+    /// first one's fault.
+    machine_limit: Option<(usize, String)>,
 }
 
 /// A spawned native context, running or ended.
@@ -767,6 +770,8 @@ pub(crate) struct RunEnd {
     pub fuel: BTreeMap<String, u64>,
     /// A replay that parted from its recording: where.
     pub divergence: Option<String>,
+    /// Plugins that faulted on a limit of the machine.
+    pub machine_limit: Option<(usize, String)>,
 }
 
 /// What a run is made of.
@@ -886,6 +891,7 @@ impl Scheduler {
             board: board::Blackboard::new(board),
             mailboxes: HashMap::new(),
             moves: inputs::Moves::default(),
+            machine_limit: None,
         };
         Self {
             core: Rc::new(Core {
@@ -1085,28 +1091,30 @@ impl Scheduler {
                 })
                 .collect()
         });
-        let (trace, program_outcome, trace_errors, divergence) = self.core.with(|st| {
-            st.record_logs();
-            st.waiters.clear();
-            st.turns.abandon();
-            st.record_input(Input::End { digest: None });
-            st.check_replay_end();
-            let mut errors: Vec<String> = st
-                .trace
-                .sinks
-                .iter_mut()
-                .filter_map(|sink| sink.finish().err())
-                .collect();
-            if let Some(Err(e)) = st.trace.inputs.as_mut().map(InputRecorder::finish) {
-                errors.push(format!("recording {e}"));
-            }
-            (
-                st.trace.kept.take().unwrap_or_default(),
-                st.program_outcome.take(),
-                errors,
-                st.trace.divergence.take(),
-            )
-        });
+        let (trace, program_outcome, trace_errors, divergence, machine_limit) =
+            self.core.with(|st| {
+                st.record_logs();
+                st.waiters.clear();
+                st.turns.abandon();
+                st.record_input(Input::End { digest: None });
+                st.check_replay_end();
+                let mut errors: Vec<String> = st
+                    .trace
+                    .sinks
+                    .iter_mut()
+                    .filter_map(|sink| sink.finish().err())
+                    .collect();
+                if let Some(Err(e)) = st.trace.inputs.as_mut().map(InputRecorder::finish) {
+                    errors.push(format!("recording {e}"));
+                }
+                (
+                    st.trace.kept.take().unwrap_or_default(),
+                    st.program_outcome.take(),
+                    errors,
+                    st.trace.divergence.take(),
+                    st.machine_limit.take(),
+                )
+            });
         drop(self.executor);
         RunEnd {
             trace,
@@ -1116,6 +1124,7 @@ impl Scheduler {
             livelock,
             fuel,
             divergence,
+            machine_limit,
         }
     }
 

@@ -801,6 +801,12 @@ impl State {
         if !entry.is_event() {
             entry.phase = Phase::Idle;
         }
+        if crate::limits::is_machine_limit(&fault.cause) {
+            let (count, _) = self
+                .machine_limit
+                .get_or_insert_with(|| (0, format!("{plugin}: {}", fault.cause)));
+            *count += 1;
+        }
         self.record(Entry::Fault {
             plugin: plugin.clone(),
             error: fault.cause.clone(),
