@@ -108,6 +108,9 @@ pub enum RadarError {
     /// `reset` of a plugin that is not in `error`.
     #[error("plugin `{0}` is not in error; only a faulted plugin can be reset")]
     NotFaulted(String),
+    /// The scheduler's thread cannot get the real-time settings asked for.
+    #[error("{0}")]
+    RealTime(String),
     /// A recording of inputs (`--record`) could not be made.
     #[error("recording: {0}")]
     Recording(String),

@@ -21,6 +21,7 @@ mod limits;
 pub mod manifest;
 pub mod payload;
 pub mod plugin;
+pub mod realtime;
 pub(crate) mod scheduler;
 mod stderr;
 pub mod system;

@@ -267,6 +267,7 @@ pub struct SystemBuilder {
     record: Option<PathBuf>,
     replay: ReplayCheck,
     fuel_per_second: Option<u64>,
+    realtime: crate::realtime::RealTime,
     keep_trace: bool,
     cache_dir: Option<PathBuf>,
     seed: u64,
@@ -288,6 +289,7 @@ impl Default for SystemBuilder {
             record: None,
             replay: ReplayCheck::default(),
             fuel_per_second: None,
+            realtime: crate::realtime::RealTime::default(),
             keep_trace: true,
             cache_dir: default_cache_dir(),
             seed: 0,
@@ -463,6 +465,15 @@ impl SystemBuilder {
         self
     }
 
+    /// Real-time settings of the scheduler's thread for the run: a
+    /// `SCHED_FIFO` priority and a CPU (see [`crate::realtime`]). A setting
+    /// the process may not make fails the run before anything runs, saying
+    /// what permission it needs.
+    pub fn realtime(mut self, settings: crate::realtime::RealTime) -> Self {
+        self.realtime = settings;
+        self
+    }
+
     /// Whether [`RunReport::trace`] keeps every record (default: yes).
     pub fn keep_trace(mut self, keep: bool) -> Self {
         self.keep_trace = keep;
@@ -586,6 +597,7 @@ impl SystemBuilder {
             inputs,
             replay: self.replay,
             fuel_per_second: self.fuel_per_second,
+            realtime: self.realtime,
             keep_trace: self.keep_trace,
             seed: self.seed,
             tx,
@@ -612,6 +624,7 @@ pub struct System {
     inputs: Option<InputRecorder>,
     replay: ReplayCheck,
     fuel_per_second: Option<u64>,
+    realtime: crate::realtime::RealTime,
     keep_trace: bool,
     seed: u64,
     tx: Sender<Command>,
@@ -788,7 +801,10 @@ impl System {
             writes: self.writes,
         });
         *self.setups.lock().unwrap_or_else(|e| e.into_inner()) = scheduler.instance_setups();
+        // After the run's other threads are made: they do not inherit it.
+        let realtime = crate::realtime::enter(self.clock, self.realtime)?;
         let end = scheduler.run();
+        drop(realtime);
         self.setups
             .lock()
             .unwrap_or_else(|e| e.into_inner())

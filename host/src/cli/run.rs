@@ -92,6 +92,14 @@ pub struct RunArgs {
     /// (default 0).
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Real clock: run the scheduler's thread at this SCHED_FIFO priority
+    /// (1-99), so that other processes cannot delay its deadlines (needs
+    /// CAP_SYS_NICE or an RLIMIT_RTPRIO that allows it).
+    #[arg(long, value_name = "PRIORITY")]
+    realtime: Option<u8>,
+    /// Real clock: pin the scheduler's thread to this CPU (from 0).
+    #[arg(long)]
+    cpu: Option<usize>,
 }
 
 /// One `--swap`.
@@ -222,6 +230,15 @@ pub fn run(args: RunArgs) -> Result<()> {
             anyhow::bail!("--fuel-as-time goes with the virtual clock (under the real clock compute takes its real time)");
         }
         builder = builder.fuel_as_time(rate);
+    }
+    if args.realtime.is_some() || args.cpu.is_some() {
+        if args.clock != ClockKind::Real {
+            anyhow::bail!("--realtime and --cpu go with --clock real");
+        }
+        builder = builder.realtime(radar::realtime::RealTime {
+            priority: args.realtime,
+            cpu: args.cpu,
+        });
     }
     for w in &args.writes {
         builder = builder.write_at(w.at, &w.entry, w.value.clone());

@@ -795,10 +795,40 @@ pub(crate) struct RunSetup {
 }
 
 /// Under the real clock, how long before a deadline the scheduler stops
-/// sleeping and spins: waking a sleeping thread costs tens of µs on a busy
-/// machine (`benches/dispatch.rs` and `benches/swap.rs` measure the
-/// effect). Bounded: a scheduler with nothing due sleeps.
-const SPIN_BEFORE_DEADLINE: Duration = Duration::from_micros(100);
+/// sleeping and spins: a thread put to sleep wakes late (tens of µs on a
+/// quiet machine, hundreds on a loaded or virtual one), so the last stretch
+/// is spun. The stretch follows what the machine does: it grows to the
+/// latest wake seen (plus a margin) and shrinks slowly when wakes are
+/// prompt, within these bounds (`benches/realtime.rs` measures the
+/// effect). A scheduler with nothing due sleeps.
+#[derive(Clone, Copy)]
+struct SpinWindow {
+    now: Duration,
+}
+
+impl SpinWindow {
+    const MIN: Duration = Duration::from_micros(50);
+    const MAX: Duration = Duration::from_micros(500);
+    const MARGIN: Duration = Duration::from_micros(20);
+
+    fn new() -> Self {
+        Self {
+            now: Duration::from_micros(100),
+        }
+    }
+
+    /// A sleep meant to last `asked` lasted `took`.
+    fn woke(&mut self, asked: Duration, took: Duration) {
+        let late = took.saturating_sub(asked) + Self::MARGIN;
+        self.now = if late > self.now {
+            late
+        } else {
+            // Shrinks by 1/64 of the difference per wake.
+            self.now - (self.now - late) / 64
+        }
+        .clamp(Self::MIN, Self::MAX);
+    }
+}
 
 /// Owns the executor and the command channel; [`Scheduler::run`] is the
 /// scheduler's thread.
@@ -970,6 +1000,7 @@ impl Scheduler {
             Ok(())
         })?;
         self.absorb();
+        let mut spin = SpinWindow::new();
         loop {
             let (stop, lockstep) = self.core.with(|st| (st.stop, st.turns.running()));
             if stop {
@@ -1047,17 +1078,23 @@ impl Scheduler {
                         (d, l) => d.or(l),
                     };
                     let wait = until.map(|u| Duration::from_nanos(u.saturating_sub(now)));
-                    if wait.is_some_and(|w| w <= SPIN_BEFORE_DEADLINE) {
-                        // A thread put to sleep wakes tens of µs late: the
-                        // last stretch before a deadline is spun instead (the
+                    if wait.is_some_and(|w| w <= spin.now) {
+                        // The last stretch before a deadline is spun (the
                         // loop's top still takes commands as they come).
                         std::hint::spin_loop();
                         continue;
                     }
                     // Sleep until the spinning stretch before the deadline.
-                    let wait = wait.map(|w| w - SPIN_BEFORE_DEADLINE);
+                    let wait = wait.map(|w| w - spin.now);
                     let received = match wait {
-                        Some(w) => self.commands.recv_timeout(w),
+                        Some(w) => {
+                            let asleep = std::time::Instant::now();
+                            let received = self.commands.recv_timeout(w);
+                            if received.is_err() {
+                                spin.woke(w, asleep.elapsed());
+                            }
+                            received
+                        }
                         None => self
                             .commands
                             .recv()
