@@ -787,6 +787,7 @@ impl System {
                     digest: digest.then(TraceDigest::default),
                     replay: self.replay,
                     divergence: None,
+                    unflushed: false,
                 }
             },
             commands: self.rx,

@@ -605,6 +605,19 @@ enum WaiterReply {
 }
 
 impl State {
+    /// Lets the trace sinks do their slow work while nothing is due;
+    /// whether there was any (records since the last time).
+    fn trace_idle(&mut self) -> bool {
+        if !self.trace.unflushed {
+            return false;
+        }
+        self.trace.unflushed = false;
+        for sink in &mut self.trace.sinks {
+            sink.idle();
+        }
+        true
+    }
+
     /// Writes an input from outside into the recording, if there is one.
     pub(super) fn record_input(&mut self, input: Input) {
         let t = self.now();
@@ -652,6 +665,8 @@ pub(crate) struct TraceOut {
     /// What a replay checks, and where it first parted from its recording.
     pub replay: ReplayCheck,
     pub divergence: Option<String>,
+    /// Records went to the sinks since they were last idle.
+    pub unflushed: bool,
 }
 
 pub(crate) struct State {
@@ -1082,6 +1097,12 @@ impl Scheduler {
                         // The last stretch before a deadline is spun (the
                         // loop's top still takes commands as they come).
                         std::hint::spin_loop();
+                        continue;
+                    }
+                    // Nothing to do before the spinning stretch: the trace
+                    // sinks write what they hold, then the wait is measured
+                    // again.
+                    if self.core.with(State::trace_idle) {
                         continue;
                     }
                     // Sleep until the spinning stretch before the deadline.

@@ -38,6 +38,7 @@ impl State {
         for sink in &mut self.trace.sinks {
             sink.record(&record);
         }
+        self.trace.unflushed = true;
         if let Some(kept) = &mut self.trace.kept {
             kept.push(record);
         }

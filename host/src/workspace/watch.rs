@@ -87,10 +87,34 @@ pub fn watch(
         .name("radar-watch".into())
         .spawn(move || {
             let _watcher = watcher; // dropped (and stopped) with this thread
+                                    // Only the files that matter count: a trace file or a log that
+                                    // is written all the time in the same folder must not keep the
+                                    // folder from ever being quiet.
+            let matters = |p: &PathBuf| {
+                builds
+                    .iter()
+                    .any(|b| *p == b.wasm || (b.command.is_some() && watched(b, p)))
+            };
             while let Ok(first) = rx.recv() {
-                let mut changed: BTreeSet<PathBuf> = first.into_iter().collect();
-                while let Ok(more) = rx.recv_timeout(QUIET) {
-                    changed.extend(more);
+                let mut changed: BTreeSet<PathBuf> = first.into_iter().filter(matters).collect();
+                if changed.is_empty() {
+                    continue;
+                }
+                // Quiet: no change that matters for QUIET.
+                let mut quiet_at = std::time::Instant::now() + QUIET;
+                loop {
+                    let left = quiet_at.saturating_duration_since(std::time::Instant::now());
+                    match rx.recv_timeout(left) {
+                        Ok(more) => {
+                            let relevant: Vec<PathBuf> = more.into_iter().filter(matters).collect();
+                            if !relevant.is_empty() {
+                                changed.extend(relevant);
+                                quiet_at = std::time::Instant::now() + QUIET;
+                            }
+                        }
+                        Err(mpsc::RecvTimeoutError::Timeout) => break,
+                        Err(mpsc::RecvTimeoutError::Disconnected) => return,
+                    }
                 }
                 for b in &builds {
                     let rebuild = b.command.is_some() && changed.iter().any(|p| watched(b, p));
