@@ -52,24 +52,26 @@ pub const SETTINGS: &str = "scenario.toml";
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Settings {
-    /// Virtual time to run, such as `30s`.
-    #[serde(rename = "for")]
-    pub run_for: Option<String>,
+    /// Virtual time to run: `"30s"`, or a number of seconds.
+    #[serde(rename = "for", alias = "duration")]
+    pub run_for: Option<toml::Value>,
     /// Seed of the random sources plugins see.
     pub seed: Option<u64>,
     /// What the scenario shows (for people).
     pub description: Option<String>,
-    /// Fuel settings.
+    /// Fuel settings: a table, or a number (the budget of one call).
     #[serde(default)]
     pub fuel: FuelSettings,
-    /// What the comparison looks at.
+    /// What the comparison looks at: a table, or the list of kinds.
     #[serde(default)]
     pub compare: CompareSettings,
+    /// The record kinds compared (the same as `compare.kinds`).
+    pub kinds: Option<Vec<String>>,
 }
 
 /// `[fuel]` of `scenario.toml`.
 #[derive(Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(from = "FuelForm")]
 pub struct FuelSettings {
     /// Fuel a call may burn, for plugins whose manifest entry sets none.
     pub per_call: Option<u64>,
@@ -77,9 +79,39 @@ pub struct FuelSettings {
     pub per_second: Option<u64>,
 }
 
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum FuelForm {
+    Budget(u64),
+    Table {
+        #[serde(alias = "budget")]
+        per_call: Option<u64>,
+        #[serde(alias = "as_time", alias = "fuel_per_second")]
+        per_second: Option<u64>,
+    },
+}
+
+impl From<FuelForm> for FuelSettings {
+    fn from(form: FuelForm) -> Self {
+        match form {
+            FuelForm::Budget(per_call) => Self {
+                per_call: Some(per_call),
+                per_second: None,
+            },
+            FuelForm::Table {
+                per_call,
+                per_second,
+            } => Self {
+                per_call,
+                per_second,
+            },
+        }
+    }
+}
+
 /// `[compare]` of `scenario.toml`.
 #[derive(Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(from = "CompareForm")]
 pub struct CompareSettings {
     /// Record kinds compared (default: all).
     pub kinds: Option<Vec<String>>,
@@ -87,6 +119,49 @@ pub struct CompareSettings {
     pub versions: Option<String>,
     /// Fields never compared (default: `backtrace`).
     pub ignore: Option<Vec<String>>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum CompareForm {
+    Kinds(Vec<String>),
+    Table {
+        kinds: Option<Vec<String>>,
+        versions: Option<String>,
+        ignore: Option<Vec<String>>,
+    },
+}
+
+impl From<CompareForm> for CompareSettings {
+    fn from(form: CompareForm) -> Self {
+        match form {
+            CompareForm::Kinds(kinds) => Self {
+                kinds: Some(kinds),
+                ..Self::default()
+            },
+            CompareForm::Table {
+                kinds,
+                versions,
+                ignore,
+            } => Self {
+                kinds,
+                versions,
+                ignore,
+            },
+        }
+    }
+}
+
+/// `for`: a duration text or a number of seconds.
+fn run_length(value: &toml::Value) -> Result<Duration, String> {
+    match value {
+        toml::Value::String(text) => parse_duration(text),
+        toml::Value::Integer(secs) if *secs >= 0 => Ok(Duration::from_secs(*secs as u64)),
+        toml::Value::Float(secs) if *secs >= 0.0 => Ok(Duration::from_secs_f64(*secs)),
+        other => Err(format!(
+            "`{other}`: expected a duration such as \"30s\", or seconds"
+        )),
+    }
 }
 
 /// A scenario that cannot be run as written.
@@ -161,8 +236,8 @@ impl Scenario {
             _ => None,
         });
         let run_for = match (&settings.run_for, end) {
-            (Some(text), _) => {
-                parse_duration(text).map_err(|e| fail(format!("{SETTINGS}: `for`: {e}")))?
+            (Some(value), _) => {
+                run_length(value).map_err(|e| fail(format!("{SETTINGS}: `for`: {e}")))?
             }
             (None, Some(end)) => end,
             (None, None) => {
@@ -171,7 +246,10 @@ impl Scenario {
                 )))
             }
         };
-        let comparison = comparison(&settings.compare).map_err(fail)?;
+        let mut comparison = comparison(&settings.compare).map_err(fail)?;
+        if let Some(kinds) = &settings.kinds {
+            comparison.kinds = Some(kinds.iter().cloned().collect());
+        }
         Ok(Self {
             name,
             dir: dir.to_path_buf(),
@@ -380,4 +458,45 @@ pub fn run_all(
         }
     });
     outcomes.into_iter().flatten().collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn settings(text: &str) -> Settings {
+        toml::from_str(text).expect("parses")
+    }
+
+    #[test]
+    fn settings_take_the_short_forms_too() {
+        let full = settings(
+            "for = \"2.5s\"\n[fuel]\nper_call = 5000\nper_second = 1000000\n[compare]\nkinds = [\"signal\"]\nversions = \"exact\"\n",
+        );
+        assert_eq!(
+            run_length(full.run_for.as_ref().expect("for")),
+            Ok(Duration::from_millis(2500))
+        );
+        assert_eq!(
+            (full.fuel.per_call, full.fuel.per_second),
+            (Some(5000), Some(1_000_000))
+        );
+        assert_eq!(full.compare.kinds, Some(vec!["signal".to_string()]));
+        let short = settings("for = 30\nfuel = 7000\ncompare = [\"signal\", \"deliver\"]\n");
+        assert_eq!(
+            run_length(short.run_for.as_ref().expect("for")),
+            Ok(Duration::from_secs(30))
+        );
+        assert_eq!(short.fuel.per_call, Some(7000));
+        assert_eq!(short.compare.kinds.map(|k| k.len()), Some(2));
+        let kinds = settings("for = 1.5\nkinds = [\"slot-begin\"]\n");
+        assert_eq!(
+            run_length(kinds.run_for.as_ref().expect("for")),
+            Ok(Duration::from_millis(1500))
+        );
+        assert!(
+            toml::from_str::<Settings>("for = \"1s\"\nfour = 2\n").is_err(),
+            "typos are errors"
+        );
+    }
 }

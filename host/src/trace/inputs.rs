@@ -57,12 +57,14 @@ pub enum Input {
     /// A payload sent straight into a slot (`--inject`, `Radar::inject`).
     Inject {
         /// `Plugin.slot`.
+        #[serde(alias = "slot")]
         to: String,
         /// The payload, as JSON.
         #[serde(default)]
         payload: Json,
     },
     /// A blackboard entry written (`--write`, `Radar::board_write`).
+    #[serde(alias = "write")]
     BoardWrite {
         /// The entry.
         entry: String,
@@ -75,6 +77,7 @@ pub enum Input {
         plugin: String,
         /// The new component: a path (relative to the inputs file) or
         /// `builtin:NAME`.
+        #[serde(alias = "path", alias = "component")]
         wasm: String,
         /// `drain` (default) or `restart`.
         #[serde(default = "drain")]
