@@ -2,8 +2,8 @@
 //! 24 hours of virtual time, and a system of 100 events polling every
 //! 10 ms for 1 hour of virtual time, each timed on the wall clock. Prints
 //! checks per second of wall time and how much faster than real time the
-//! run went. Trace off (as `radar test` with a sink-less run would be
-//! slower only by the records it keeps).
+//! run went. The trace is off: a run that writes or keeps one pays for its
+//! records on top.
 //!
 //! `cargo bench -p radar --bench virtual_time` (`RADAR_BENCH_HOURS` scales
 //! the 100-event run, default 1).
