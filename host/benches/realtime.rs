@@ -11,7 +11,6 @@
 
 use std::fs::File;
 use std::io::BufWriter;
-use std::process::{Child, Command};
 use std::time::Duration;
 
 use radar::realtime::RealTime;
@@ -107,33 +106,6 @@ fn histogram(what: &str, mut v: Vec<f64>, targets: (f64, f64)) {
     println!("{line}");
 }
 
-/// Busy loops in other processes, one per core, while alive.
-struct Load(Vec<Child>);
-
-impl Load {
-    fn start(n: usize) -> Self {
-        Self(
-            (0..n)
-                .filter_map(|_| {
-                    Command::new("sh")
-                        .args(["-c", "while :; do :; done"])
-                        .spawn()
-                        .ok()
-                })
-                .collect(),
-        )
-    }
-}
-
-impl Drop for Load {
-    fn drop(&mut self) {
-        for c in &mut self.0 {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-    }
-}
-
 fn main() {
     let secs: u64 = std::env::var("RADAR_RT_SECS")
         .ok()
@@ -144,7 +116,7 @@ fn main() {
         cpu: Some(1),
     };
     for (load, label) in [(0, "quiet machine"), (2, "two busy loops loading it")] {
-        let _load = Load::start(load);
+        let _load = radar_fixtures::BusyLoops::start(load);
         for (settings, how) in [
             (RealTime::default(), "normal priority"),
             (fifo, "SCHED_FIFO 50, pinned to CPU 1"),

@@ -47,9 +47,14 @@ fn diagnose() -> Option<String> {
         .trim()
         .parse()
         .ok()?;
-    let mappings = std::fs::read_to_string("/proc/self/maps")
-        .map(|m| m.lines().count() as u64)
-        .unwrap_or(0);
+    let Some(mappings) = count_mappings() else {
+        // At the mapping limit even reading the count can fail.
+        return Some(format!(
+            "the kernel's limit on memory mappings ({MAP_COUNT} {limit}; each plugin \
+             instance takes about 7) or memory is reached: raise the first, e.g. \
+             `sudo sysctl -w vm.max_map_count=1048576`"
+        ));
+    };
     if mappings + 1_000 >= limit {
         Some(format!(
             "the process has {mappings} memory mappings, at the kernel's limit \
@@ -60,6 +65,24 @@ fn diagnose() -> Option<String> {
         Some(format!(
             "{OUT_OF_MEMORY} (or the process's address-space limit, `ulimit -v`, is reached)"
         ))
+    }
+}
+
+/// The process's memory mappings, counted without allocating: at the
+/// limit, a buffer large enough for the whole of `/proc/self/maps` would
+/// need a mapping of its own and fail.
+fn count_mappings() -> Option<u64> {
+    use std::io::Read;
+    let mut maps = std::fs::File::open("/proc/self/maps").ok()?;
+    let mut buffer = [0u8; 8192];
+    let mut lines = 0u64;
+    loop {
+        match maps.read(&mut buffer) {
+            Ok(0) => return Some(lines),
+            Ok(n) => lines += buffer[..n].iter().filter(|b| **b == b'\n').count() as u64,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(_) => return None,
+        }
     }
 }
 

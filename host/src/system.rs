@@ -68,8 +68,8 @@ use crate::payload::Payload;
 use crate::plugin::{default_cache_dir, InstanceSetup, Limits, Loader, WasiGrants};
 use crate::scheduler::{
     duration_nanos, AnonymousJob, AnonymousSlot, Busy, Command, Grants, LinkSpec, LinkTarget, Mode,
-    NewVersion, PluginDef, ProgramFailure, RunSetup, Scheduler, StaticInjection, StaticSwap,
-    StaticWrite, SwapPolicy, TraceOut, Woke,
+    NewVersion, Place, PluginDef, ProgramFailure, RunSetup, Scheduler, StaticInput, StaticWhat,
+    SwapPolicy, TraceOut, Woke,
 };
 
 /// What a new instance of each plugin needs, published when the run
@@ -85,7 +85,7 @@ thread_local! {
     /// here take part in that system's lockstep (see the module docs).
     static NATIVE_CONTEXT: Cell<u64> = const { Cell::new(0) };
 }
-use crate::trace::inputs::{Input, InputRecorder, Origin, ReplayCheck, TimedInput, TraceDigest};
+use crate::trace::inputs::{Input, InputRecorder, Origin, TimedInput, TraceDigest};
 use crate::trace::{Record, TraceSink};
 
 /// Where a plugin's component comes from.
@@ -244,28 +244,20 @@ impl Deliberative {
 /// The name a deliberative component has in the trace (its log lines).
 const PROGRAM_NAME: &str = "(deliberative)";
 
-/// A `swap_at` (or a recorded swap) before its component is loaded.
-struct BuilderSwap {
-    at: Duration,
-    step: Option<u64>,
-    records: Option<u64>,
-    plugin: String,
-    path: PathBuf,
-    policy: SwapPolicy,
-}
-
 /// Builds a [`System`]; see the module docs.
 pub struct SystemBuilder {
     clock: ClockKind,
     plugins: Vec<Plugin>,
     links: Vec<Link>,
-    injections: Vec<StaticInjection>,
-    swaps: Vec<BuilderSwap>,
-    writes: Vec<StaticWrite>,
+    /// Injections, blackboard writes and swaps at given times, in the
+    /// order they were given.
+    inputs: Vec<StaticInput>,
     deliberative: Option<Deliberative>,
     sinks: Vec<Box<dyn TraceSink>>,
     record: Option<PathBuf>,
-    replay: ReplayCheck,
+    /// Replaying a virtual-clock recording: its trace records in all and
+    /// their digest, which the run checks at its end.
+    replay_end: Option<(u64, String)>,
     fuel_per_second: Option<u64>,
     realtime: crate::realtime::RealTime,
     keep_trace: bool,
@@ -281,13 +273,11 @@ impl Default for SystemBuilder {
             clock: ClockKind::Virtual,
             plugins: Vec::new(),
             links: Vec::new(),
-            injections: Vec::new(),
-            swaps: Vec::new(),
-            writes: Vec::new(),
+            inputs: Vec::new(),
             deliberative: None,
             sinks: Vec::new(),
             record: None,
-            replay: ReplayCheck::default(),
+            replay_end: None,
             fuel_per_second: None,
             realtime: crate::realtime::RealTime::default(),
             keep_trace: true,
@@ -322,15 +312,9 @@ impl SystemBuilder {
     /// Sends `payload` (JSON, parsed by the slot's WIT type) into `slot` at
     /// `at` of the run's time, like `radar run --inject`. A slot or payload
     /// that does not fit fails the run at once.
-    pub fn inject_at(mut self, at: Duration, slot: impl Into<String>, payload: Json) -> Self {
-        self.injections.push(StaticInjection {
-            at,
-            step: None,
-            records: None,
-            to: slot.into(),
-            payload,
-        });
-        self
+    pub fn inject_at(self, at: Duration, slot: impl Into<String>, payload: Json) -> Self {
+        let to = slot.into();
+        self.input(at, None, StaticWhat::Inject { to, payload })
     }
 
     /// The system's deliberative program, as a component: `System::run`
@@ -344,15 +328,9 @@ impl SystemBuilder {
     /// (`radar run --write`), as deliberative code would: a driver's
     /// reading, a test's input. A value that does not fit the entry's type
     /// fails the run before anything runs.
-    pub fn write_at(mut self, at: Duration, entry: impl Into<String>, value: Json) -> Self {
-        self.writes.push(StaticWrite {
-            at,
-            step: None,
-            records: None,
-            entry: entry.into(),
-            value,
-        });
-        self
+    pub fn write_at(self, at: Duration, entry: impl Into<String>, value: Json) -> Self {
+        let entry = entry.into();
+        self.input(at, None, StaticWhat::Write { entry, value })
     }
 
     /// Swaps `plugin` for the component at `path` at `at` of the run's time
@@ -360,20 +338,27 @@ impl SystemBuilder {
     /// does not load or fit is refused when its time comes (a
     /// `swap-refused` record), and the old version goes on serving.
     pub fn swap_at(
-        mut self,
+        self,
         at: Duration,
         plugin: impl Into<String>,
         path: impl Into<PathBuf>,
         policy: SwapPolicy,
     ) -> Self {
-        self.swaps.push(BuilderSwap {
+        let (plugin, path) = (plugin.into(), path.into());
+        self.input(
             at,
-            step: None,
-            records: None,
-            plugin: plugin.into(),
-            path: path.into(),
-            policy,
-        });
+            None,
+            StaticWhat::Swap {
+                plugin,
+                path,
+                policy,
+                code: None,
+            },
+        )
+    }
+
+    fn input(mut self, at: Duration, place: Option<Place>, what: StaticWhat) -> Self {
+        self.inputs.push(StaticInput { at, place, what });
         self
     }
 
@@ -408,31 +393,25 @@ impl SystemBuilder {
             // A recording's inputs carry their place in their instant: they
             // are applied there, not where a timer would put them; and the
             // records made before them, which the replay checks.
-            let (step, records) = (*step, *records);
-            match input {
-                Input::Inject { to, payload } => self.injections.push(StaticInjection {
-                    at,
-                    step,
-                    records,
+            let place = step.map(|step| Place {
+                step,
+                records: *records,
+            });
+            let what = match input {
+                Input::Inject { to, payload } => StaticWhat::Inject {
                     to: to.clone(),
                     payload: payload.clone(),
-                }),
-                Input::BoardWrite { entry, value } => self.writes.push(StaticWrite {
-                    at,
-                    step,
-                    records,
+                },
+                Input::BoardWrite { entry, value } => StaticWhat::Write {
                     entry: entry.clone(),
                     value: value.clone(),
-                }),
+                },
                 Input::Swap {
                     plugin,
                     wasm,
                     policy,
                     ..
-                } => self.swaps.push(BuilderSwap {
-                    at,
-                    step,
-                    records,
+                } => StaticWhat::Swap {
                     plugin: plugin.clone(),
                     path: PathBuf::from(wasm),
                     policy: if policy == "restart" {
@@ -440,14 +419,17 @@ impl SystemBuilder {
                     } else {
                         SwapPolicy::Drain
                     },
-                }),
+                    code: None,
+                },
                 Input::End {
                     digest: Some(digest),
-                } if records.is_some() => {
-                    self.replay.end = records.map(|r| (r, digest.clone()));
+                } => {
+                    self.replay_end = records.map(|r| (r, digest.clone()));
+                    continue;
                 }
-                Input::Recording { .. } | Input::Plugin { .. } | Input::End { .. } => {}
-            }
+                Input::Recording { .. } | Input::Plugin { .. } | Input::End { .. } => continue,
+            };
+            self = self.input(at, place, what);
         }
         self
     }
@@ -561,20 +543,16 @@ impl SystemBuilder {
                 })
             }
         };
-        let swaps = self
-            .swaps
-            .into_iter()
-            .map(|swap| StaticSwap {
-                at: swap.at,
-                step: swap.step,
-                records: swap.records,
-                code: load_version(&mut loader, &swap.plugin, &swap.path),
-                origin: origin_of(&swap.path),
-                plugin: swap.plugin,
-                policy: swap.policy,
-            })
-            .collect();
-        let inputs = match &self.record {
+        let mut inputs = self.inputs;
+        for input in &mut inputs {
+            if let StaticWhat::Swap {
+                plugin, path, code, ..
+            } = &mut input.what
+            {
+                *code = Some(load_version(&mut loader, plugin, path));
+            }
+        }
+        let recorder = match &self.record {
             None => None,
             Some(path) => Some(InputRecorder::create(path).map_err(|e| {
                 RadarError::Recording(format!("cannot create {}: {e}", path.display()))
@@ -584,18 +562,16 @@ impl SystemBuilder {
         Ok(System {
             loader: Arc::new(Mutex::new(loader)),
             setups: SharedSetups::default(),
-            swaps,
             id: NEXT_SYSTEM.fetch_add(1, Ordering::Relaxed),
             clock: self.clock,
             plugins: defs,
             links: self.links.into_iter().map(|l| l.spec).collect(),
-            injections: self.injections,
+            inputs,
             board,
-            writes: self.writes,
             program,
             sinks: self.sinks,
-            inputs,
-            replay: self.replay,
+            recorder,
+            replay_end: self.replay_end,
             fuel_per_second: self.fuel_per_second,
             realtime: self.realtime,
             keep_trace: self.keep_trace,
@@ -612,17 +588,15 @@ pub struct System {
     /// Kept for swaps: one engine for the whole run.
     loader: Arc<Mutex<Loader>>,
     setups: SharedSetups,
-    swaps: Vec<StaticSwap>,
     clock: ClockKind,
     plugins: Vec<PluginDef>,
     links: Vec<LinkSpec>,
-    injections: Vec<StaticInjection>,
+    inputs: Vec<StaticInput>,
     board: BTreeMap<String, crate::payload::PayloadType>,
-    writes: Vec<StaticWrite>,
     program: Option<ProgramCode>,
     sinks: Vec<Box<dyn TraceSink>>,
-    inputs: Option<InputRecorder>,
-    replay: ReplayCheck,
+    recorder: Option<InputRecorder>,
+    replay_end: Option<(u64, String)>,
     fuel_per_second: Option<u64>,
     realtime: crate::realtime::RealTime,
     keep_trace: bool,
@@ -775,17 +749,16 @@ impl System {
                 // The records are counted and hashed when a recording notes
                 // them or a replay checks them (virtual clock only: real
                 // times never repeat).
-                let checked = self.replay.end.is_some()
-                    || self.injections.iter().any(|i| i.records.is_some())
-                    || self.writes.iter().any(|w| w.records.is_some())
-                    || self.swaps.iter().any(|w| w.records.is_some());
-                let digest = self.clock == ClockKind::Virtual && (self.inputs.is_some() || checked);
+                let checked = self.replay_end.is_some()
+                    || (self.inputs.iter()).any(|i| i.place.is_some_and(|p| p.records.is_some()));
+                let digest =
+                    self.clock == ClockKind::Virtual && (self.recorder.is_some() || checked);
                 TraceOut {
                     sinks: self.sinks,
                     kept: self.keep_trace.then(Vec::new),
-                    inputs: self.inputs.take(),
+                    inputs: self.recorder.take(),
                     digest: digest.then(TraceDigest::default),
-                    replay: self.replay,
+                    replay_end: self.replay_end,
                     divergence: None,
                     unflushed: false,
                 }
@@ -796,10 +769,8 @@ impl System {
             seed: self.seed,
             programs,
             links: self.links,
-            injections: self.injections,
-            swaps: self.swaps,
+            inputs: self.inputs,
             board: self.board,
-            writes: self.writes,
         });
         *self.setups.lock().unwrap_or_else(|e| e.into_inner()) = scheduler.instance_setups();
         // After the run's other threads are made: they do not inherit it.
@@ -868,7 +839,7 @@ fn load_version(
     plugin: &str,
     path: &Path,
 ) -> Result<Box<NewVersion>, (String, RadarError)> {
-    if let Origin::Builtin(name) = origin_of(path) {
+    if let Origin::Builtin(name) = Origin::of(path) {
         let Some(bytes) = crate::example::wasm::builtin(&name) else {
             let cause = format!("no built-in component `{name}`");
             let error = RadarError::BadSetting {
@@ -900,14 +871,6 @@ fn load_version(
             .unwrap_or_else(|_| "unreadable".into());
         (version, e)
     })
-}
-
-/// Where a swap's component comes from: `builtin:NAME` or a file.
-fn origin_of(path: &Path) -> Origin {
-    match path.to_str().and_then(|p| p.strip_prefix("builtin:")) {
-        Some(name) => Origin::Builtin(name.to_string()),
-        None => Origin::File(path.to_path_buf()),
-    }
 }
 
 fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
@@ -1302,7 +1265,7 @@ impl Radar {
         policy: SwapPolicy,
     ) -> Result<(), RadarError> {
         let code = self.stage(plugin, path.as_ref());
-        let origin = (!self.lockstep()).then(|| origin_of(path.as_ref()));
+        let origin = (!self.lockstep()).then(|| Origin::of(path.as_ref()));
         self.ask(|reply| Command::Swap {
             plugin: plugin.to_string(),
             code,
@@ -1327,7 +1290,7 @@ impl Radar {
             Ok(new) => Ok(PreparedVersion {
                 system: self.system,
                 plugin: plugin.to_string(),
-                origin: origin_of(path.as_ref()),
+                origin: Origin::of(path.as_ref()),
                 new,
             }),
             Err((_, error)) => Err(error),

@@ -2,20 +2,13 @@
 //! file, manifests, and one-line errors with a non-zero status.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Command;
 
 use radar_fixtures::plugins;
 
-fn radar(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_radar"))
-        .args(args)
-        .output()
-        .expect("the radar binary runs")
-}
+mod common;
 
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
+use common::{radar, text};
 
 #[test]
 fn with_no_arguments_it_prints_the_paper_example_timeline() {

@@ -4,18 +4,11 @@
 //! command runs them.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn radar(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_radar"))
-        .args(args)
-        .output()
-        .expect("the radar binary runs")
-}
+mod common;
 
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
+use common::{radar, text};
 
 fn last_line(text: &str) -> &str {
     text.lines().last().unwrap_or_default()
@@ -255,18 +248,18 @@ fn a_real_clock_run_recorded_replays_to_the_same_trace() {
 fn a_replay_with_a_changed_plugin_names_it_and_the_first_divergence() {
     let dir = tempfile::tempdir().expect("temp dir");
     let manifest = dir.path().join("radar.toml");
-    let write_manifest = |count_to: u32, wasm: &str| {
+    let write_manifest = |wasm: &str| {
         std::fs::write(
             &manifest,
             format!(
-                "[plugins.E]\nwasm = \"builtin:test-event\"\nconfig = {{ count_to = {count_to}, interval_s = 1 }}\n\
+                "[plugins.E]\nwasm = \"builtin:test-event\"\nconfig = {{ count_to = 3, interval_s = 1 }}\n\
                  [plugins.R]\nwasm = \"{wasm}\"\nconfig = {{ count_for_s = 1, interval_s = 1, count_to = 2 }}\n\
                  [[connect]]\nmode = \"whenever\"\nfrom = \"E.triggered\"\nto = \"R.start\"\n"
             ),
         )
         .expect("write manifest")
     };
-    write_manifest(3, "builtin:test-response");
+    write_manifest("builtin:test-response");
     let (inputs, trace) = (dir.path().join("in.jsonl"), dir.path().join("t.jsonl"));
     let out = radar(&[
         "run",
@@ -283,29 +276,24 @@ fn a_replay_with_a_changed_plugin_names_it_and_the_first_divergence() {
     ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
 
+    let replay = || {
+        radar(&[
+            "run",
+            arg(&manifest),
+            "-q",
+            "--replay",
+            arg(&inputs),
+            "--expect",
+            arg(&trace),
+        ])
+    };
     // The same plugins: the same trace, byte for byte.
-    let out = radar(&[
-        "run",
-        arg(&manifest),
-        "-q",
-        "--replay",
-        arg(&inputs),
-        "--expect",
-        arg(&trace),
-    ]);
+    let out = replay();
     assert!(out.status.success(), "{}", text(&out.stderr));
 
     // R is now another component: the replay says so, and where it parts.
-    write_manifest(3, "builtin:count-up");
-    let out = radar(&[
-        "run",
-        arg(&manifest),
-        "-q",
-        "--replay",
-        arg(&inputs),
-        "--expect",
-        arg(&trace),
-    ]);
+    write_manifest("builtin:count-up");
+    let out = replay();
     assert!(!out.status.success());
     let stderr = text(&out.stderr);
     assert!(stderr.contains("replay: plugin `R` is version"), "{stderr}");
@@ -323,7 +311,7 @@ fn a_replay_with_a_changed_plugin_names_it_and_the_first_divergence() {
     );
     // A change that shows only after the last input is caught by the
     // digest of the whole trace.
-    write_manifest(3, "builtin:test-response");
+    write_manifest("builtin:test-response");
     let lines = std::fs::read_to_string(&inputs).expect("recording");
     let end = lines.lines().last().expect("an end line").to_string();
     let earlier = lines.replace(

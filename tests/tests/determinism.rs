@@ -8,7 +8,6 @@
 
 mod common;
 
-use std::process::{Child, Command};
 use std::time::Duration;
 
 use common::*;
@@ -68,34 +67,6 @@ fn the_native_listing_1_program_finishes() {
 /// Runs one example to its end.
 type Example = fn() -> RunReport;
 
-/// Busy loops in other processes, one per core, for as long as they live.
-struct Load(Vec<Child>);
-
-impl Load {
-    fn start() -> Self {
-        let cores = std::thread::available_parallelism().map_or(2, |n| n.get());
-        Self(
-            (0..cores)
-                .map(|_| {
-                    Command::new("sh")
-                        .args(["-c", "while :; do :; done"])
-                        .spawn()
-                        .expect("start a busy loop")
-                })
-                .collect(),
-        )
-    }
-}
-
-impl Drop for Load {
-    fn drop(&mut self) {
-        for child in &mut self.0 {
-            let _ = child.kill();
-            let _ = child.wait();
-        }
-    }
-}
-
 #[test]
 fn a_hundred_runs_of_each_example_are_byte_identical_also_under_load() {
     let examples: [(&str, Example); 4] = [
@@ -104,7 +75,7 @@ fn a_hundred_runs_of_each_example_are_byte_identical_also_under_load() {
         ("listing1", listing1_native),
         ("obstacle", obstacle_native),
     ];
-    let _load = Load::start();
+    let _load = radar_fixtures::BusyLoops::on_every_core();
     for (name, run) in examples {
         let first = checked(run()).trace_json_lines();
         assert!(first.lines().count() > 30, "{name} did something");

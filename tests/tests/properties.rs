@@ -168,6 +168,9 @@ struct Scenario {
     events: usize,
     /// Steps at times in quarter seconds.
     steps: Vec<(u32, Step)>,
+    /// Fuel as time: compute takes virtual time at this many fuel a
+    /// second (calls then end later, and interleave differently).
+    fuel_per_second: Option<u64>,
 }
 
 const RUN_SECS: u64 = 10;
@@ -224,6 +227,9 @@ impl Scenario {
 
     fn system(&self) -> SystemBuilder {
         let mut builder = common::virtual_system();
+        if let Some(rate) = self.fuel_per_second {
+            builder = builder.fuel_as_time(rate);
+        }
         for (i, fixture) in self.plugins.iter().enumerate() {
             builder = builder.plugin(fixture.plugin(&self.name(i)));
         }
@@ -292,6 +298,9 @@ impl fmt::Debug for Scenario {
             f,
             "\n# radar.toml (run {RUN_SECS} s under the virtual clock)"
         )?;
+        if let Some(rate) = self.fuel_per_second {
+            writeln!(f, "# with fuel as time: --fuel-as-time {rate}")?;
+        }
         for (i, fixture) in self.plugins.iter().enumerate() {
             writeln!(
                 f,
@@ -451,12 +460,18 @@ fn scenario() -> impl Strategy<Value = Scenario> {
                 steps.sort_by_key(|(at, _)| *at);
                 steps
             });
-            (Just(plugins), Just(e), timed)
+            // Slow enough for compute to matter next to the fixtures' sleeps.
+            let fuel = prop::option::weighted(
+                0.3,
+                prop::sample::select(vec![200_000u64, 5_000_000, 1_000_000_000]),
+            );
+            (Just(plugins), Just(e), timed, fuel)
         })
-        .prop_map(|(plugins, events, steps)| Scenario {
+        .prop_map(|(plugins, events, steps, fuel_per_second)| Scenario {
             plugins,
             events,
             steps,
+            fuel_per_second,
         })
 }
 
@@ -513,6 +528,9 @@ fn the_generator_builds_systems_that_do_something() {
             .new_tree(&mut runner)
             .expect("a scenario")
             .current();
+        if scenario.fuel_per_second.is_some() {
+            *seen.entry("(fuel as time)".into()).or_default() += 1;
+        }
         for record in common::records(&scenario.trace()) {
             let kind = record["kind"].as_str().unwrap_or_default();
             let key = match record["reason"].as_str() {
@@ -535,6 +553,7 @@ fn the_generator_builds_systems_that_do_something() {
         "disconnect closed",
         "swap",
         "swap-refused",
+        "(fuel as time)",
     ] {
         assert!(
             seen.contains_key(kind),

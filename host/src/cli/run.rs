@@ -9,7 +9,7 @@ use std::time::Duration;
 use anyhow::{Context, Result};
 use radar::manifest::{parse_duration, Manifest};
 use radar::timeline::Timeline;
-use radar::trace::compare::{compare, parse_values, Comparison};
+use radar::trace::compare::{compare, load_values, Comparison};
 use radar::trace::inputs::{self, Input, TimedInput};
 use radar::trace::JsonLines;
 use radar::workspace::{self, WatchEvent};
@@ -388,14 +388,8 @@ fn expect_trace(
     replay: Option<&[TimedInput]>,
     tolerance: Option<Duration>,
 ) -> Result<()> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read expected trace {}", path.display()))?;
-    let expected = parse_values(&text).with_context(|| path.display().to_string())?;
-    let actual: Vec<serde_json::Value> = report
-        .trace
-        .iter()
-        .map(|r| serde_json::to_value(r).unwrap_or_default())
-        .collect();
+    let expected = load_values(path).map_err(anyhow::Error::msg)?;
+    let actual = radar::trace::to_values(&report.trace);
     let recorded_real = replay.is_some_and(|inputs| {
         inputs
             .iter()

@@ -159,14 +159,11 @@ impl State {
             .and_then(|(_, value)| value.clone())
     }
 
-    /// Deliberative code writes `entry`: the JSON is checked against the
-    /// entry's type.
-    pub(super) fn board_write_json(&mut self, entry: &str, json: &Json) -> Result<(), RadarError> {
+    /// `json` as a value of `entry`'s type.
+    pub(super) fn board_value(&self, entry: &str, json: &Json) -> Result<Val, RadarError> {
         let ty = self.board_type(entry)?;
-        let value = json_to_val(json, &ty)
-            .map_err(|cause| RadarError::Blackboard(format!("entry `{entry}` is {ty}: {cause}")))?;
-        self.board_write("(native)", entry, value);
-        Ok(())
+        json_to_val(json, &ty)
+            .map_err(|cause| RadarError::Blackboard(format!("entry `{entry}` is {ty}: {cause}")))
     }
 
     pub(super) fn board_type(&self, entry: &str) -> Result<PayloadType, RadarError> {

@@ -13,6 +13,7 @@
 
 use std::collections::VecDeque;
 use std::future::{poll_fn, Future};
+use std::path::PathBuf;
 use std::rc::Rc;
 use std::time::Duration;
 
@@ -22,48 +23,44 @@ use wasmtime::component::Val;
 use super::{duration_nanos, Command, Core, Injection, NewVersion, State, SwapPolicy};
 use crate::error::RadarError;
 use crate::executor::{block_on, LocalTask};
-use crate::payload::json_to_val;
 use crate::trace::inputs::{Input, Origin, TraceDigest};
 
-/// An injection given when the system was built (`radar run --inject`).
-pub(crate) struct StaticInjection {
+/// An input given when the system was built: `--inject`, `--write`,
+/// `--swap`, a line of an inputs file.
+pub(crate) struct StaticInput {
     pub at: Duration,
-    /// Its place in its instant, when a recording gave one.
-    pub step: Option<u64>,
-    /// The trace records a recording had made before it.
-    pub records: Option<u64>,
-    pub to: String,
-    pub payload: Json,
+    /// Where a recording saw it land, when it came from one.
+    pub place: Option<Place>,
+    pub what: StaticWhat,
 }
 
-/// A swap given when the system was built (`radar run --swap`).
-pub(crate) struct StaticSwap {
-    pub at: Duration,
-    pub step: Option<u64>,
+/// Where a recorded input landed in its instant, and what the recorded run
+/// had made by then (see the module docs).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Place {
+    /// The scheduler's moves at that instant before it.
+    pub step: u64,
+    /// The trace records made before it.
     pub records: Option<u64>,
-    pub plugin: String,
-    pub code: Result<Box<NewVersion>, (String, crate::error::RadarError)>,
-    pub policy: SwapPolicy,
-    pub origin: Origin,
 }
 
-/// A blackboard write given when the system was built (`radar run
-/// --write`).
-pub(crate) struct StaticWrite {
-    pub at: Duration,
-    pub step: Option<u64>,
-    pub records: Option<u64>,
-    pub entry: String,
-    pub value: Json,
-}
-
-/// The scheduler's moves at the current virtual instant.
-#[derive(Default)]
-pub(crate) struct Moves {
-    at: u64,
-    count: u64,
-    /// The executor step just taken polled an input's own task.
-    input_polled: bool,
+/// What a static input does.
+pub(crate) enum StaticWhat {
+    Inject {
+        to: String,
+        payload: Json,
+    },
+    Write {
+        entry: String,
+        value: Json,
+    },
+    /// The new version is loaded when the system is built (`code`).
+    Swap {
+        plugin: String,
+        path: PathBuf,
+        policy: SwapPolicy,
+        code: Option<Result<Box<NewVersion>, (String, RadarError)>>,
+    },
 }
 
 /// What an input does when it is applied.
@@ -74,7 +71,12 @@ enum Action {
         json: Json,
         value: Val,
     },
-    Swap(StaticSwap),
+    Swap {
+        plugin: String,
+        code: Result<Box<NewVersion>, (String, RadarError)>,
+        policy: SwapPolicy,
+        origin: Origin,
+    },
 }
 
 /// A static input to apply at a recorded place: `at`, after `after` moves.
@@ -109,29 +111,20 @@ impl State {
     /// Counts one of the scheduler's moves at the current instant.
     pub(super) fn count_move(&mut self) {
         let now = self.now();
-        if self.moves.at != now {
-            self.moves = Moves {
-                at: now,
-                ..Moves::default()
-            };
-        }
-        self.moves.count += 1;
+        self.instant.at(now).moves += 1;
     }
 
     /// After an executor step: counts it unless it was an input's task.
     pub(super) fn count_step(&mut self) {
-        if !std::mem::take(&mut self.moves.input_polled) {
+        if !std::mem::take(&mut self.instant.input_polled) {
             self.count_move();
         }
     }
 
     /// The scheduler's moves at the current instant so far.
-    pub(super) fn moves_now(&self) -> u64 {
-        if self.moves.at == self.now() {
-            self.moves.count
-        } else {
-            0
-        }
+    pub(super) fn moves_now(&mut self) -> u64 {
+        let now = self.now();
+        self.instant.at(now).moves
     }
 
     /// Checks the static inputs against the system and schedules them: at
@@ -139,58 +132,63 @@ impl State {
     pub(super) fn schedule_static_inputs(
         &mut self,
         core: &Rc<Core>,
-        injections: Vec<StaticInjection>,
-        writes: Vec<StaticWrite>,
-        swaps: Vec<StaticSwap>,
+        inputs: Vec<StaticInput>,
         placeable: bool,
     ) -> Result<Placed, RadarError> {
         let mut placed = Vec::new();
-        for i in injections {
-            let mut injection = self.prepare_inject(&i.to, i.payload)?;
-            injection.external = true;
-            match i.step.filter(|_| placeable) {
-                Some(after) => placed.push((i.at, after, i.records, Action::Inject(injection))),
-                None => self.inject_at(core, injection, Some(i.at)),
-            }
-        }
-        for write in writes {
-            let ty = self.board_type(&write.entry)?;
-            let value = json_to_val(&write.value, &ty).map_err(|cause| {
-                RadarError::Blackboard(format!("entry `{}` is {ty}: {cause}", write.entry))
-            })?;
-            let action = Action::Write {
-                entry: write.entry,
-                json: write.value,
-                value,
+        for StaticInput { at, place, what } in inputs {
+            let action = match what {
+                StaticWhat::Inject { to, payload } => {
+                    let mut injection = self.prepare_inject(&to, payload)?;
+                    injection.external = true;
+                    Action::Inject(injection)
+                }
+                StaticWhat::Write { entry, value } => Action::Write {
+                    value: self.board_value(&entry, &value)?,
+                    entry,
+                    json: value,
+                },
+                StaticWhat::Swap {
+                    plugin,
+                    path,
+                    policy,
+                    code,
+                } => {
+                    let pid = self.plugin(&plugin)?;
+                    let mut code = code.unwrap_or_else(|| {
+                        let error = RadarError::Engine("the new version was never loaded".into());
+                        Err(("unknown".into(), error))
+                    });
+                    // Instantiated now, before anything runs, so that the
+                    // swap itself only switches.
+                    if let Ok(new) = code.as_mut() {
+                        let setup = self.setup(pid).1;
+                        new.instance = Some(block_on(new.code.instantiate(setup)));
+                    }
+                    Action::Swap {
+                        origin: Origin::of(&path),
+                        plugin,
+                        code,
+                        policy,
+                    }
+                }
             };
-            match write.step.filter(|_| placeable) {
-                Some(after) => placed.push((write.at, after, write.records, action)),
-                None => self.apply_at(core, write.at, action),
-            }
-        }
-        for mut swap in swaps {
-            let pid = self.plugin(&swap.plugin)?;
-            // Instantiated now, before anything runs, so that the swap
-            // itself only switches.
-            if let Ok(new) = swap.code.as_mut() {
-                let setup = self.setup(pid).1;
-                new.instance = Some(block_on(new.code.instantiate(setup)));
-            }
-            let (at, records) = (swap.at, swap.records);
-            match swap.step.filter(|_| placeable) {
-                Some(after) => placed.push((at, after, records, Action::Swap(swap))),
-                None => self.apply_at(core, at, Action::Swap(swap)),
+            match (place.filter(|_| placeable), action) {
+                (Some(place), action) => placed.push((at, place, action)),
+                // At once if its time is now, before anything runs.
+                (None, Action::Inject(injection)) => self.inject_at(core, injection, Some(at)),
+                (None, action) => self.apply_at(core, at, action),
             }
         }
         // In time order, then place; the sort is stable, so inputs at the
         // same place keep the order they were given in.
-        placed.sort_by_key(|(at, after, _, _)| (*at, *after));
+        placed.sort_by_key(|(at, place, _)| (*at, place.step));
         Ok(placed
             .into_iter()
-            .map(|(at, after, records, action)| PlacedInput {
+            .map(|(at, place, action)| PlacedInput {
                 at: duration_nanos(at),
-                after,
-                records,
+                after: place.step,
+                records: place.records,
                 action,
             })
             .collect())
@@ -217,9 +215,14 @@ impl State {
                 });
                 self.board_write("(native)", &entry, value);
             }
-            Action::Swap(swap) => {
+            Action::Swap {
+                plugin,
+                code,
+                policy,
+                origin,
+            } => {
                 // A refusal is recorded; the run goes on.
-                let _ = self.request_swap(&swap.plugin, swap.code, swap.policy, Some(&swap.origin));
+                let _ = self.request_swap(&plugin, code, policy, Some(&origin));
             }
         }
     }
@@ -256,7 +259,7 @@ impl State {
         let what = match action {
             Action::Inject(injection) => format!("the injection into {}", injection.label),
             Action::Write { entry, .. } => format!("the write of `{entry}`"),
-            Action::Swap(swap) => format!("the swap of {}", swap.plugin),
+            Action::Swap { plugin, .. } => format!("the swap of {plugin}"),
         };
         self.trace.divergence = Some(format!(
             "the replay parts from the recording before {what} at {:.3} s: the recorded run \
@@ -268,7 +271,7 @@ impl State {
 
     /// At the end of a replay: the whole trace against the recording's.
     pub(super) fn check_replay_end(&mut self) {
-        let (Some((records, digest)), None) = (&self.trace.replay.end, &self.trace.divergence)
+        let (Some((records, digest)), None) = (&self.trace.replay_end, &self.trace.divergence)
         else {
             return;
         };
@@ -293,7 +296,7 @@ impl State {
 pub(super) fn input_task(core: Rc<Core>, task: impl Future<Output = ()> + 'static) -> LocalTask {
     let mut task = Box::pin(task);
     Box::pin(poll_fn(move |cx| {
-        core.with(|st| st.moves.input_polled = true);
+        core.with(|st| st.instant.input_polled = true);
         task.as_mut().poll(cx)
     }))
 }

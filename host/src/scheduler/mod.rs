@@ -34,7 +34,7 @@ use crate::error::RadarError;
 use crate::executor::{Executor, LocalTask, TaskId};
 use crate::payload::{json_to_val, val_to_json, Payload, PayloadType};
 use crate::plugin::{Fault, InstanceSetup, Kind, Limits, PluginCode, PluginInstance};
-use crate::trace::inputs::{Input, InputRecorder, Origin, ReplayCheck, TimedInput, TraceDigest};
+use crate::trace::inputs::{Input, InputRecorder, Origin, TimedInput, TraceDigest};
 use crate::trace::{Entry, Record, TraceSink};
 
 mod actors;
@@ -51,7 +51,7 @@ pub use swap::SwapPolicy;
 use turns::Turns;
 
 mod inputs;
-pub(crate) use inputs::{StaticInjection, StaticSwap, StaticWrite};
+pub(crate) use inputs::{Place, StaticInput, StaticWhat};
 
 use actors::{event_actor, response_actor};
 
@@ -662,8 +662,10 @@ pub(crate) struct TraceOut {
     /// The records so far, counted and hashed, when a recording notes them
     /// or a replay checks them (virtual clock).
     pub digest: Option<TraceDigest>,
-    /// What a replay checks, and where it first parted from its recording.
-    pub replay: ReplayCheck,
+    /// Replaying a virtual-clock recording: its trace records in all and
+    /// their digest, checked at the end.
+    pub replay_end: Option<(u64, String)>,
+    /// Where a replay first parted from its recording.
     pub divergence: Option<String>,
     /// Records went to the sinks since they were last idle.
     pub unflushed: bool,
@@ -705,8 +707,6 @@ pub(crate) struct State {
     route_buffer: Vec<u64>,
     board: board::Blackboard,
     mailboxes: HashMap<u64, Mailbox>,
-    /// The scheduler's moves at the current instant (see `inputs`).
-    moves: inputs::Moves,
     /// Plugins that faulted on a limit of the machine: how many, and the
     /// first one's fault.
     machine_limit: Option<(usize, String)>,
@@ -733,6 +733,12 @@ pub(crate) struct InstantSignals {
     /// (a bug, or a guest that yields forever) is caught the same way.
     steps: u64,
     step_limit: u64,
+    /// The scheduler's moves (executor steps and commands, not counting
+    /// inputs' own) at this instant: where an outside input lands (see
+    /// `inputs`).
+    moves: u64,
+    /// The executor step just taken polled an input's own task.
+    input_polled: bool,
     /// When the run was ended for it.
     pub livelock: Option<u64>,
 }
@@ -745,8 +751,21 @@ impl InstantSignals {
             limit: 10_000u64.max(20 * plugins as u64),
             steps: 0,
             step_limit: 5_000_000u64.max(1_000 * plugins as u64),
+            moves: 0,
+            input_polled: false,
             livelock: None,
         }
+    }
+
+    /// The counts of the instant `now`: zero when time has moved on.
+    fn at(&mut self, now: u64) -> &mut Self {
+        if self.at != now {
+            self.at = now;
+            self.signals = 0;
+            self.steps = 0;
+            self.moves = 0;
+        }
+        self
     }
 }
 
@@ -802,11 +821,10 @@ pub(crate) struct RunSetup {
     pub programs: u32,
     /// Static connections, made when the run begins.
     pub links: Vec<LinkSpec>,
-    pub injections: Vec<StaticInjection>,
-    pub swaps: Vec<StaticSwap>,
+    /// Injections, blackboard writes and swaps at given times.
+    pub inputs: Vec<StaticInput>,
     /// The blackboard's entries and their types (see [`board::plan`]).
     pub board: BTreeMap<String, PayloadType>,
-    pub writes: Vec<StaticWrite>,
 }
 
 /// Under the real clock, how long before a deadline the scheduler stops
@@ -853,9 +871,7 @@ pub(crate) struct Scheduler {
     commands: Receiver<Command>,
     limit: Option<u64>,
     links: Vec<LinkSpec>,
-    injections: Vec<StaticInjection>,
-    swaps: Vec<StaticSwap>,
-    writes: Vec<StaticWrite>,
+    inputs: Vec<StaticInput>,
     /// Static inputs applied at their recorded places (see `inputs`).
     placed: inputs::Placed,
 }
@@ -872,10 +888,8 @@ impl Scheduler {
             seed,
             programs,
             links,
-            injections,
-            swaps,
+            inputs,
             board,
-            writes,
         } = setup;
         let mut by_name = BTreeMap::new();
         let plugin_count = plugins.len();
@@ -935,7 +949,6 @@ impl Scheduler {
             route_buffer: Vec::new(),
             board: board::Blackboard::new(board),
             mailboxes: HashMap::new(),
-            moves: inputs::Moves::default(),
             machine_limit: None,
         };
         Self {
@@ -947,9 +960,7 @@ impl Scheduler {
             commands,
             limit: limit.map(duration_nanos),
             links,
-            injections,
-            swaps,
-            writes,
+            inputs,
             placed: inputs::Placed::new(),
         }
     }
@@ -1006,12 +1017,8 @@ impl Scheduler {
                 st.connect(link)?;
             }
             let placeable = kind == ClockKind::Virtual;
-            let (injections, writes, swaps) = (
-                std::mem::take(&mut self.injections),
-                std::mem::take(&mut self.writes),
-                std::mem::take(&mut self.swaps),
-            );
-            self.placed = st.schedule_static_inputs(&core, injections, writes, swaps, placeable)?;
+            let inputs = std::mem::take(&mut self.inputs);
+            self.placed = st.schedule_static_inputs(&core, inputs, placeable)?;
             Ok(())
         })?;
         self.absorb();
@@ -1330,19 +1337,17 @@ impl Scheduler {
                 reply,
             } => {
                 let _ = reply.send(core.with(|st| {
+                    let checked = st.board_value(&entry, &value)?;
                     if external {
-                        // Recorded before the write's own record (a replay
-                        // counts the records made before each input), and
-                        // only if it fits.
-                        let ty = st.board_type(&entry)?;
-                        if json_to_val(&value, &ty).is_ok() {
-                            st.record_input(Input::BoardWrite {
-                                entry: entry.clone(),
-                                value: value.clone(),
-                            });
-                        }
+                        // Recorded before the write's own record: a replay
+                        // counts the records made before each input.
+                        st.record_input(Input::BoardWrite {
+                            entry: entry.clone(),
+                            value,
+                        });
                     }
-                    st.board_write_json(&entry, &value)
+                    st.board_write("(native)", &entry, checked);
+                    Ok(())
                 }));
             }
             Command::BoardRead { entry, reply } => {

@@ -406,12 +406,7 @@ impl State {
     /// makes progress would have (see [`InstantSignals`]).
     pub(super) fn count_in_instant(&mut self, step: bool) {
         let now = self.now();
-        let instant = &mut self.instant;
-        if instant.at != now {
-            instant.at = now;
-            instant.signals = 0;
-            instant.steps = 0;
-        }
+        let instant = self.instant.at(now);
         let over = if step {
             instant.steps += 1;
             instant.steps == instant.step_limit

@@ -27,8 +27,8 @@ use std::time::Duration;
 use serde_json::Value as Json;
 
 use crate::manifest::Manifest;
-use crate::trace::compare::{compare, parse_values, Comparison};
-use crate::trace::{inputs, Entry, Record};
+use crate::trace::compare::{compare, load_values, Comparison};
+use crate::trace::{inputs, to_values, Entry, Record};
 use crate::{ClockKind, Link, Plugin, Radar, RadarError, RunReport, SwapPolicy, System};
 use crate::{ProgramFailure, SystemBuilder};
 
@@ -359,32 +359,25 @@ impl TestRun {
     /// Lines; versions compared by order); with the environment variable
     /// `RADAR_BLESS` set, writes it first.
     pub fn assert_matches_file(&self, path: impl AsRef<Path>) {
-        let path = path.as_ref();
-        let actual: Vec<Json> = self
-            .trace()
-            .iter()
-            .map(|r| serde_json::to_value(r).unwrap_or_default())
-            .collect();
-        let how = Comparison::default();
-        if std::env::var_os("RADAR_BLESS").is_some() {
-            let text: String = how
-                .normalize(&actual)
-                .iter()
-                .map(|r| crate::trace::compare::render(r) + "\n")
-                .collect();
-            if let Err(e) = std::fs::write(path, text) {
-                panic!("cannot write {}: {e}", path.display());
-            }
+        assert_trace_matches(self.trace(), path);
+    }
+}
+
+/// Panics, showing the first differing record, unless `trace` is the
+/// expected trace in `path` (JSON Lines; versions compared by order); with
+/// the environment variable `RADAR_BLESS` set, writes it first.
+pub fn assert_trace_matches(trace: &[Record], path: impl AsRef<Path>) {
+    let path = path.as_ref();
+    let actual = to_values(trace);
+    let how = Comparison::default();
+    if std::env::var_os("RADAR_BLESS").is_some() {
+        if let Err(e) = std::fs::write(path, how.expected_text(&actual)) {
+            panic!("cannot write {}: {e}", path.display());
         }
-        let text = std::fs::read_to_string(path).unwrap_or_else(|e| {
-            panic!(
-                "cannot read {} ({e}); set RADAR_BLESS=1 to write it",
-                path.display()
-            )
-        });
-        let expected = parse_values(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-        if let Some(d) = compare(&expected, &actual, &how) {
-            panic!("the trace differs from {}: {d}", path.display());
-        }
+    }
+    let expected =
+        load_values(path).unwrap_or_else(|e| panic!("{e} (RADAR_BLESS=1 writes the file)"));
+    if let Some(d) = compare(&expected, &actual, &how) {
+        panic!("the trace differs from {}: {d}", path.display());
     }
 }

@@ -31,11 +31,10 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use serde::Deserialize;
-use serde_json::Value as Json;
 
 use crate::manifest::{parse_duration, Manifest};
 use crate::plugin::Limits;
-use crate::trace::compare::{compare, parse_values, render, Comparison};
+use crate::trace::compare::{compare, parse_values, Comparison};
 use crate::trace::inputs::{self, Input, TimedInput};
 use crate::{ClockKind, RunReport, System};
 
@@ -305,19 +304,10 @@ impl Scenario {
         if let Some(Err(e)) = &report.program {
             return Verdict::Failed(format!("the deliberative program failed: {e}"));
         }
-        let actual: Vec<Json> = report
-            .trace
-            .iter()
-            .map(|r| serde_json::to_value(r).unwrap_or_default())
-            .collect();
+        let actual = crate::trace::to_values(&report.trace);
         let expect_path = self.dir.join(EXPECT);
         if bless {
-            let mut text = String::new();
-            for record in self.comparison.normalize(&actual) {
-                text.push_str(&render(&record));
-                text.push('\n');
-            }
-            return match std::fs::write(&expect_path, text) {
+            return match std::fs::write(&expect_path, self.comparison.expected_text(&actual)) {
                 Ok(()) => Verdict::Blessed,
                 Err(e) => Verdict::Failed(format!("cannot write {}: {e}", expect_path.display())),
             };

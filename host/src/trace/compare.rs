@@ -89,6 +89,15 @@ impl Comparison {
             .collect()
     }
 
+    /// An expected-trace file of `trace`: the compared records, one a line,
+    /// `t` and `kind` first (what `--bless` writes).
+    pub fn expected_text(&self, trace: &[Json]) -> String {
+        self.normalize(trace)
+            .iter()
+            .map(|r| render(r) + "\n")
+            .collect()
+    }
+
     fn keeps(&self, record: &Json) -> bool {
         match (&self.kinds, record.get("kind").and_then(Json::as_str)) {
             (None, _) => true,
@@ -235,16 +244,17 @@ impl fmt::Display for Divergence {
 
 /// Parses JSON Lines into JSON values (blank lines are skipped).
 pub fn parse_values(text: &str) -> Result<Vec<Json>, ParseError> {
-    text.lines()
-        .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty())
-        .map(|(i, l)| {
-            serde_json::from_str(l).map_err(|e| ParseError {
-                line: i + 1,
-                cause: e.to_string(),
-            })
-        })
-        .collect()
+    Ok(super::parse_lines(text)?
+        .into_iter()
+        .map(|(_, v)| v)
+        .collect())
+}
+
+/// Reads an expected trace file.
+pub fn load_values(path: &std::path::Path) -> Result<Vec<Json>, String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("cannot read expected trace {}: {e}", path.display()))?;
+    parse_values(&text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 #[cfg(test)]

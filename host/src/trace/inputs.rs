@@ -115,19 +115,12 @@ fn drain() -> String {
 /// Parses an inputs file; relative swap paths are made relative to `dir`
 /// (the file's folder).
 pub fn parse(text: &str, dir: &Path) -> Result<Vec<TimedInput>, ParseError> {
-    let mut inputs = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        if line.trim().is_empty() {
-            continue;
-        }
-        let mut input: TimedInput = serde_json::from_str(line).map_err(|e| ParseError {
-            line: i + 1,
-            cause: e.to_string(),
-        })?;
+    let mut inputs = super::parse_lines::<TimedInput>(text)?;
+    for (line, input) in &mut inputs {
         if let Input::Swap { wasm, policy, .. } = &mut input.input {
             if policy != "drain" && policy != "restart" {
                 return Err(ParseError {
-                    line: i + 1,
+                    line: *line,
                     cause: format!("swap policy `{policy}`: expected drain or restart"),
                 });
             }
@@ -135,9 +128,8 @@ pub fn parse(text: &str, dir: &Path) -> Result<Vec<TimedInput>, ParseError> {
                 *wasm = dir.join(&*wasm).display().to_string();
             }
         }
-        inputs.push(input);
     }
-    Ok(inputs)
+    Ok(inputs.into_iter().map(|(_, input)| input).collect())
 }
 
 /// Reads and parses an inputs file.
@@ -172,13 +164,6 @@ impl TraceDigest {
     }
 }
 
-/// What a replay checks against its recording: the records made before
-/// each input, and at the end the count and digest of the whole trace.
-#[derive(Clone, Debug, Default)]
-pub(crate) struct ReplayCheck {
-    pub end: Option<(u64, String)>,
-}
-
 /// Where a swapped-in component came from, for a recording.
 #[derive(Clone, Debug)]
 pub(crate) enum Origin {
@@ -186,6 +171,16 @@ pub(crate) enum Origin {
     File(PathBuf),
     /// `builtin:NAME`.
     Builtin(String),
+}
+
+impl Origin {
+    /// Where a swap's component comes from: `builtin:NAME` or a file.
+    pub(crate) fn of(path: &Path) -> Self {
+        match path.to_str().and_then(|p| p.strip_prefix("builtin:")) {
+            Some(name) => Self::Builtin(name.to_string()),
+            None => Self::File(path.to_path_buf()),
+        }
+    }
 }
 
 /// Writes a recording as inputs arrive (`radar run --record FILE`).

@@ -67,11 +67,7 @@ pub fn assert_lawful(trace: &[radar::trace::Record]) {
 
 /// The trace as JSON objects.
 pub fn records(report: &RunReport) -> Vec<Json> {
-    report
-        .trace
-        .iter()
-        .map(|r| serde_json::to_value(r).expect("records serialize"))
-        .collect()
+    radar::trace::to_values(&report.trace)
 }
 
 /// Whether every field of `pattern` is equal in `record`.
@@ -148,12 +144,5 @@ pub fn scenario_expect(name: &str) -> PathBuf {
 /// Panics, showing the first differing record, unless `report`'s trace is
 /// scenario `name`'s expected trace (what `radar test` checks).
 pub fn assert_matches_scenario(name: &str, report: &RunReport) {
-    let path = scenario_expect(name);
-    let text = std::fs::read_to_string(&path).expect("the scenario's expect.jsonl");
-    let expected = radar::trace::compare::parse_values(&text).expect("JSON lines");
-    let actual: Vec<Json> = records(report);
-    let how = radar::trace::compare::Comparison::default();
-    if let Some(d) = radar::trace::compare::compare(&expected, &actual, &how) {
-        panic!("the trace differs from {}: {d}", path.display());
-    }
+    radar::testing::assert_trace_matches(&report.trace, scenario_expect(name));
 }

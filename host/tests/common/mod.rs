@@ -1,0 +1,17 @@
+//! What the command-line tests share: running the `radar` binary.
+#![allow(dead_code)]
+
+use std::process::{Command, Output};
+
+/// Runs `radar` with `args`, to the end.
+pub fn radar(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_radar"))
+        .args(args)
+        .output()
+        .expect("the radar binary runs")
+}
+
+/// Bytes a process wrote, as text.
+pub fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
