@@ -5,8 +5,13 @@
 //! a system of thousands of plugins can reach the kernel's
 //! `vm.max_map_count` (65,530 by default) long before memory runs out, and
 //! the operating system then says only "Cannot allocate memory". This
-//! module tells the two apart and says how to raise the limit.
+//! module tells the two apart and says how to raise the limit, and keeps a
+//! reserve of mappings: a plugin that would eat into it is not
+//! instantiated (it faults saying why), because at the limit the host's own
+//! allocations fail too, and the process would abort instead of carrying
+//! on with the plugins it has.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
@@ -33,6 +38,87 @@ pub(crate) fn explain(error: &str) -> Option<String> {
     said
 }
 
+/// Mappings kept free for the host itself (its heap, threads, files).
+const RESERVE: u64 = 1_000;
+/// The most an instance takes: its linear memory with a copy-on-write
+/// image (four) and a call's fiber stack with its guard (two).
+const PER_INSTANCE: u64 = 6;
+/// A live instance not in a call may start one: its stack's two mappings.
+const PER_CALL: u64 = 2;
+
+/// Plugin instances alive in this process.
+static LIVE: AtomicU64 = AtomicU64::new(0);
+
+/// When the mappings are counted again: counting reads `/proc/self/maps`
+/// (milliseconds with 50,000 lines), so it is done when the last count
+/// leaves half of its room used (a few times on the way to the limit), and
+/// after a refusal only once an instance has gone.
+struct Budget {
+    limit: u64,
+    /// Instantiations allowed before the next count.
+    left: u64,
+    /// The last refusal, and how many instances were alive then.
+    refused: Option<(String, u64)>,
+}
+
+static BUDGET: Mutex<Option<Budget>> = Mutex::new(None);
+
+/// Before a new instance: whether the process has room for its mappings
+/// (and for a call of every instance already alive) with the reserve
+/// left; if not, the fault to report. The instance counts as alive while
+/// the [`LiveInstance`] returned lives.
+pub(crate) fn room_for_instance() -> Result<LiveInstance, String> {
+    let mut budget = BUDGET.lock().unwrap_or_else(|e| e.into_inner());
+    let budget = budget.get_or_insert_with(|| Budget {
+        limit: map_count_limit().unwrap_or(u64::MAX),
+        left: 0,
+        refused: None,
+    });
+    let live = LIVE.load(Ordering::Relaxed);
+    if budget.left == 0 && budget.limit != u64::MAX {
+        if let Some((refusal, alive)) = &budget.refused {
+            if live >= *alive {
+                return Err(refusal.clone());
+            }
+        }
+        let limit = budget.limit;
+        let mappings = count_mappings().unwrap_or(limit);
+        let free = limit.saturating_sub(mappings + live * PER_CALL + RESERVE);
+        if free < PER_INSTANCE + PER_CALL {
+            let refusal = format!(
+                "not instantiated: the process has {mappings} memory mappings with {live} \
+                 plugin instances alive, near the kernel's limit {MAP_COUNT} {limit} (each \
+                 plugin instance takes 2 to 4, and 2 more while a call waits; {RESERVE} are \
+                 kept for the host): raise it, e.g. `sudo sysctl -w vm.max_map_count=1048576`"
+            );
+            budget.refused = Some((refusal.clone(), live));
+            return Err(refusal);
+        }
+        budget.refused = None;
+        budget.left = free / (PER_INSTANCE + PER_CALL) / 2 + 1;
+    }
+    budget.left = budget.left.saturating_sub(1);
+    LIVE.fetch_add(1, Ordering::Relaxed);
+    Ok(LiveInstance(()))
+}
+
+/// One instance counted by [`room_for_instance`], until dropped.
+pub(crate) struct LiveInstance(());
+
+impl Drop for LiveInstance {
+    fn drop(&mut self) {
+        LIVE.fetch_sub(1, Ordering::Relaxed);
+    }
+}
+
+fn map_count_limit() -> Option<u64> {
+    std::fs::read_to_string("/proc/sys/vm/max_map_count")
+        .ok()?
+        .trim()
+        .parse()
+        .ok()
+}
+
 /// Whether a fault's cause is a limit of the machine (as [`explain`] says).
 pub(crate) fn is_machine_limit(cause: &str) -> bool {
     cause.contains(MAP_COUNT) || cause.contains(OUT_OF_MEMORY)
@@ -42,23 +128,20 @@ const MAP_COUNT: &str = "vm.max_map_count =";
 const OUT_OF_MEMORY: &str = "the machine is out of memory";
 
 fn diagnose() -> Option<String> {
-    let limit: u64 = std::fs::read_to_string("/proc/sys/vm/max_map_count")
-        .ok()?
-        .trim()
-        .parse()
-        .ok()?;
+    let limit = map_count_limit()?;
     let Some(mappings) = count_mappings() else {
         // At the mapping limit even reading the count can fail.
         return Some(format!(
             "the kernel's limit on memory mappings ({MAP_COUNT} {limit}; each plugin \
-             instance takes about 7) or memory is reached: raise the first, e.g. \
+             instance takes 2 to 4, and 2 more while a call waits) or memory is reached: raise the first, e.g. \
              `sudo sysctl -w vm.max_map_count=1048576`"
         ));
     };
     if mappings + 1_000 >= limit {
         Some(format!(
             "the process has {mappings} memory mappings, at the kernel's limit \
-             {MAP_COUNT} {limit} (each plugin instance takes about 7): raise it, \
+             {MAP_COUNT} {limit} (each plugin instance takes 2 to 4, and 2 more while a \
+             call waits): raise it, \
              e.g. `sudo sysctl -w vm.max_map_count=1048576`"
         ))
     } else {

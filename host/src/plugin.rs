@@ -27,6 +27,7 @@ use crate::capability::board::{self, BoardPort};
 use crate::capability::clock::{ClockState, VirtualWasiClock};
 use crate::capability::config::ConfigState;
 use crate::capability::logging::LogState;
+use crate::capability::random::SeededRandom;
 use crate::capability::{signals, TypesState};
 use crate::clock::{ClockKind, StopFlag, TimeBase};
 use crate::error::RadarError;
@@ -147,21 +148,6 @@ impl WasiView for PluginCtx {
     }
 }
 
-/// A deterministic byte stream for WASI's random sources under the virtual
-/// clock (splitmix64 of a seed derived from the plugin's name).
-fn seeded_bytes(seed: u64) -> Vec<u8> {
-    let mut state = seed;
-    let mut out = Vec::with_capacity(4096);
-    while out.len() < 4096 {
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        out.extend_from_slice(&(z ^ (z >> 31)).to_le_bytes());
-    }
-    out
-}
-
 fn name_seed(name: &str, seed: u64) -> u64 {
     let digest = Sha256::digest(name.as_bytes());
     let mut bytes = [0u8; 8];
@@ -231,6 +217,7 @@ impl Fault {
 /// One live instance of a plugin, in its own store.
 pub(crate) struct PluginInstance {
     store: Store<PluginCtx>,
+    _counted: crate::limits::LiveInstance,
     fuel_per_call: u64,
     fuel_used: Arc<AtomicU64>,
     stderr: StderrTail,
@@ -272,6 +259,11 @@ pub(crate) fn describe_fault(err: &wasmtime::Error) -> String {
 
 impl PluginCode {
     pub async fn instantiate(&self, setup: InstanceSetup) -> Result<PluginInstance, Fault> {
+        let counted = crate::limits::room_for_instance().map_err(|cause| Fault {
+            cause,
+            backtrace: None,
+            out_of_fuel: false,
+        })?;
         let real_clock = setup.base.kind() == ClockKind::Real;
         let mut wasi = WasiCtx::builder();
         for (key, value) in &setup.wasi.env {
@@ -298,8 +290,8 @@ impl PluginCode {
             let seed = name_seed(&setup.name, setup.seed);
             wasi.wall_clock(VirtualWasiClock(setup.base.clone()))
                 .monotonic_clock(VirtualWasiClock(setup.base.clone()))
-                .secure_random(wasmtime_wasi::Deterministic::new(seeded_bytes(seed)))
-                .insecure_random(wasmtime_wasi::Deterministic::new(seeded_bytes(!seed)))
+                .secure_random(SeededRandom::new(seed))
+                .insecure_random(SeededRandom::new(!seed))
                 .insecure_random_seed(u128::from(seed));
         }
         let ctx = PluginCtx {
@@ -327,7 +319,14 @@ impl PluginCode {
         store
             .fuel_async_yield_interval(real_clock.then_some(setup.limits.fuel_yield_interval))
             .map_err(fault)?;
-        store.set_fuel(setup.limits.fuel_per_call).map_err(fault)?;
+        // Instantiation has a budget of its own: filling linear memory by
+        // copying uses fuel (about 16,000 for a small Rust plugin, about the
+        // size of its data; 1 with a copy-on-write image), which is not the
+        // plugin's compute and must not fail a plugin whose calls fit a
+        // tight budget.
+        store
+            .set_fuel(setup.limits.fuel_per_call.max(INSTANTIATION_FUEL))
+            .map_err(fault)?;
         let instance = self
             .pre
             .instantiate_async(&mut store)
@@ -343,6 +342,7 @@ impl PluginCode {
         let (exit, snapshot, restore) = (next(), next(), next());
         Ok(PluginInstance {
             store,
+            _counted: counted,
             fuel_per_call: setup.limits.fuel_per_call,
             fuel_used: setup.fuel_used,
             stderr,
@@ -482,10 +482,16 @@ pub(crate) fn version_of(bytes: &[u8]) -> String {
     format!("{:x}", Sha256::digest(bytes))[..12].to_string()
 }
 
-/// Compiles and validates plugin components for one engine.
+/// Compiles and validates plugin components.
 pub(crate) struct Loader {
-    engine: Engine,
-    linker: Linker<PluginCtx>,
+    /// For small components (most Rust plugins): linear memory filled by
+    /// copying, which keeps each instance's memory in two mappings.
+    copied: EngineFlavour,
+    /// For components of [`MAPPED_IMAGE_FROM`] bytes and more (Python and
+    /// JavaScript interpreters with their pre-initialised heaps): linear
+    /// memory mapped copy-on-write from the compiled artifact, so an
+    /// instance shares the image until it writes a page.
+    mapped: EngineFlavour,
     cache_dir: Option<PathBuf>,
     compiled: HashMap<String, Component>,
     /// Validated and linked, by content hash: loading the same component
@@ -494,7 +500,55 @@ pub(crate) struct Loader {
     /// The content hash of each file loaded, with what identified the file
     /// then: a file loaded again unchanged is not read or hashed again.
     hashed: HashMap<PathBuf, (FileStamp, String)>,
-    engine_key: u64,
+}
+
+/// The fuel an instantiation may use (its data copied into memory, a
+/// component's start function), whatever a plugin's budget per call.
+const INSTANTIATION_FUEL: u64 = 1 << 30;
+
+/// Components this large or larger get copy-on-write memory images.
+///
+/// Why two engines: a copy-on-write image is mapped into the middle of a
+/// linear memory, which splits its mapping in three, and 10,000 running
+/// responses of four mappings each already use most of the kernel's
+/// default `vm.max_map_count` (65,530) once their fiber stacks are
+/// counted. Copying a small plugin's data (16 KiB for a Rust plugin) costs
+/// about 20 µs an instance; copying an interpreter's heap costs milliseconds
+/// and its memory is no longer shared (measured by the `languages`
+/// benchmark: a Python instance 0.8 ms mapped, 7.7 ms copied).
+const MAPPED_IMAGE_FROM: usize = 1 << 20;
+
+/// One engine, its linker, and the key its compiled artifacts are cached
+/// under (artifacts load only into an engine with the same settings).
+struct EngineFlavour {
+    engine: Engine,
+    linker: Linker<PluginCtx>,
+    key: u64,
+}
+
+impl EngineFlavour {
+    fn new(copy_on_write: bool) -> Result<Self, RadarError> {
+        let mut config = Config::new();
+        config.consume_fuel(true);
+        config.memory_init_cow(copy_on_write);
+        // The guard region before each linear memory is defence in depth
+        // against compiler bugs, never touched by correct code; without it
+        // a memory is one mapping fewer (the guard after it stays, so
+        // bounds checks are still elided).
+        config.guard_before_linear_memory(false);
+        let engine = Engine::new(&config).map_err(|e| RadarError::Engine(format!("{e:#}")))?;
+        let mut linker = Linker::new(&engine);
+        crate::capability::add_to_linker(&mut linker)
+            .map_err(|e| RadarError::Engine(format!("{e:#}")))?;
+        let mut hasher = std::collections::hash_map::DefaultHasher::new();
+        engine.precompile_compatibility_hash().hash(&mut hasher);
+        copy_on_write.hash(&mut hasher);
+        Ok(Self {
+            engine,
+            linker,
+            key: hasher.finish(),
+        })
+    }
 }
 
 /// What changes when a file is written or replaced: its size, modification
@@ -538,23 +592,22 @@ const COMPONENT_LAYER: [u8; 4] = [0x0d, 0x00, 0x01, 0x00];
 
 impl Loader {
     pub fn new(cache_dir: Option<PathBuf>) -> Result<Self, RadarError> {
-        let mut config = Config::new();
-        config.consume_fuel(true);
-        let engine = Engine::new(&config).map_err(|e| RadarError::Engine(format!("{e:#}")))?;
-        let mut linker = Linker::new(&engine);
-        crate::capability::add_to_linker(&mut linker)
-            .map_err(|e| RadarError::Engine(format!("{e:#}")))?;
-        let mut hasher = std::collections::hash_map::DefaultHasher::new();
-        engine.precompile_compatibility_hash().hash(&mut hasher);
         Ok(Self {
-            engine,
-            linker,
+            copied: EngineFlavour::new(false)?,
+            mapped: EngineFlavour::new(true)?,
             cache_dir,
             compiled: HashMap::new(),
             prepared: HashMap::new(),
             hashed: HashMap::new(),
-            engine_key: hasher.finish(),
         })
+    }
+
+    fn flavour(&self, component_bytes: usize) -> &EngineFlavour {
+        if component_bytes >= MAPPED_IMAGE_FROM {
+            &self.mapped
+        } else {
+            &self.copied
+        }
     }
 
     /// Reads, compiles (or fetches from the cache) and validates a plugin.
@@ -589,7 +642,7 @@ impl Loader {
     ) -> Result<wasmtime::component::Component, RadarError> {
         let digest = format!("{:x}", Sha256::digest(bytes));
         let component = self.compile(name, bytes, &digest)?;
-        crate::capability::system::validate(&self.engine, &component).map_err(|cause| {
+        crate::capability::system::validate(component.engine(), &component).map_err(|cause| {
             RadarError::WrongWorld {
                 plugin: name.into(),
                 cause,
@@ -617,8 +670,9 @@ impl Loader {
             plugin: plugin.into(),
             cause,
         };
-        let declared = signals::declared(&self.engine, &component).map_err(wrong)?;
-        let board_ports = board::declared(&self.engine, &component).map_err(wrong)?;
+        let engine = component.engine();
+        let declared = signals::declared(engine, &component).map_err(wrong)?;
+        let board_ports = board::declared(engine, &component).map_err(wrong)?;
         let kind = self.validate(
             plugin,
             &component,
@@ -627,9 +681,9 @@ impl Loader {
         // A plugin's own signals and blackboard entries are typed by its
         // world: linked for it alone.
         let pre = if declared.is_none() && board_ports.is_none() {
-            self.linker.instantiate_pre(&component)
+            self.flavour(bytes.len()).linker.instantiate_pre(&component)
         } else {
-            let mut linker = self.linker.clone();
+            let mut linker = self.flavour(bytes.len()).linker.clone();
             let linked = declared
                 .as_ref()
                 .map_or(Ok(()), |d| {
@@ -645,7 +699,7 @@ impl Loader {
         .map_err(|e| wrong(format!("{e:#}")))?;
         let slots = component
             .component_type()
-            .exports(&self.engine)
+            .exports(engine)
             .find(|(name, item)| {
                 matches!(item.ty, types::ComponentItem::ComponentInstance(_))
                     && is_slots_interface(name)
@@ -686,7 +740,8 @@ impl Loader {
                     .into(),
             ));
         }
-        let key = format!("{digest}-{:016x}", self.engine_key);
+        let flavour = self.flavour(bytes.len());
+        let key = format!("{digest}-{:016x}", flavour.key);
         if let Some(c) = self.compiled.get(&key) {
             return Ok(c.clone());
         }
@@ -694,12 +749,15 @@ impl Loader {
             .cache_dir
             .as_ref()
             .map(|d| d.join(format!("{key}.cwasm")));
-        if let Some(c) = cached.as_ref().and_then(|p| self.deserialize(p)) {
+        if let Some(c) = cached
+            .as_ref()
+            .and_then(|p| Self::deserialize(&flavour.engine, p))
+        {
             self.compiled.insert(key, c.clone());
             return Ok(c);
         }
         let component =
-            Component::new(&self.engine, bytes).map_err(|e| not_component(format!("{e:#}")))?;
+            Component::new(&flavour.engine, bytes).map_err(|e| not_component(format!("{e:#}")))?;
         if let (Some(path), Ok(artifact)) = (cached, component.serialize()) {
             // The cache only saves time: failing to write it is not an error.
             let _ = write_atomically(&path, &artifact);
@@ -709,7 +767,7 @@ impl Loader {
     }
 
     #[allow(unsafe_code)]
-    fn deserialize(&self, path: &Path) -> Option<Component> {
+    fn deserialize(engine: &Engine, path: &Path) -> Option<Component> {
         if !path.exists() {
             return None;
         }
@@ -717,7 +775,7 @@ impl Loader {
         // `Component::serialize` for an engine with these exact settings (the
         // key includes the engine's compatibility hash); wasmtime re-checks
         // the artifact's header and refuses a mismatched one.
-        unsafe { Component::deserialize_file(&self.engine, path) }.ok()
+        unsafe { Component::deserialize_file(engine, path) }.ok()
     }
 
     fn validate(
@@ -731,7 +789,8 @@ impl Loader {
             cause,
         };
         let ty = component.component_type();
-        for (name, _) in ty.imports(&self.engine) {
+        let engine = component.engine();
+        for (name, _) in ty.imports(engine) {
             let typed_by_world =
                 signals::is_signals_interface(name) || board::is_board_interface(name);
             if !crate::capability::provides(name) && !typed_by_world {
@@ -742,13 +801,13 @@ impl Loader {
             }
         }
         let mut funcs = BTreeMap::new();
-        for (name, item) in ty.exports(&self.engine) {
+        for (name, item) in ty.exports(engine) {
             match item.ty {
                 types::ComponentItem::ComponentFunc(f) => {
                     funcs.insert(name.to_string(), f);
                 }
                 types::ComponentItem::ComponentInstance(slots) if is_slots_interface(name) => {
-                    for (name, item) in slots.exports(&self.engine) {
+                    for (name, item) in slots.exports(engine) {
                         if let types::ComponentItem::ComponentFunc(f) = item.ty {
                             // The top level wins (as at instantiation).
                             funcs.entry(name.to_string()).or_insert(f);

@@ -10,7 +10,8 @@
 //! - [`board`]: the blackboard entries a plugin reads and writes;
 //! - [`system`]: what a deliberative component wires the system with;
 //! - WASI (`wasmtime_wasi`), with virtual clocks and seeded randomness under
-//!   the virtual clock (see [`clock::VirtualWasiClock`]).
+//!   the virtual clock (see [`clock::VirtualWasiClock`] and
+//!   [`random::SeededRandom`]).
 
 use wasmtime::component::{HasSelf, Linker};
 
@@ -20,6 +21,7 @@ pub(crate) mod board;
 pub(crate) mod clock;
 pub(crate) mod config;
 pub(crate) mod logging;
+pub(crate) mod random;
 pub(crate) mod signals;
 pub(crate) mod system;
 

@@ -268,12 +268,8 @@ pub(crate) fn run(
     if base.kind() == ClockKind::Virtual {
         wasi.wall_clock(VirtualWasiClock(base.clone()))
             .monotonic_clock(VirtualWasiClock(base.clone()))
-            .secure_random(wasmtime_wasi::Deterministic::new(
-                seed.to_le_bytes().repeat(512),
-            ))
-            .insecure_random(wasmtime_wasi::Deterministic::new(
-                (!seed).to_le_bytes().repeat(512),
-            ))
+            .secure_random(super::random::SeededRandom::new(seed))
+            .insecure_random(super::random::SeededRandom::new(!seed))
             .insecure_random_seed(u128::from(seed));
     }
     static MAILBOXES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);

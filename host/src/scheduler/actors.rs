@@ -32,7 +32,11 @@ impl Core {
     /// Builds a fresh instance; a failure puts the plugin in `error`.
     pub(super) async fn instantiate(&self, pid: usize) -> Option<PluginInstance> {
         let (code, setup) = self.with(|st| st.setup(pid));
-        match code.instantiate(setup).await {
+        // Boxed, like a transition below: an actor's future is as large as
+        // the largest future it awaits, and it lives as long as the plugin
+        // (10,000 plugins, 10,000 of them); the rare paths pay an
+        // allocation instead.
+        match Box::pin(code.instantiate(setup)).await {
             Ok(inst) => Some(inst),
             Err(fault) => {
                 self.with(|st| st.fault(pid, fault));
@@ -75,7 +79,7 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
         .await;
         // The safe point: between checks.
         if let Some(transition) = core.pending_transition(pid) {
-            core.transition(pid, &mut instance, transition).await;
+            Box::pin(core.transition(pid, &mut instance, transition)).await;
             continue;
         }
         let Some(inst) = instance.as_mut() else {
@@ -169,7 +173,7 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
         .await;
         // The safe point: between activations.
         if let Some(transition) = core.pending_transition(pid) {
-            core.transition(pid, &mut instance, transition).await;
+            Box::pin(core.transition(pid, &mut instance, transition)).await;
             continue;
         }
         let Some(mut inst) = instance.as_mut() else {

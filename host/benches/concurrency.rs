@@ -1,0 +1,143 @@
+//! Many responses running at once (issue 10): N `TestResponse`s, each
+//! started at 0 s and sleeping inside `start` (one count a second for ten
+//! seconds), run under the virtual clock; at 1.5 s a native program notes
+//! the resident memory and the memory mappings, then the run ends at 2 s.
+//! Prints, for each N, the faults, the resident memory per plugin before
+//! the run and per running response, then searches for the largest N that
+//! runs with no fault (the kernel's `vm.max_map_count` is the limit here).
+//! Target: 10,000 running at once in ≤ 512 MiB with none faulting.
+//! `RADAR_CONCURRENCY_N` sets the sizes (comma separated);
+//! `RADAR_CONCURRENCY_SEARCH=0` skips the search.
+
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use radar::{ClockKind, Plugin, System};
+use radar_fixtures::plugins;
+use serde_json::Value as Json;
+
+/// The process's resident set, in MiB (Linux).
+fn resident() -> f64 {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    status
+        .lines()
+        .find(|l| l.starts_with("VmRSS:"))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .and_then(|kb| kb.parse::<f64>().ok())
+        .map_or(0.0, |kb| kb / 1024.0)
+}
+
+/// The process's memory mappings (Linux).
+fn mappings() -> usize {
+    std::fs::read_to_string("/proc/self/maps").map_or(0, |m| m.lines().count())
+}
+
+struct Outcome {
+    faults: usize,
+    fault: Option<String>,
+    before: f64,
+    idle: f64,
+    running: f64,
+    maps: usize,
+    build: Duration,
+    run: Duration,
+}
+
+fn run(n: usize) -> Outcome {
+    let before = resident();
+    let began = Instant::now();
+    let mut builder = System::builder()
+        .clock(ClockKind::Virtual)
+        .keep_trace(false);
+    for i in 0..n {
+        builder = builder
+            .plugin(Plugin::file(format!("R{i}"), plugins::TEST_RESPONSE))
+            .inject_at(Duration::ZERO, format!("R{i}.start"), Json::from(i));
+    }
+    let system = builder.build().expect("builds");
+    let build = began.elapsed();
+    let idle = resident();
+    let seen = Arc::new(Mutex::new((0.0, 0)));
+    let note = seen.clone();
+    let report = system
+        .run_with(Some(Duration::from_secs(2)), move |radar| {
+            radar.sleep(Duration::from_millis(1500))?;
+            *note.lock().unwrap_or_else(|e| e.into_inner()) = (resident(), mappings());
+            Ok::<(), radar::RadarError>(())
+        })
+        .expect("runs");
+    let run = began.elapsed() - build;
+    let (running, maps) = *seen.lock().unwrap_or_else(|e| e.into_inner());
+    let (faults, fault) = match report.machine_limit {
+        Some((count, first)) => (count, Some(first)),
+        None => (0, None),
+    };
+    Outcome {
+        faults,
+        fault,
+        before,
+        idle,
+        running,
+        maps,
+        build,
+        run,
+    }
+}
+
+fn main() {
+    if std::env::args().any(|a| a == "--list") {
+        return;
+    }
+    let sizes: Vec<usize> = std::env::var("RADAR_CONCURRENCY_N")
+        .ok()
+        .map(|s| s.split(',').filter_map(|n| n.trim().parse().ok()).collect())
+        .unwrap_or_else(|| vec![1_000, 10_000]);
+    println!("responses running at once (TestResponse sleeping in start, virtual clock)");
+    println!(
+        "{:>7}  {:>7}  {:>9}  {:>12}  {:>12}  {:>9}  {:>8}  {:>8}",
+        "N", "faults", "RSS MiB", "KiB/plugin", "KiB/running", "mappings", "build", "run"
+    );
+    for n in sizes {
+        let o = run(n);
+        println!(
+            "{:>7}  {:>7}  {:>9.0}  {:>12.1}  {:>12.1}  {:>9}  {:>7.2}s  {:>7.2}s",
+            n,
+            o.faults,
+            o.running,
+            (o.idle - o.before) * 1024.0 / n as f64,
+            (o.running - o.idle) * 1024.0 / n as f64,
+            o.maps,
+            o.build.as_secs_f64(),
+            o.run.as_secs_f64(),
+        );
+        if let Some(fault) = o.fault {
+            println!("         first fault: {fault}");
+        }
+    }
+    println!("target: 10,000 running at once, none faulting, in <= 512 MiB");
+    if std::env::var("RADAR_CONCURRENCY_SEARCH").is_ok_and(|v| v == "0") {
+        return;
+    }
+    // Doubling from 10,000 until a run faults, then halving the gap.
+    let (mut fits, mut faults) = (0, 10_000);
+    while faults < 1 << 20 {
+        if run(faults).faults > 0 {
+            break;
+        }
+        (fits, faults) = (faults, faults * 2);
+    }
+    while faults - fits > fits / 100 + 1 {
+        let mid = (fits + faults) / 2;
+        if run(mid).faults > 0 {
+            faults = mid;
+        } else {
+            fits = mid;
+        }
+    }
+    println!(
+        "largest N running at once with none faulting: {fits} (a run of {faults} faulted; \
+         vm.max_map_count = {})",
+        std::fs::read_to_string("/proc/sys/vm/max_map_count")
+            .map_or("?".into(), |l| l.trim().to_string())
+    );
+}
