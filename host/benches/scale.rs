@@ -7,7 +7,9 @@
 //! and its ratio to the cost at N = 1 (target: ≤ 1.3× at N = 10,000).
 //!
 //! `cargo bench -p radar --bench scale` (`RADAR_SCALE_MAX=1000` to stop
-//! earlier).
+//! earlier, `RADAR_SCALE_ONLY=10000` for one size; with
+//! `RADAR_SCALE_PROFILE_MS=400` as well, one run of that length and
+//! nothing else, for a profiler).
 
 use std::time::{Duration, Instant};
 
@@ -44,11 +46,23 @@ fn main() {
         .ok()
         .and_then(|m| m.parse().ok())
         .unwrap_or(10_000);
+    let only: Option<usize> = std::env::var("RADAR_SCALE_ONLY")
+        .ok()
+        .and_then(|m| m.parse().ok());
+    if let (Some(n), Some(ms)) = (
+        only,
+        std::env::var("RADAR_SCALE_PROFILE_MS")
+            .ok()
+            .and_then(|m| m.parse().ok()),
+    ) {
+        println!("N = {n}: {ms} ms of virtual time in {:?}", run(n, ms));
+        return;
+    }
     let mut base = None;
     println!("== cost per trigger cycle (check + route + start) against system size ==");
     for n in [1usize, 10, 100, 1_000, 10_000]
         .into_iter()
-        .filter(|n| *n <= max)
+        .filter(|n| *n <= max && only.is_none_or(|o| o == *n))
     {
         // About 400,000 cycles in the longer run, at least 40 per pair.
         let long = (400_000 / n as u64).max(40);

@@ -41,18 +41,18 @@ pub(crate) fn explain(error: &str) -> Option<String> {
 /// Mappings kept free for the host itself (its heap, threads, files).
 const RESERVE: u64 = 1_000;
 /// The most an instance takes: its linear memory with a copy-on-write
-/// image (four) and a call's fiber stack with its guard (two).
+/// image (four) and the fiber stack its store keeps from instantiation on
+/// (two: the stack and its guard).
 const PER_INSTANCE: u64 = 6;
-/// A live instance not in a call may start one: its stack's two mappings.
-const PER_CALL: u64 = 2;
 
 /// Plugin instances alive in this process.
 static LIVE: AtomicU64 = AtomicU64::new(0);
 
 /// When the mappings are counted again: counting reads `/proc/self/maps`
-/// (milliseconds with 50,000 lines), so it is done when the last count
-/// leaves half of its room used (a few times on the way to the limit), and
-/// after a refusal only once an instance has gone.
+/// (milliseconds with 50,000 lines), so it is done only when the instances
+/// made since the last count could have used its room, each taking the
+/// most an instance can (a few times on the way to the limit), and after a
+/// refusal only once an instance has gone.
 struct Budget {
     limit: u64,
     /// Instantiations allowed before the next count.
@@ -64,8 +64,7 @@ struct Budget {
 static BUDGET: Mutex<Option<Budget>> = Mutex::new(None);
 
 /// Before a new instance: whether the process has room for its mappings
-/// (and for a call of every instance already alive) with the reserve
-/// left; if not, the fault to report. The instance counts as alive while
+/// with the reserve left; if not, the fault to report. The instance counts as alive while
 /// the [`LiveInstance`] returned lives.
 pub(crate) fn room_for_instance() -> Result<LiveInstance, String> {
     let mut budget = BUDGET.lock().unwrap_or_else(|e| e.into_inner());
@@ -83,19 +82,18 @@ pub(crate) fn room_for_instance() -> Result<LiveInstance, String> {
         }
         let limit = budget.limit;
         let mappings = count_mappings().unwrap_or(limit);
-        let free = limit.saturating_sub(mappings + live * PER_CALL + RESERVE);
-        if free < PER_INSTANCE + PER_CALL {
+        let free = limit.saturating_sub(mappings + RESERVE);
+        if free < PER_INSTANCE {
             let refusal = format!(
                 "not instantiated: the process has {mappings} memory mappings with {live} \
-                 plugin instances alive, near the kernel's limit {MAP_COUNT} {limit} (each \
-                 plugin instance takes 2 to 4, and 2 more while a call waits; {RESERVE} are \
-                 kept for the host): raise it, e.g. `sudo sysctl -w vm.max_map_count=1048576`"
+                 plugin instances alive, near the kernel's limit {MAP_COUNT} {limit} \
+                 ({PER_PLUGIN}; {RESERVE} are kept for the host): {RAISE}"
             );
             budget.refused = Some((refusal.clone(), live));
             return Err(refusal);
         }
         budget.refused = None;
-        budget.left = free / (PER_INSTANCE + PER_CALL) / 2 + 1;
+        budget.left = free / PER_INSTANCE;
     }
     budget.left = budget.left.saturating_sub(1);
     LIVE.fetch_add(1, Ordering::Relaxed);
@@ -125,6 +123,8 @@ pub(crate) fn is_machine_limit(cause: &str) -> bool {
 }
 
 const MAP_COUNT: &str = "vm.max_map_count =";
+const PER_PLUGIN: &str = "each plugin instance takes 4 to 6: its linear memory and its call stack";
+const RAISE: &str = "raise it, e.g. `sudo sysctl -w vm.max_map_count=1048576`";
 const OUT_OF_MEMORY: &str = "the machine is out of memory";
 
 fn diagnose() -> Option<String> {
@@ -132,17 +132,14 @@ fn diagnose() -> Option<String> {
     let Some(mappings) = count_mappings() else {
         // At the mapping limit even reading the count can fail.
         return Some(format!(
-            "the kernel's limit on memory mappings ({MAP_COUNT} {limit}; each plugin \
-             instance takes 2 to 4, and 2 more while a call waits) or memory is reached: raise the first, e.g. \
-             `sudo sysctl -w vm.max_map_count=1048576`"
+            "the kernel's limit on memory mappings ({MAP_COUNT} {limit}; {PER_PLUGIN}) or \
+             memory is reached: if the first, {RAISE}"
         ));
     };
     if mappings + 1_000 >= limit {
         Some(format!(
             "the process has {mappings} memory mappings, at the kernel's limit \
-             {MAP_COUNT} {limit} (each plugin instance takes 2 to 4, and 2 more while a \
-             call waits): raise it, \
-             e.g. `sudo sysctl -w vm.max_map_count=1048576`"
+             {MAP_COUNT} {limit} ({PER_PLUGIN}): {RAISE}"
         ))
     } else {
         Some(format!(

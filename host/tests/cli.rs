@@ -556,10 +556,9 @@ fn a_manifests_deliberative_program_runs_and_its_errors_name_the_key() {
 
 #[test]
 fn a_plugin_that_hits_the_kernels_mapping_limit_says_which_limit_and_how_to_raise_it() {
-    // A pair takes about 6 memory mappings while its response runs, and
-    // Radar keeps room for a call of every live instance (2 more each) and
-    // 1,000 for itself: with the kernel's default vm.max_map_count (65,530)
-    // some 8,600 pairs are more than fit.
+    // A pair takes about 8 memory mappings (each instance its memory and
+    // its call stack) and Radar keeps 1,000 for itself: with the kernel's
+    // default vm.max_map_count (65,530) some 8,600 pairs are more than fit.
     let limit: usize = std::fs::read_to_string("/proc/sys/vm/max_map_count")
         .ok()
         .and_then(|l| l.trim().parse().ok())
