@@ -23,6 +23,7 @@ pub mod payload;
 pub mod plugin;
 pub mod realtime;
 pub(crate) mod scheduler;
+pub mod script;
 mod stderr;
 pub mod system;
 pub mod testing;

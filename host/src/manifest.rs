@@ -67,6 +67,11 @@ pub struct Manifest {
 pub struct PluginEntry {
     /// The component file, relative to the manifest, or `builtin:NAME`.
     pub wasm: PathBuf,
+    /// For a development runtime as `wasm` (`guest-sdk/python/build
+    /// --dev`): the plugin's script, its main file (`app.py`), relative to
+    /// the manifest; the other files of its language in its folder go
+    /// with it. `--watch` swaps an edit in without a build.
+    pub source: Option<PathBuf>,
     /// Values the plugin reads through the `config` interface.
     #[serde(default)]
     pub config: BTreeMap<String, toml::Value>,
@@ -149,6 +154,8 @@ pub struct Build {
     pub workdir: PathBuf,
     /// Glob patterns, relative to `workdir`, of the sources to watch.
     pub watch: Vec<String>,
+    /// The plugin's script, for a development runtime (`source`).
+    pub script: Option<PathBuf>,
 }
 
 /// `[deliberative]`: the system's deliberative program, a component of
@@ -306,6 +313,9 @@ impl Manifest {
                 Some(wasm) => Plugin::bytes(name, wasm),
                 None => Plugin::file(name, self.dir.join(&entry.wasm)),
             };
+            if let Some(source) = &entry.source {
+                plugin = plugin.source(self.dir.join(source));
+            }
             for (key, value) in &entry.config {
                 plugin = plugin.config(key, config_text(value));
             }
@@ -352,6 +362,7 @@ impl Manifest {
                         .and_then(|b| b.workdir.as_ref())
                         .map_or_else(|| self.dir.clone(), |w| self.dir.join(w)),
                     watch: build.map(|b| b.watch.clone()).unwrap_or_default(),
+                    script: entry.source.as_ref().map(|s| self.dir.join(s)),
                 }
             })
             .collect()

@@ -99,6 +99,25 @@ pub(crate) struct PluginCode {
     pub board: Arc<[BoardPort]>,
     /// Where each of [`EXPORTS`] is, resolved once at load.
     exports: Arc<[Option<ComponentExportIndex>; 6]>,
+    /// The component's own version, and the script a development runtime
+    /// runs, if this is one (see [`crate::script`]).
+    component_version: Arc<str>,
+    script: Option<Arc<str>>,
+}
+
+impl PluginCode {
+    /// This development runtime running `script` (packed by
+    /// [`crate::script::pack`]): a version of its own.
+    pub fn with_script(&self, script: Arc<str>) -> PluginCode {
+        let mut digest = Sha256::new();
+        digest.update(self.component_version.as_bytes());
+        digest.update([0]);
+        digest.update(script.as_bytes());
+        let mut code = self.clone();
+        code.version = format!("{:x}", digest.finalize())[..12].to_string();
+        code.script = Some(script);
+        code
+    }
 }
 
 /// The functions Radar calls, in the order of `PluginCode::exports`.
@@ -304,7 +323,10 @@ impl PluginCode {
                 name: setup.name,
                 base: setup.base,
             },
-            config: ConfigState(setup.config),
+            config: ConfigState {
+                values: setup.config,
+                script: self.script.clone(),
+            },
             types: TypesState,
             wasi: wasi.build(),
             table: ResourceTable::new(),
@@ -500,6 +522,9 @@ pub(crate) struct Loader {
     /// The content hash of each file loaded, with what identified the file
     /// then: a file loaded again unchanged is not read or hashed again.
     hashed: HashMap<PathBuf, (FileStamp, String)>,
+    /// Plugins that run scripts ([`crate::script`]): their development
+    /// runtime with the script last loaded for them.
+    scripted: HashMap<String, PluginCode>,
 }
 
 /// The fuel an instantiation may use (its data copied into memory, a
@@ -599,7 +624,59 @@ impl Loader {
             compiled: HashMap::new(),
             prepared: HashMap::new(),
             hashed: HashMap::new(),
+            scripted: HashMap::new(),
         })
+    }
+
+    /// `runtime` (a development runtime) running the script whose main
+    /// file is `main`, noted as `plugin`'s: later versions of the plugin
+    /// keep its script, later scripts its runtime.
+    pub fn with_script(
+        &mut self,
+        plugin: &str,
+        runtime: &PluginCode,
+        main: &Path,
+    ) -> Result<PluginCode, RadarError> {
+        let code = runtime.with_script(crate::script::pack(plugin, main)?);
+        self.scripted.insert(plugin.to_string(), code.clone());
+        Ok(code)
+    }
+
+    /// A new version of `plugin` from `path`: a script for a plugin that
+    /// runs one (its runtime stays), else a component (which, for such a
+    /// plugin, runs the plugin's script). `builtin` is a built-in
+    /// component's bytes, if `path` named one.
+    pub fn load_version(
+        &mut self,
+        plugin: &str,
+        path: &Path,
+        builtin: Option<&[u8]>,
+    ) -> Result<PluginCode, RadarError> {
+        if builtin.is_none() && crate::script::is_script(path) {
+            let Some(runtime) = self.scripted.get(plugin).cloned() else {
+                return Err(RadarError::BadSetting {
+                    plugin: plugin.into(),
+                    cause: format!(
+                        "{} is a script, but the plugin runs no development runtime \
+                         (give it `source` in the manifest)",
+                        path.display()
+                    ),
+                });
+            };
+            return self.with_script(plugin, &runtime, path);
+        }
+        let code = match builtin {
+            Some(bytes) => self.load_bytes(plugin, bytes)?,
+            None => self.load_file(plugin, path)?,
+        };
+        match self.scripted.get(plugin).and_then(|c| c.script.clone()) {
+            Some(script) => {
+                let code = code.with_script(script);
+                self.scripted.insert(plugin.to_string(), code.clone());
+                Ok(code)
+            }
+            None => Ok(code),
+        }
     }
 
     fn flavour(&self, component_bytes: usize) -> &EngineFlavour {
@@ -713,6 +790,8 @@ impl Loader {
             pre,
             board: board_ports.map(|b| b.ports).unwrap_or_default().into(),
             exports,
+            component_version: digest[..12].into(),
+            script: None,
         };
         self.prepared.insert(digest, code.clone());
         Ok(code)

@@ -100,6 +100,7 @@ enum Source {
 pub struct Plugin {
     name: String,
     source: Source,
+    script: Option<PathBuf>,
     config: BTreeMap<String, String>,
     period: Option<Duration>,
     limits: Option<Limits>,
@@ -122,12 +123,24 @@ impl Plugin {
         Self {
             name,
             source,
+            script: None,
             config: BTreeMap::new(),
             period: None,
             limits: None,
             grants: Grants::default(),
             wasi: WasiGrants::default(),
         }
+    }
+
+    /// Makes the plugin's component a development runtime (such as
+    /// `guest-sdk/python/build --dev` builds) running the script whose main
+    /// file is `main` (`app.py`), with the other files of its language in
+    /// its folder: the manifest's `source`. A swap to a script file then
+    /// swaps in the new script on the same compiled runtime (see
+    /// [`crate::script`]).
+    pub fn source(mut self, main: impl Into<PathBuf>) -> Self {
+        self.script = Some(main.into());
+        self
     }
 
     /// An environment variable the plugin sees through WASI (none by
@@ -507,10 +520,13 @@ impl SystemBuilder {
                     cause: format!("its WASI directory {} is not a directory", host.display()),
                 });
             }
-            let code = match &p.source {
+            let mut code = match &p.source {
                 Source::File(path) => loader.load_file(&p.name, path)?,
                 Source::Bytes(bytes) => loader.load_bytes(&p.name, bytes)?,
             };
+            if let Some(main) = &p.script {
+                code = loader.with_script(&p.name, &code, main)?;
+            }
             defs.push(PluginDef {
                 code: Rc::new(code),
                 config: Arc::new(p.config),
@@ -839,38 +855,37 @@ fn load_version(
     plugin: &str,
     path: &Path,
 ) -> Result<Box<NewVersion>, (String, RadarError)> {
-    if let Origin::Builtin(name) = Origin::of(path) {
-        let Some(bytes) = crate::example::wasm::builtin(&name) else {
-            let cause = format!("no built-in component `{name}`");
-            let error = RadarError::BadSetting {
-                plugin: plugin.to_string(),
-                cause,
-            };
-            return Err(("unknown".into(), error));
-        };
-        return loader
-            .load_bytes(plugin, bytes)
-            .map(|code| {
-                Box::new(NewVersion {
-                    code,
-                    instance: None,
-                })
+    let builtin = match Origin::of(path) {
+        Origin::Builtin(name) => match crate::example::wasm::builtin(&name) {
+            Some(bytes) => Some(bytes),
+            None => {
+                let cause = format!("no built-in component `{name}`");
+                let error = RadarError::BadSetting {
+                    plugin: plugin.to_string(),
+                    cause,
+                };
+                return Err(("unknown".into(), error));
+            }
+        },
+        Origin::File(_) => None,
+    };
+    loader
+        .load_version(plugin, path, builtin)
+        .map(|code| {
+            Box::new(NewVersion {
+                code,
+                instance: None,
             })
-            .map_err(|e| (crate::plugin::version_of(bytes), e));
-    }
-    let code = loader.load_file(plugin, path);
-    code.map(|code| {
-        Box::new(NewVersion {
-            code,
-            instance: None,
         })
-    })
-    .map_err(|e| {
-        let version = std::fs::read(path)
-            .map(|bytes| crate::plugin::version_of(&bytes))
-            .unwrap_or_else(|_| "unreadable".into());
-        (version, e)
-    })
+        .map_err(|e| {
+            let version = match builtin {
+                Some(bytes) => crate::plugin::version_of(bytes),
+                None => std::fs::read(path)
+                    .map(|bytes| crate::plugin::version_of(&bytes))
+                    .unwrap_or_else(|_| "unreadable".into()),
+            };
+            (version, e)
+        })
 }
 
 fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {

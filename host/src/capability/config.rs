@@ -8,9 +8,15 @@ use wasmtime::component::{HasSelf, Linker};
 
 use super::bindings::radar::reactive::config::{self, Host};
 use crate::plugin::PluginCtx;
+use crate::script::SCRIPT_KEY;
 
-/// What config reaches: the plugin's values, shared by its instances.
-pub(crate) struct ConfigState(pub Arc<BTreeMap<String, String>>);
+/// What config reaches: the plugin's values, shared by its instances, and
+/// for a development runtime its script ([`crate::script`]), read under
+/// [`SCRIPT_KEY`] but not listed by `keys`.
+pub(crate) struct ConfigState {
+    pub values: Arc<BTreeMap<String, String>>,
+    pub script: Option<Arc<str>>,
+}
 
 pub(crate) fn add_to_linker(linker: &mut Linker<PluginCtx>) -> wasmtime::Result<()> {
     config::add_to_linker::<PluginCtx, HasSelf<ConfigState>>(linker, |ctx| &mut ctx.config)
@@ -18,10 +24,13 @@ pub(crate) fn add_to_linker(linker: &mut Linker<PluginCtx>) -> wasmtime::Result<
 
 impl Host for ConfigState {
     fn get(&mut self, key: String) -> Option<String> {
-        self.0.get(&key).cloned()
+        match &self.script {
+            Some(script) if key == SCRIPT_KEY => Some(script.to_string()),
+            _ => self.values.get(&key).cloned(),
+        }
     }
 
     fn keys(&mut self) -> Vec<String> {
-        self.0.keys().cloned().collect()
+        self.values.keys().cloned().collect()
     }
 }

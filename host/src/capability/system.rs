@@ -236,11 +236,11 @@ impl super::bindings::radar::reactive::logging::Host for ProgramCtx {
 
 impl super::bindings::radar::reactive::config::Host for ProgramCtx {
     fn get(&mut self, key: String) -> Option<String> {
-        self.config.0.get(&key).cloned()
+        self.config.values.get(&key).cloned()
     }
 
     fn keys(&mut self) -> Vec<String> {
-        self.config.0.keys().cloned().collect()
+        self.config.values.keys().cloned().collect()
     }
 }
 
@@ -278,7 +278,10 @@ pub(crate) fn run(
         mailbox: MAILBOXES.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         listeners: std::collections::HashSet::new(),
         log: LogState { name, base },
-        config: ConfigState(code.config.clone()),
+        config: ConfigState {
+            values: code.config.clone(),
+            script: None,
+        },
         table: ResourceTable::new(),
         wasi: wasi.build(),
         limits: StoreLimitsBuilder::new()

@@ -192,9 +192,14 @@ fn print_watch_event(event: WatchEvent) {
         WatchEvent::BuildFailed(failure) => {
             say(format_args!("watch: {failure}; the running version stays"))
         }
-        WatchEvent::SwapRequested { plugin, version } => {
-            say(format_args!("watch: swapping {plugin} for {version}"))
-        }
+        WatchEvent::SwapRequested {
+            plugin,
+            version,
+            prepared,
+        } => say(format_args!(
+            "watch: swapping {plugin} for {version} (loaded in {:.0} ms)",
+            prepared.as_secs_f64() * 1e3
+        )),
         WatchEvent::SwapRefused(e) => say(format_args!("watch: {e}; the running version stays")),
     }
 }

@@ -64,6 +64,40 @@ pub fn build(build: &Build) -> Result<Duration, BuildFailure> {
     })))
 }
 
+/// Checks a script before it is swapped in (a Python script must parse),
+/// so that an edit with a syntax error leaves the running version in place
+/// like a failed build. Needs `python3` on the path; without it the check
+/// is skipped (the runtime reports the error on its first call).
+pub fn check_script(plugin: &str, main: &Path) -> Result<(), BuildFailure> {
+    let failure = |line: String| BuildFailure {
+        plugin: plugin.to_string(),
+        line,
+    };
+    let files = crate::script::files(main)
+        .map_err(|e| failure(format!("cannot read {}: {e}", main.display())))?;
+    const PARSE: &str = "import ast, sys\n\
+        for f in sys.argv[1:]:\n\
+        \x20   try:\n\
+        \x20       ast.parse(open(f, encoding='utf-8').read(), f)\n\
+        \x20   except SyntaxError as e:\n\
+        \x20       sys.exit(f'{e.filename}:{e.lineno}: SyntaxError: {e.msg}')\n";
+    let Ok(output) = Command::new("python3")
+        .arg("-c")
+        .arg(PARSE)
+        .args(&files)
+        .output()
+    else {
+        return Ok(());
+    };
+    if output.status.success() {
+        return Ok(());
+    }
+    let text = String::from_utf8_lossy(&output.stderr);
+    Err(failure(
+        first_error(&text).unwrap_or_else(|| "the script does not parse".into()),
+    ))
+}
+
 /// The line a user wants first: one that names an error, else the last
 /// non-empty one.
 fn first_error(text: &str) -> Option<String> {
@@ -109,6 +143,7 @@ mod tests {
             command: Some(command.into()),
             workdir: PathBuf::from("/p"),
             watch: watch.iter().map(|w| w.to_string()).collect(),
+            script: None,
         }
     }
 

@@ -8,15 +8,20 @@
 //! now in its component file, unless that is the version already running.
 //! The swap is compiled on this thread, never the scheduler's; a build that
 //! fails, or a swap that is refused, leaves the old version running.
+//!
+//! A plugin that runs a script on a development runtime (`source` in the
+//! manifest, [`crate::script`]) has its script's folder watched too: an
+//! edit is checked ([`super::check_script`]) and swapped in as it is, with
+//! no build and no compile.
 
 use std::collections::{BTreeSet, HashMap};
 use std::path::PathBuf;
 use std::sync::mpsc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use notify::{RecursiveMode, Watcher};
 
-use super::{build, watched, BuildFailure};
+use super::{build, check_script, watched, BuildFailure};
 use crate::error::RadarError;
 use crate::manifest::Build;
 use crate::plugin::version_of;
@@ -24,7 +29,7 @@ use crate::scheduler::SwapPolicy;
 use crate::system::Radar;
 
 /// How long the files must be quiet before a change is acted on.
-const QUIET: Duration = Duration::from_millis(200);
+const QUIET: Duration = Duration::from_millis(100);
 
 /// What the watcher did, one event per line a user wants to see.
 #[derive(Debug)]
@@ -45,6 +50,9 @@ pub enum WatchEvent {
         plugin: String,
         /// The new version.
         version: String,
+        /// Loading it (compiling, or fetching from the cache), checking it
+        /// and making its instance, before the swap was asked for.
+        prepared: Duration,
     },
     /// The new version was refused; the old version keeps running.
     SwapRefused(RadarError),
@@ -59,8 +67,13 @@ pub fn watch(
 ) -> Result<(), notify::Error> {
     let (tx, rx) = mpsc::channel();
     let mut watcher = notify::recommended_watcher(move |event: notify::Result<notify::Event>| {
-        if let Ok(event) = event {
-            let _ = tx.send(event.paths);
+        // Reads are events too (opening the component to hash it would
+        // wake the watcher again, for ever): only changes count.
+        match event {
+            Ok(event) if !matches!(event.kind, notify::EventKind::Access(_)) => {
+                let _ = tx.send(event.paths);
+            }
+            _ => {}
         }
     })?;
     let mut folders = BTreeSet::new();
@@ -70,6 +83,9 @@ pub fn watch(
         }
         if b.command.is_some() && !b.watch.is_empty() {
             folders.insert((b.workdir.clone(), RecursiveMode::Recursive));
+        }
+        if let Some(dir) = b.script.as_ref().and_then(|s| s.parent()) {
+            folders.insert((dir.to_path_buf(), RecursiveMode::NonRecursive));
         }
     }
     for (dir, mode) in &folders {
@@ -91,9 +107,9 @@ pub fn watch(
                                     // is written all the time in the same folder must not keep the
                                     // folder from ever being quiet.
             let matters = |p: &PathBuf| {
-                builds
-                    .iter()
-                    .any(|b| *p == b.wasm || (b.command.is_some() && watched(b, p)))
+                builds.iter().any(|b| {
+                    *p == b.wasm || (b.command.is_some() && watched(b, p)) || script_of(b, p)
+                })
             };
             while let Ok(first) = rx.recv() {
                 let mut changed: BTreeSet<PathBuf> = first.into_iter().filter(matters).collect();
@@ -119,6 +135,15 @@ pub fn watch(
                 for b in &builds {
                     let rebuild = b.command.is_some() && changed.iter().any(|p| watched(b, p));
                     let replaced = changed.contains(&b.wasm);
+                    let edited = changed.iter().any(|p| script_of(b, p));
+                    if edited && !rebuild && !replaced {
+                        match swap_script(b, &radar, &mut running) {
+                            Ok(Some(event)) => report(event),
+                            Ok(None) => {}
+                            Err(Stopped) => return,
+                        }
+                        continue;
+                    }
                     if !rebuild && !replaced {
                         continue;
                     }
@@ -141,12 +166,14 @@ pub fn watch(
                     if running.get(&b.plugin) == Some(&version) {
                         continue;
                     }
+                    let began = Instant::now();
                     match radar.swap(&b.plugin, &b.wasm, SwapPolicy::Drain) {
                         Ok(()) => {
                             running.insert(b.plugin.clone(), version.clone());
                             report(WatchEvent::SwapRequested {
                                 plugin: b.plugin.clone(),
                                 version,
+                                prepared: began.elapsed(),
                             });
                         }
                         Err(RadarError::Stopped) => return,
@@ -157,4 +184,54 @@ pub fn watch(
         })
         .map_err(notify::Error::io)?;
     Ok(())
+}
+
+/// Whether `path` is one of `build`'s script files (its `source` and the
+/// files of the same language beside it).
+fn script_of(build: &Build, path: &std::path::Path) -> bool {
+    build
+        .script
+        .as_ref()
+        .is_some_and(|main| path.parent() == main.parent() && path.extension() == main.extension())
+}
+
+/// The run has ended.
+struct Stopped;
+
+/// Checks a plugin's edited script and swaps it in on the plugin's runtime;
+/// what to report (nothing if the version is the one running).
+fn swap_script(
+    build: &Build,
+    radar: &Radar,
+    running: &mut HashMap<String, String>,
+) -> Result<Option<WatchEvent>, Stopped> {
+    let Some(main) = &build.script else {
+        return Ok(None);
+    };
+    if let Err(failure) = check_script(&build.plugin, main) {
+        return Ok(Some(WatchEvent::BuildFailed(failure)));
+    }
+    let began = Instant::now();
+    let prepared = match radar.prepare(&build.plugin, main) {
+        Ok(prepared) => prepared,
+        Err(RadarError::Stopped) => return Err(Stopped),
+        Err(e) => return Ok(Some(WatchEvent::SwapRefused(e))),
+    };
+    let version = prepared.version().to_string();
+    if running.get(&build.plugin) == Some(&version) {
+        return Ok(None);
+    }
+    let took = began.elapsed();
+    match radar.swap_prepared(prepared, SwapPolicy::Drain) {
+        Ok(()) => {
+            running.insert(build.plugin.clone(), version.clone());
+            Ok(Some(WatchEvent::SwapRequested {
+                plugin: build.plugin.clone(),
+                version,
+                prepared: took,
+            }))
+        }
+        Err(RadarError::Stopped) => Err(Stopped),
+        Err(e) => Ok(Some(WatchEvent::SwapRefused(e))),
+    }
 }
