@@ -389,6 +389,100 @@ fn watch_rebuilds_and_swaps_a_plugin_whose_source_changes_and_keeps_it_when_a_bu
 }
 
 #[test]
+fn watch_swaps_an_edited_script_in_without_a_build_and_keeps_it_when_it_does_not_parse() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let app = dir.path().join("app.py");
+    let original = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../plugins/test-event-py/app.py"),
+    )
+    .expect("reads app.py");
+    std::fs::write(&app, &original).expect("script written");
+    let manifest = write_manifest(
+        dir.path(),
+        &format!(
+            "[plugins.TestEvent]\nwasm = \"{}\"\nsource = \"app.py\"\n\
+             config = {{ interval_s = 0.1 }}\n\n\
+             [plugins.TestResponse]\nwasm = \"builtin:test-response\"\n\
+             config = {{ count_for_s = 0.1, interval_s = 0.1 }}\n\n\
+             [[connect]]\nmode = \"whenever\"\nfrom = \"TestEvent.triggered\"\nto = \"TestResponse.start\"\n",
+            plugins::TEST_EVENT_PY_DEV
+        ),
+    );
+    let trace = dir.path().join("t.jsonl");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_radar"))
+        .args([
+            "run",
+            &manifest,
+            "--clock",
+            "real",
+            "--for",
+            "5s",
+            "--watch",
+            "--trace",
+            trace.to_str().expect("utf-8 path"),
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("radar starts");
+    // The run (and the watcher) begins once the runtime is compiled, which
+    // takes seconds the first time: its header line says so.
+    let mut lines = std::io::BufRead::lines(std::io::BufReader::new(
+        child.stdout.take().expect("stdout piped"),
+    ));
+    let mut stdout = String::new();
+    for line in lines.by_ref() {
+        let line = line.expect("reads stdout");
+        stdout.push_str(&line);
+        stdout.push('\n');
+        if line.starts_with("Radar:") {
+            break;
+        }
+    }
+    std::thread::sleep(std::time::Duration::from_millis(1000));
+    let edited = original.replace("config(\"count_to\", 5)", "config(\"count_to\", 2)");
+    std::fs::write(&app, edited).expect("script edited");
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    std::fs::write(&app, "def broken(:\n").expect("script broken");
+    for line in lines {
+        stdout.push_str(&line.expect("reads stdout"));
+        stdout.push('\n');
+    }
+    let out = child.wait_with_output().expect("radar ends");
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(stdout.contains("watch: swapping TestEvent for"), "{stdout}");
+    assert!(!stdout.contains("watch: built"), "no build: {stdout}");
+    assert!(
+        stdout.contains("watch: build of `TestEvent` failed:")
+            && stdout.contains("app.py:1: SyntaxError"),
+        "{stdout}"
+    );
+    let (_, records) = lawful_trace(&trace);
+    let swaps = records
+        .iter()
+        .filter(|r| matches!(r.entry, radar::trace::Entry::Swap { .. }))
+        .count();
+    assert_eq!(swaps, 1, "one swap: the broken script was not swapped in");
+    // Every fifth count before the edit, every second after; none faults.
+    let payloads: Vec<_> = records
+        .iter()
+        .filter_map(|r| match &r.entry {
+            radar::trace::Entry::Signal {
+                plugin, payload, ..
+            } if plugin.as_ref() == "TestEvent" => Some(payload.clone()),
+            _ => None,
+        })
+        .collect();
+    assert!(payloads.contains(&serde_json::json!(2)), "{payloads:?}");
+    assert!(
+        !records
+            .iter()
+            .any(|r| matches!(r.entry, radar::trace::Entry::Fault { .. })),
+        "no fault"
+    );
+}
+
+#[test]
 fn build_runs_each_plugins_build_command_and_reports_a_failure_in_one_line() {
     let dir = tempfile::tempdir().expect("temp dir");
     let manifest = write_manifest(

@@ -186,8 +186,9 @@ impl Origin {
 /// Writes a recording as inputs arrive (`radar run --record FILE`).
 ///
 /// Swapped-in component files are copied beside it, into
-/// `FILE.components/VERSION.wasm`, so that a replay finds the version that
-/// ran even after the file was rebuilt. A write that fails does not stop the
+/// `FILE.components/VERSION.wasm` (a script with its folder's files into
+/// `FILE.components/VERSION/`), so that a replay finds the version that
+/// ran even after the file was rebuilt or edited. A write that fails does not stop the
 /// run: the first error is kept and reported when the run ends.
 pub struct InputRecorder {
     out: BufWriter<File>,
@@ -227,12 +228,28 @@ impl InputRecorder {
                     self.path.file_name().unwrap_or_default().to_string_lossy()
                 );
                 let folder = self.path.with_file_name(&folder_name);
-                let copy = folder.join(format!("{version}.wasm"));
-                let copied = std::fs::create_dir_all(&folder)
-                    .and_then(|()| std::fs::copy(source, &copy).map(drop));
+                // A script goes with the files of its folder, into a
+                // folder of its own.
+                let (copied, kept) = if crate::script::is_script(source) {
+                    let name = source.file_name().unwrap_or_default().to_string_lossy();
+                    let kept = format!("{version}/{name}");
+                    let into = folder.join(version);
+                    let copied = std::fs::create_dir_all(&into).and_then(|()| {
+                        crate::script::files(source)?.iter().try_for_each(|file| {
+                            std::fs::copy(file, into.join(file.file_name().unwrap_or_default()))
+                                .map(drop)
+                        })
+                    });
+                    (copied, kept)
+                } else {
+                    let copy = folder.join(format!("{version}.wasm"));
+                    let copied = std::fs::create_dir_all(&folder)
+                        .and_then(|()| std::fs::copy(source, &copy).map(drop));
+                    (copied, format!("{version}.wasm"))
+                };
                 match copied {
                     // Relative to the recording, as `parse` reads it.
-                    Ok(()) => format!("{folder_name}/{version}.wasm"),
+                    Ok(()) => format!("{folder_name}/{kept}"),
                     Err(e) => {
                         self.error.get_or_insert_with(|| {
                             format!("cannot copy {} beside the recording: {e}", source.display())
