@@ -20,9 +20,10 @@ use crate::error::RadarError;
 pub const SCRIPT_KEY: &str = "radar.source";
 
 /// Languages whose plugins can be scripts, by file extension.
-const SCRIPT_EXTENSIONS: [&str; 1] = ["py"];
+const SCRIPT_EXTENSIONS: [&str; 2] = ["py", "js"];
 
-/// Whether `path` names a script (a `.py` file) rather than a component.
+/// Whether `path` names a script (a `.py` or `.js` file) rather than a
+/// component.
 pub fn is_script(path: &Path) -> bool {
     path.extension()
         .and_then(|e| e.to_str())

@@ -1,9 +1,9 @@
 //! Scripts on a development runtime (`source` in the manifest,
-//! `radar::script`): Python's TestEvent run as `plugins/test-event-py/app.py`
-//! on its world's runtime behaves as the built plugin; an edited script is
-//! swapped in on the same compiled runtime; a broken one is refused by
-//! `--watch`'s check; and reloading the same script gives the same run
-//! again, fuel for fuel.
+//! `radar::script`): Python's and JavaScript's TestEvent run as
+//! `plugins/test-event-{py,js}/app.*` on their world's runtime behave as the
+//! built plugins; an edited script is swapped in on the same compiled
+//! runtime; a broken one is refused by `--watch`'s check; and reloading the
+//! same script gives the same run again, fuel for fuel.
 
 mod common;
 
@@ -114,6 +114,63 @@ fn a_script_swap_to_a_plugin_without_a_runtime_is_refused_with_its_cause() {
         1,
         "the old version runs on"
     );
+}
+
+fn js_source() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .join("plugins/test-event-js/app.js")
+}
+
+#[test]
+fn a_javascript_script_on_its_runtime_triggers_as_the_built_plugin_and_reloads() {
+    let built = system(Plugin::file("TestEvent", plugins::TEST_EVENT_JS))
+        .run_for(secs(16.0))
+        .expect("runs");
+    let scripted = || Plugin::file("TestEvent", plugins::TEST_EVENT_JS_DEV).source(js_source());
+    let script = system(scripted()).run_for(secs(16.0)).expect("runs");
+    let payloads = |run: &radar::testing::TestRun| -> Vec<_> {
+        run.signals("TestEvent.triggered")
+            .into_iter()
+            .map(|(_, p)| p)
+            .collect()
+    };
+    assert_eq!(payloads(&script), [json!(5), json!(5), json!(5)]);
+    assert_eq!(payloads(&built), payloads(&script));
+    // An edit swapped in on the same runtime.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let text = std::fs::read_to_string(js_source()).expect("reads app.js");
+    let edited = text.replace("config('count_to', 5)", "config('count_to', 2)");
+    assert_ne!(text, edited, "app.js reads count_to with a default of 5");
+    std::fs::write(dir.path().join("app.js"), edited).expect("writes the copy");
+    let run = system(scripted())
+        .swap_at(
+            secs(6.0),
+            "TestEvent",
+            dir.path().join("app.js"),
+            SwapPolicy::Drain,
+        )
+        .run_for(secs(13.5))
+        .expect("runs");
+    assert_eq!(
+        payloads(&run),
+        [json!(5), json!(2), json!(2), json!(2)],
+        "{}",
+        run.excerpt(secs(5.0), secs(13.5))
+    );
+}
+
+#[test]
+fn a_javascript_script_that_does_not_parse_fails_the_check() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("app.js");
+    std::fs::write(&path, "export function check() {\n    return (;\n}\n").expect("writes");
+    let failure = radar::workspace::check_script("TestEvent", &path).expect_err("refused");
+    assert!(
+        failure.to_string().contains("app.js:2") && failure.to_string().contains("SyntaxError"),
+        "{failure}"
+    );
+    radar::workspace::check_script("TestEvent", &js_source()).expect("app.js parses");
 }
 
 #[test]

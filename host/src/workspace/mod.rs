@@ -64,10 +64,11 @@ pub fn build(build: &Build) -> Result<Duration, BuildFailure> {
     })))
 }
 
-/// Checks a script before it is swapped in (a Python script must parse),
-/// so that an edit with a syntax error leaves the running version in place
-/// like a failed build. Needs `python3` on the path; without it the check
-/// is skipped (the runtime reports the error on its first call).
+/// Checks a script before it is swapped in (a Python script must parse, a
+/// JavaScript one pass `node --check` as a module), so that an edit with a
+/// syntax error leaves the running version in place like a failed build.
+/// Needs `python3` or `node` on the path; without it the check is skipped
+/// (the runtime reports the error on its first call).
 pub fn check_script(plugin: &str, main: &Path) -> Result<(), BuildFailure> {
     let failure = |line: String| BuildFailure {
         plugin: plugin.to_string(),
@@ -75,18 +76,40 @@ pub fn check_script(plugin: &str, main: &Path) -> Result<(), BuildFailure> {
     };
     let files = crate::script::files(main)
         .map_err(|e| failure(format!("cannot read {}: {e}", main.display())))?;
-    const PARSE: &str = "import ast, sys\n\
+    const PARSE_PYTHON: &str = "import ast, sys\n\
         for f in sys.argv[1:]:\n\
         \x20   try:\n\
         \x20       ast.parse(open(f, encoding='utf-8').read(), f)\n\
         \x20   except SyntaxError as e:\n\
         \x20       sys.exit(f'{e.filename}:{e.lineno}: SyntaxError: {e.msg}')\n";
-    let Ok(output) = Command::new("python3")
-        .arg("-c")
-        .arg(PARSE)
-        .args(&files)
-        .output()
-    else {
+    // `node --check` decides a file's module system by its package.json;
+    // a copy named .mjs is checked as the ES module it is.
+    const CHECK_JS: &str = "const fs = require('fs'), os = require('os'), path = require('path');\n\
+        const { execFileSync } = require('child_process');\n\
+        for (const f of process.argv.slice(1)) {\n\
+        \x20 const copy = path.join(fs.mkdtempSync(path.join(os.tmpdir(), 'radar-')), path.basename(f) + '.mjs');\n\
+        \x20 fs.copyFileSync(f, copy);\n\
+        \x20 try { execFileSync(process.execPath, ['--check', copy], { stdio: 'pipe' }); }\n\
+        \x20 catch (e) {\n\
+        \x20   const lines = e.stderr.toString().split('\\n');\n\
+        \x20   const at = (lines[0] || '').replace(copy, f);\n\
+        \x20   console.error(`${at}: ${lines.find((l) => /Error/.test(l)) || 'does not parse'}`);\n\
+        \x20   process.exit(1);\n\
+        \x20 } finally { fs.rmSync(path.dirname(copy), { recursive: true, force: true }); }\n\
+        }\n";
+    let mut command = match main.extension().and_then(|e| e.to_str()) {
+        Some("js") => {
+            let mut node = Command::new("node");
+            node.arg("-e").arg(CHECK_JS).arg("--");
+            node
+        }
+        _ => {
+            let mut python = Command::new("python3");
+            python.arg("-c").arg(PARSE_PYTHON);
+            python
+        }
+    };
+    let Ok(output) = command.args(&files).output() else {
         return Ok(());
     };
     if output.status.success() {

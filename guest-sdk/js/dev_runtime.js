@@ -1,0 +1,47 @@
+// Writes Radar's JavaScript development runtime for a world:
+//
+//     node dev_runtime.js WIT_DIR WORLD RADAR_DEV_JS OUT_JS
+//
+// Reads the world's `export`s from the .wit files of WIT_DIR (not its
+// deps/): a function (`export check: func(...)`) becomes an exported
+// function, an interface (`export slots;`) an exported object with one
+// method per function of the interface; each hands the call to the
+// plugin's own export of the same name (see radar_dev.js). WIT names are
+// kebab-case; their JavaScript names are camelCase, as jco makes them.
+const fs = require('fs');
+const path = require('path');
+
+const [witDir, world, runtime, out] = process.argv.slice(2);
+const text = fs
+    .readdirSync(witDir)
+    .filter((f) => f.endsWith('.wit'))
+    .map((f) => fs.readFileSync(path.join(witDir, f), 'utf8'))
+    .join('\n')
+    .replace(/\/\/.*$/gm, '');
+
+const camel = (name) => name.replace(/-([a-z0-9])/g, (_, c) => c.toUpperCase());
+
+function block(kind, name) {
+    const start = text.search(new RegExp(`\\b${kind}\\s+${name}\\s*\\{`));
+    if (start < 0) throw new Error(`no ${kind} ${name} in ${witDir}`);
+    let depth = 0;
+    for (let i = text.indexOf('{', start); i < text.length; i++) {
+        if (text[i] === '{') depth++;
+        if (text[i] === '}' && --depth === 0) return text.slice(text.indexOf('{', start) + 1, i);
+    }
+    throw new Error(`unclosed ${kind} ${name}`);
+}
+
+const lines = [fs.readFileSync(runtime, 'utf8')];
+for (const m of block('world', world).matchAll(/export\s+([a-z][\w-]*)\s*(:\s*func)?/g)) {
+    const name = camel(m[1]);
+    if (m[2]) {
+        lines.push(`export function ${name}(...args) { return plugin().${name}(...args); }`);
+        continue;
+    }
+    const functions = [...block('interface', m[1]).matchAll(/([a-z][\w-]*)\s*:\s*func/g)].map((f) => camel(f[1]));
+    lines.push(`export const ${name} = {`);
+    for (const f of functions) lines.push(`    ${f}(...args) { return plugin().${name}.${f}(...args); },`);
+    lines.push('};');
+}
+fs.writeFileSync(out, lines.join('\n') + '\n');

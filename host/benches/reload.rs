@@ -1,0 +1,379 @@
+//! Hot reload end to end (issue 11): `radar run --clock real --watch` on a
+//! copy of TestEvent in each language, its source edited N times (the
+//! default of `count_to` changed, a one-line edit), and for each edit:
+//!
+//! - build: the build command's time, as `--watch` prints it (`watch:
+//!   built … in …`); none for a script on its development runtime;
+//! - load: compiling the new component (or fetching it from the cache),
+//!   checking it and making its instance (`watch: swapping … (loaded in …)`);
+//! - save → swapped: from the write of the file to the `swap` record in the
+//!   trace, polled every 2 ms (so up to 2 ms late), including the watcher's
+//!   100 ms of quiet and the wait for the plugin's safe point (its check
+//!   sleeps 50 ms).
+//!
+//! Prints p50 and max of each with the target beside it (≤ 2 s for Python
+//! and JavaScript, ≤ 1 s for Rust). The first build of each (toolchain and
+//! dependencies) is made before the run and not counted.
+//!
+//! `cargo bench -p radar --bench reload`; `RADAR_RELOAD_N` sets the edits
+//! per language (default 5), `RADAR_RELOAD_ONLY=python-script` one path.
+
+use std::io::BufRead;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use radar_fixtures::plugins;
+
+/// One way a plugin reaches the running system.
+struct Route {
+    name: &'static str,
+    target: Duration,
+    /// Writes the plugin's folder and manifest into `dir`; the source file
+    /// to edit and how to write its k-th edit.
+    setup: fn(&Path) -> (PathBuf, fn(&str, u32) -> String),
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// Copies a folder, following symbolic links (a world's `deps/`).
+fn copy_tree(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).expect("create folder");
+    for entry in std::fs::read_dir(from).expect("read folder") {
+        let path = entry.expect("entry").path();
+        let into = to.join(path.file_name().expect("name"));
+        if std::fs::metadata(&path).expect("metadata").is_dir() {
+            copy_tree(&path, &into);
+        } else {
+            std::fs::copy(&path, &into).expect("copy file");
+        }
+    }
+}
+
+const MANIFEST_TAIL: &str = "config = { interval_s = 0.05 }\n\n\
+    [plugins.TestResponse]\nwasm = \"builtin:test-response\"\n\
+    config = { count_for_s = 0.05, interval_s = 0.05 }\n\n\
+    [[connect]]\nmode = \"whenever\"\nfrom = \"TestEvent.triggered\"\nto = \"TestResponse.start\"\n";
+
+fn count_to(text: &str, from: &str, to: &str) -> String {
+    assert!(text.contains(from), "the source has `{from}`");
+    text.replace(from, to)
+}
+
+fn python_script(dir: &Path) -> (PathBuf, fn(&str, u32) -> String) {
+    let app = dir.join("app.py");
+    std::fs::copy(root().join("plugins/test-event-py/app.py"), &app).expect("copy app.py");
+    let manifest = format!(
+        "[plugins.TestEvent]\nwasm = \"{}\"\nsource = \"app.py\"\n{MANIFEST_TAIL}",
+        plugins::TEST_EVENT_PY_DEV
+    );
+    std::fs::write(dir.join("radar.toml"), manifest).expect("manifest");
+    (app, |text, k| {
+        count_to(
+            text,
+            "config(\"count_to\", 5)",
+            &format!("config(\"count_to\", {})", 5 + k),
+        )
+    })
+}
+
+fn python_build(dir: &Path) -> (PathBuf, fn(&str, u32) -> String) {
+    let plugin = dir.join("test-event-py");
+    std::fs::create_dir_all(&plugin).expect("folder");
+    std::fs::copy(
+        root().join("plugins/test-event-py/app.py"),
+        plugin.join("app.py"),
+    )
+    .expect("copy app.py");
+    copy_tree(&root().join("plugins/wit/test-event"), &dir.join("wit"));
+    std::fs::write(
+        plugin.join("pyproject.toml"),
+        "[project]\nname = \"e\"\nversion = \"0.1.0\"\n\n[tool.radar]\nwit = \"../wit\"\nworld = \"test-event\"\n",
+    )
+    .expect("pyproject");
+    let build = root().join("guest-sdk/python/build");
+    let manifest = format!(
+        "[plugins.TestEvent]\nwasm = \"e.wasm\"\n{MANIFEST_TAIL}\n\
+         [plugins.TestEvent.build]\ncommand = \"sh {} ../e.wasm\"\nworkdir = \"test-event-py\"\nwatch = [\"*.py\"]\n",
+        build.display()
+    );
+    std::fs::write(dir.join("radar.toml"), manifest).expect("manifest");
+    (plugin.join("app.py"), |text, k| {
+        count_to(
+            text,
+            "config(\"count_to\", 5)",
+            &format!("config(\"count_to\", {})", 5 + k),
+        )
+    })
+}
+
+fn javascript_build(dir: &Path) -> (PathBuf, fn(&str, u32) -> String) {
+    let plugin = dir.join("test-event-js");
+    std::fs::create_dir_all(&plugin).expect("folder");
+    std::fs::copy(
+        root().join("plugins/test-event-js/app.js"),
+        plugin.join("app.js"),
+    )
+    .expect("copy app.js");
+    copy_tree(&root().join("plugins/wit/test-event"), &dir.join("wit"));
+    std::fs::write(
+        plugin.join("package.json"),
+        "{\"name\": \"e\", \"private\": true, \"type\": \"module\", \
+         \"radar\": {\"wit\": \"../wit\", \"world\": \"test-event\"}}\n",
+    )
+    .expect("package.json");
+    let build = root().join("guest-sdk/js/build");
+    let manifest = format!(
+        "[plugins.TestEvent]\nwasm = \"e.wasm\"\n{MANIFEST_TAIL}\n\
+         [plugins.TestEvent.build]\ncommand = \"sh {} ../e.wasm\"\nworkdir = \"test-event-js\"\nwatch = [\"*.js\"]\n",
+        build.display()
+    );
+    std::fs::write(dir.join("radar.toml"), manifest).expect("manifest");
+    (plugin.join("app.js"), |text, k| {
+        count_to(
+            text,
+            "config('count_to', 5)",
+            &format!("config('count_to', {})", 5 + k),
+        )
+    })
+}
+
+fn rust_build(dir: &Path) -> (PathBuf, fn(&str, u32) -> String) {
+    let plugin = dir.join("test-event");
+    copy_tree(&root().join("plugins/test-event/src"), &plugin.join("src"));
+    copy_tree(
+        &root().join("plugins/wit/test-event"),
+        &dir.join("wit/test-event"),
+    );
+    std::fs::copy(root().join("plugins/Cargo.lock"), plugin.join("Cargo.lock")).expect("lock");
+    std::fs::write(
+        plugin.join("Cargo.toml"),
+        format!(
+            "[package]\nname = \"test-event\"\nversion = \"0.1.0\"\nedition = \"2021\"\n\n\
+             [lib]\ncrate-type = [\"cdylib\"]\n\n[dependencies]\nradar-guest = {{ path = \"{}\" }}\n\n\
+             [profile.release]\nopt-level = \"s\"\ndebug = false\nstrip = true\n\n[workspace]\n",
+            root().join("guest-sdk").display()
+        ),
+    )
+    .expect("Cargo.toml");
+    // Its own target folder, kept between runs of the benchmark, so that
+    // the first build compiles the dependencies once.
+    let target = root().join("target/reload-bench");
+    let manifest = format!(
+        "[plugins.TestEvent]\nwasm = \"e.wasm\"\n{MANIFEST_TAIL}\n\
+         [plugins.TestEvent.build]\n\
+         command = \"cargo build -q --release --target wasm32-wasip2 --target-dir {t} && cp {t}/wasm32-wasip2/release/test_event.wasm ../e.wasm\"\n\
+         workdir = \"test-event\"\nwatch = [\"src/*.rs\"]\n",
+        t = target.display()
+    );
+    std::fs::write(dir.join("radar.toml"), manifest).expect("manifest");
+    (plugin.join("src/lib.rs"), |text, k| {
+        count_to(
+            text,
+            "config_or(\"count_to\", 5u32)",
+            &format!("config_or(\"count_to\", {}u32)", 5 + k),
+        )
+    })
+}
+
+/// Runs the manifest's first build (not measured), as `radar build` would.
+fn first_build(dir: &Path) {
+    let out = Command::new(env!("CARGO_BIN_EXE_radar"))
+        .arg("build")
+        .arg(dir.join("radar.toml"))
+        .env("RADAR_TOOLCHAINS", plugins_toolchains())
+        .output()
+        .expect("radar build runs");
+    assert!(
+        out.status.success(),
+        "first build: {}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+fn plugins_toolchains() -> &'static str {
+    radar_fixtures::TOOLCHAINS
+}
+
+fn swaps(trace: &Path) -> usize {
+    std::fs::read_to_string(trace)
+        .map(|t| {
+            t.lines()
+                .filter(|l| l.contains("\"kind\":\"swap\""))
+                .count()
+        })
+        .unwrap_or(0)
+}
+
+struct Edit {
+    build: Option<Duration>,
+    load: Option<Duration>,
+    swapped: Duration,
+}
+
+/// The number in a line such as `watch: built E in 1.2 s` (`unit` "s") or
+/// `(loaded in 12 ms)` (`unit` "ms").
+fn figure(line: &str, after: &str, unit: &str) -> Option<Duration> {
+    let rest = &line[line.find(after)? + after.len()..];
+    let number: f64 = rest.split_whitespace().next()?.parse().ok()?;
+    Some(Duration::from_secs_f64(match unit {
+        "ms" => number / 1e3,
+        _ => number,
+    }))
+}
+
+fn measure(path: &Route, edits: u32) -> Result<Vec<Edit>, String> {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (source, edit) = (path.setup)(dir.path());
+    first_build(dir.path());
+    let trace = dir.path().join("trace.jsonl");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_radar"))
+        .arg("run")
+        .arg(dir.path().join("radar.toml"))
+        .args(["--clock", "real", "--watch", "--for", "3600s", "-q"])
+        .arg("--trace")
+        .arg(&trace)
+        .env("RADAR_TOOLCHAINS", plugins_toolchains())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("radar runs");
+    let (tx, lines) = mpsc::channel();
+    let stdout = child.stdout.take().expect("stdout");
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(stdout)
+            .lines()
+            .map_while(Result::ok)
+        {
+            let _ = tx.send(line);
+        }
+    });
+    // The run has begun once its trace has its first record.
+    let began = Instant::now();
+    while std::fs::metadata(&trace).map_or(0, |m| m.len()) == 0 {
+        if began.elapsed() > Duration::from_secs(120) {
+            let _ = child.kill();
+            return Err("the run did not begin".into());
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::thread::sleep(Duration::from_millis(500));
+    let original = std::fs::read_to_string(&source).expect("source");
+    let mut results = Vec::new();
+    for k in 1..=edits {
+        let before = swaps(&trace);
+        let saved = Instant::now();
+        std::fs::write(&source, edit(&original, k)).expect("edit");
+        let swapped = loop {
+            if swaps(&trace) > before {
+                break saved.elapsed();
+            }
+            if saved.elapsed() > Duration::from_secs(120) {
+                let _ = child.kill();
+                let said: Vec<String> = lines.try_iter().collect();
+                return Err(format!("edit {k}: no swap within 120 s: {said:?}"));
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        };
+        // The watcher prints its lines before the swap takes effect.
+        let (mut build, mut load) = (None, None);
+        for line in lines.try_iter() {
+            build = build.or(figure(&line, "built TestEvent in ", "s"));
+            load = load.or(figure(&line, "(loaded in ", "ms"));
+            if line.contains("failed") || line.contains("refused") {
+                let _ = child.kill();
+                return Err(format!("edit {k}: {line}"));
+            }
+        }
+        results.push(Edit {
+            build,
+            load,
+            swapped,
+        });
+        std::thread::sleep(Duration::from_millis(300));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    Ok(results)
+}
+
+fn p50_max(mut values: Vec<Duration>) -> Option<(Duration, Duration)> {
+    values.sort();
+    Some((*values.get(values.len() / 2)?, *values.last()?))
+}
+
+fn show(values: Vec<Duration>) -> String {
+    match p50_max(values) {
+        Some((p50, max)) => format!("{:>6.0} / {:>6.0}", ms(p50), ms(max)),
+        None => format!("{:>15}", "-"),
+    }
+}
+
+fn ms(d: Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+fn main() {
+    if std::env::args().any(|a| a == "--list") {
+        return;
+    }
+    let edits: u32 = std::env::var("RADAR_RELOAD_N")
+        .ok()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(5);
+    let only = std::env::var("RADAR_RELOAD_ONLY").ok();
+    let paths = [
+        Route {
+            name: "python-script",
+            target: Duration::from_secs(2),
+            setup: python_script,
+        },
+        Route {
+            name: "rust",
+            target: Duration::from_secs(1),
+            setup: rust_build,
+        },
+        Route {
+            name: "javascript",
+            target: Duration::from_secs(2),
+            setup: javascript_build,
+        },
+        Route {
+            name: "python-build",
+            target: Duration::from_secs(2),
+            setup: python_build,
+        },
+    ];
+    println!("== save -> swapped under `radar run --watch` ({edits} one-line edits each; ms, p50 / max) ==");
+    println!(
+        "{:<14} {:>15} {:>15} {:>15}   target (save -> swapped)",
+        "path", "build", "load", "save -> swapped"
+    );
+    for path in paths
+        .iter()
+        .filter(|p| only.as_deref().is_none_or(|o| o == p.name))
+    {
+        match measure(path, edits) {
+            Ok(results) => {
+                let builds: Vec<_> = results.iter().filter_map(|r| r.build).collect();
+                let loads: Vec<_> = results.iter().filter_map(|r| r.load).collect();
+                let swapped: Vec<_> = results.iter().map(|r| r.swapped).collect();
+                let met = p50_max(swapped.clone()).is_some_and(|(p50, _)| p50 <= path.target);
+                println!(
+                    "{:<14} {} {} {}   <= {} ms p50: {}",
+                    path.name,
+                    show(builds),
+                    show(loads),
+                    show(swapped),
+                    path.target.as_millis(),
+                    if met { "met" } else { "NOT met" }
+                );
+            }
+            Err(e) => println!("{:<14} failed: {e}", path.name),
+        }
+    }
+}
