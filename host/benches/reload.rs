@@ -15,8 +15,13 @@
 //! and JavaScript, ≤ 1 s for Rust). The first build of each (toolchain and
 //! dependencies) is made before the run and not counted.
 //!
+//! Routes: `python-script` and `js-script` (the plugin's script on its
+//! world's development runtime, `source` in the manifest: no build, no
+//! compile), `rust`, `js-build` and `python-build` (the language's build,
+//! then a compile of the new component).
+//!
 //! `cargo bench -p radar --bench reload`; `RADAR_RELOAD_N` sets the edits
-//! per language (default 5), `RADAR_RELOAD_ONLY=python-script` one path.
+//! per route (default 5), `RADAR_RELOAD_ONLY=python-script` one route.
 
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
@@ -26,13 +31,18 @@ use std::time::{Duration, Instant};
 
 use radar_fixtures::plugins;
 
+/// Writes the k-th edit of a source.
+type Editor = fn(&str, u32) -> String;
+
+/// Writes a plugin's folder and manifest into a folder; the source file to
+/// edit and its editor.
+type Setup = fn(&Path) -> (PathBuf, Editor);
+
 /// One way a plugin reaches the running system.
 struct Route {
     name: &'static str,
     target: Duration,
-    /// Writes the plugin's folder and manifest into `dir`; the source file
-    /// to edit and how to write its k-th edit.
-    setup: fn(&Path) -> (PathBuf, fn(&str, u32) -> String),
+    setup: Setup,
 }
 
 fn root() -> PathBuf {
@@ -63,7 +73,7 @@ fn count_to(text: &str, from: &str, to: &str) -> String {
     text.replace(from, to)
 }
 
-fn python_script(dir: &Path) -> (PathBuf, fn(&str, u32) -> String) {
+fn python_script(dir: &Path) -> (PathBuf, Editor) {
     let app = dir.join("app.py");
     std::fs::copy(root().join("plugins/test-event-py/app.py"), &app).expect("copy app.py");
     let manifest = format!(
@@ -80,7 +90,24 @@ fn python_script(dir: &Path) -> (PathBuf, fn(&str, u32) -> String) {
     })
 }
 
-fn python_build(dir: &Path) -> (PathBuf, fn(&str, u32) -> String) {
+fn javascript_script(dir: &Path) -> (PathBuf, Editor) {
+    let app = dir.join("app.js");
+    std::fs::copy(root().join("plugins/test-event-js/app.js"), &app).expect("copy app.js");
+    let manifest = format!(
+        "[plugins.TestEvent]\nwasm = \"{}\"\nsource = \"app.js\"\n{MANIFEST_TAIL}",
+        plugins::TEST_EVENT_JS_DEV
+    );
+    std::fs::write(dir.join("radar.toml"), manifest).expect("manifest");
+    (app, |text, k| {
+        count_to(
+            text,
+            "config('count_to', 5)",
+            &format!("config('count_to', {})", 5 + k),
+        )
+    })
+}
+
+fn python_build(dir: &Path) -> (PathBuf, Editor) {
     let plugin = dir.join("test-event-py");
     std::fs::create_dir_all(&plugin).expect("folder");
     std::fs::copy(
@@ -110,7 +137,7 @@ fn python_build(dir: &Path) -> (PathBuf, fn(&str, u32) -> String) {
     })
 }
 
-fn javascript_build(dir: &Path) -> (PathBuf, fn(&str, u32) -> String) {
+fn javascript_build(dir: &Path) -> (PathBuf, Editor) {
     let plugin = dir.join("test-event-js");
     std::fs::create_dir_all(&plugin).expect("folder");
     std::fs::copy(
@@ -141,7 +168,7 @@ fn javascript_build(dir: &Path) -> (PathBuf, fn(&str, u32) -> String) {
     })
 }
 
-fn rust_build(dir: &Path) -> (PathBuf, fn(&str, u32) -> String) {
+fn rust_build(dir: &Path) -> (PathBuf, Editor) {
     let plugin = dir.join("test-event");
     copy_tree(&root().join("plugins/test-event/src"), &plugin.join("src"));
     copy_tree(
@@ -231,19 +258,24 @@ fn measure(path: &Route, edits: u32) -> Result<Vec<Edit>, String> {
     let (source, edit) = (path.setup)(dir.path());
     first_build(dir.path());
     let trace = dir.path().join("trace.jsonl");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_radar"))
-        .arg("run")
-        .arg(dir.path().join("radar.toml"))
-        .args(["--clock", "real", "--watch", "--for", "3600s", "-q"])
-        .arg("--trace")
-        .arg(&trace)
-        .env("RADAR_TOOLCHAINS", plugins_toolchains())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("radar runs");
+    let mut child = Running(
+        Command::new(env!("CARGO_BIN_EXE_radar"))
+            .arg("run")
+            .arg(dir.path().join("radar.toml"))
+            .args(["--clock", "real", "--watch", "--for", "3600s", "-q"])
+            .arg("--trace")
+            .arg(&trace)
+            .env("RADAR_TOOLCHAINS", plugins_toolchains())
+            // A cache of its own: each edit's component is compiled, not
+            // found from an earlier run of the benchmark.
+            .env("RADAR_CACHE_DIR", dir.path().join("cache"))
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("radar runs"),
+    );
     let (tx, lines) = mpsc::channel();
-    let stdout = child.stdout.take().expect("stdout");
+    let stdout = child.0.stdout.take().expect("stdout");
     std::thread::spawn(move || {
         for line in std::io::BufReader::new(stdout)
             .lines()
@@ -256,7 +288,6 @@ fn measure(path: &Route, edits: u32) -> Result<Vec<Edit>, String> {
     let began = Instant::now();
     while std::fs::metadata(&trace).map_or(0, |m| m.len()) == 0 {
         if began.elapsed() > Duration::from_secs(120) {
-            let _ = child.kill();
             return Err("the run did not begin".into());
         }
         std::thread::sleep(Duration::from_millis(20));
@@ -273,7 +304,6 @@ fn measure(path: &Route, edits: u32) -> Result<Vec<Edit>, String> {
                 break saved.elapsed();
             }
             if saved.elapsed() > Duration::from_secs(120) {
-                let _ = child.kill();
                 let said: Vec<String> = lines.try_iter().collect();
                 return Err(format!("edit {k}: no swap within 120 s: {said:?}"));
             }
@@ -285,7 +315,6 @@ fn measure(path: &Route, edits: u32) -> Result<Vec<Edit>, String> {
             build = build.or(figure(&line, "built TestEvent in ", "s"));
             load = load.or(figure(&line, "(loaded in ", "ms"));
             if line.contains("failed") || line.contains("refused") {
-                let _ = child.kill();
                 return Err(format!("edit {k}: {line}"));
             }
         }
@@ -296,9 +325,18 @@ fn measure(path: &Route, edits: u32) -> Result<Vec<Edit>, String> {
         });
         std::thread::sleep(Duration::from_millis(300));
     }
-    let _ = child.kill();
-    let _ = child.wait();
+    drop(child);
     Ok(results)
+}
+
+/// The `radar run` under test, stopped when the measurement ends.
+struct Running(std::process::Child);
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
 }
 
 fn p50_max(mut values: Vec<Duration>) -> Option<(Duration, Duration)> {
@@ -333,12 +371,17 @@ fn main() {
             setup: python_script,
         },
         Route {
+            name: "js-script",
+            target: Duration::from_secs(2),
+            setup: javascript_script,
+        },
+        Route {
             name: "rust",
             target: Duration::from_secs(1),
             setup: rust_build,
         },
         Route {
-            name: "javascript",
+            name: "js-build",
             target: Duration::from_secs(2),
             setup: javascript_build,
         },
