@@ -274,6 +274,7 @@ pub struct SystemBuilder {
     fuel_per_second: Option<u64>,
     realtime: crate::realtime::RealTime,
     keep_trace: bool,
+    trace_limit: Option<usize>,
     cache_dir: Option<PathBuf>,
     seed: u64,
     limits: Limits,
@@ -294,6 +295,7 @@ impl Default for SystemBuilder {
             fuel_per_second: None,
             realtime: crate::realtime::RealTime::default(),
             keep_trace: true,
+            trace_limit: Some(DEFAULT_TRACE_LIMIT),
             cache_dir: default_cache_dir(),
             seed: 0,
             limits: Limits::default(),
@@ -469,9 +471,20 @@ impl SystemBuilder {
         self
     }
 
-    /// Whether [`RunReport::trace`] keeps every record (default: yes).
+    /// Whether [`RunReport::trace`] keeps the run's records (default: yes,
+    /// up to [`SystemBuilder::trace_limit`]).
     pub fn keep_trace(mut self, keep: bool) -> Self {
         self.keep_trace = keep;
+        self
+    }
+
+    /// How many records [`RunReport::trace`] keeps at most: the newest
+    /// ones; [`RunReport::trace_dropped`] counts the older ones it let go
+    /// (default: [`DEFAULT_TRACE_LIMIT`], so that a long run's kept trace
+    /// stays bounded; `None`: every record, as tests that check a whole
+    /// trace need). Trace files (`trace_to`) get every record either way.
+    pub fn trace_limit(mut self, limit: Option<usize>) -> Self {
+        self.trace_limit = limit;
         self
     }
 
@@ -591,12 +604,19 @@ impl SystemBuilder {
             fuel_per_second: self.fuel_per_second,
             realtime: self.realtime,
             keep_trace: self.keep_trace,
+            trace_limit: self.trace_limit,
             seed: self.seed,
             tx,
             rx,
         })
     }
 }
+
+/// How many records [`RunReport::trace`] keeps by default (the newest); a
+/// test that checks a whole longer trace sets
+/// [`SystemBuilder::trace_limit`]`(None)`, as `radar::testing` and
+/// `radar test` do.
+pub const DEFAULT_TRACE_LIMIT: usize = 1_000_000;
 
 /// A set of plugins ready to run. See the module docs.
 pub struct System {
@@ -616,6 +636,7 @@ pub struct System {
     fuel_per_second: Option<u64>,
     realtime: crate::realtime::RealTime,
     keep_trace: bool,
+    trace_limit: Option<usize>,
     seed: u64,
     tx: Sender<Command>,
     rx: Receiver<Command>,
@@ -624,8 +645,12 @@ pub struct System {
 /// What a run produced.
 #[derive(Debug)]
 pub struct RunReport {
-    /// Every trace record, in order (empty if `keep_trace(false)`).
+    /// The run's trace records, in order: all of them, or the newest
+    /// [`SystemBuilder::trace_limit`] (empty if `keep_trace(false)`).
     pub trace: Vec<Record>,
+    /// How many older records [`RunReport::trace`] let go to stay within
+    /// its limit (0: it holds the whole run).
+    pub trace_dropped: u64,
     /// Scheduler time when the run ended.
     pub ended_at: Duration,
     /// The deliberative program's result, if it finished before the run
@@ -771,7 +796,9 @@ impl System {
                     self.clock == ClockKind::Virtual && (self.recorder.is_some() || checked);
                 TraceOut {
                     sinks: self.sinks,
-                    kept: self.keep_trace.then(Vec::new),
+                    kept: self
+                        .keep_trace
+                        .then(|| crate::trace::KeptTrace::new(self.trace_limit)),
                     inputs: self.recorder.take(),
                     digest: digest.then(TraceDigest::default),
                     replay_end: self.replay_end,
@@ -802,7 +829,8 @@ impl System {
         // current closure.
         drop(runner);
         Ok(RunReport {
-            trace: end.trace,
+            trace: end.trace.0,
+            trace_dropped: end.trace.1,
             ended_at: Duration::from_nanos(end.ended_at),
             program: end.program_outcome,
             trace_errors: end.trace_errors,

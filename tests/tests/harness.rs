@@ -169,3 +169,20 @@ fn the_harness_checks_the_laws_of_every_run() {
     run.assert_never_overlaps("R");
     assert!(radar::trace::check(run.trace()).is_empty());
 }
+
+#[test]
+fn a_kept_trace_is_bounded_to_its_newest_records() {
+    let run = |limit| {
+        radar::example::listing23(virtual_system().trace_limit(limit))
+            .build()
+            .expect("builds")
+            .run_with(Some(Duration::from_secs(30)), radar::example::listing23_program)
+            .expect("runs")
+    };
+    let whole = run(None);
+    let bounded = run(Some(10));
+    assert_eq!(whole.trace_dropped, 0);
+    assert_eq!(bounded.trace.len(), 10);
+    assert_eq!(bounded.trace_dropped as usize, whole.trace.len() - 10);
+    assert_eq!(bounded.trace[..], whole.trace[whole.trace.len() - 10..]);
+}

@@ -656,7 +656,7 @@ impl State {
 /// Where trace records go.
 pub(crate) struct TraceOut {
     pub sinks: Vec<Box<dyn TraceSink>>,
-    pub kept: Option<Vec<Record>>,
+    pub kept: Option<crate::trace::KeptTrace>,
     /// `--record`: inputs from outside, as they are applied.
     pub inputs: Option<InputRecorder>,
     /// The records so far, counted and hashed, when a recording notes them
@@ -791,7 +791,8 @@ pub(crate) fn duration_nanos(d: Duration) -> u64 {
 
 /// How a run ended.
 pub(crate) struct RunEnd {
-    pub trace: Vec<Record>,
+    /// The records kept, and how many older ones were not.
+    pub trace: (Vec<Record>, u64),
     pub ended_at: u64,
     /// How the deliberative program ended, if it did during the run.
     pub program_outcome: Option<Result<(), ProgramFailure>>,
@@ -1173,7 +1174,11 @@ impl Scheduler {
                     errors.push(format!("recording {e}"));
                 }
                 (
-                    st.trace.kept.take().unwrap_or_default(),
+                    st.trace
+                        .kept
+                        .take()
+                        .map(crate::trace::KeptTrace::finish)
+                        .unwrap_or_default(),
                     st.program_outcome.take(),
                     errors,
                     st.trace.divergence.take(),

@@ -46,10 +46,11 @@ pub struct TestSystem {
 }
 
 impl TestSystem {
-    /// Tests the system `builder` describes (its clock is set to virtual).
+    /// Tests the system `builder` describes (its clock is set to virtual,
+    /// and every trace record is kept: the laws are checked on the whole).
     pub fn new(builder: SystemBuilder) -> Self {
         Self {
-            builder: builder.clock(ClockKind::Virtual),
+            builder: builder.clock(ClockKind::Virtual).trace_limit(None),
         }
     }
 

@@ -263,7 +263,10 @@ impl Scenario {
     /// Runs the system under the virtual clock with the scenario's inputs
     /// and settings.
     pub fn run(&self) -> Result<RunReport, String> {
-        let mut builder = System::builder().clock(ClockKind::Virtual);
+        // Every record kept: the laws and the expected trace judge it whole.
+        let mut builder = System::builder()
+            .clock(ClockKind::Virtual)
+            .trace_limit(None);
         if let Some(seed) = self.settings.seed {
             builder = builder.seed(seed);
         }

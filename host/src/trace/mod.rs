@@ -312,3 +312,66 @@ pub fn to_json_lines(records: &[Record]) -> String {
     }
     out
 }
+
+/// The records a run keeps for its report ([`crate::RunReport::trace`]):
+/// every one, or the newest `limit` of them, so that a long run's kept
+/// trace does not grow without bound.
+#[derive(Debug)]
+pub(crate) struct KeptTrace {
+    records: std::collections::VecDeque<Record>,
+    limit: Option<usize>,
+    dropped: u64,
+}
+
+impl KeptTrace {
+    pub(crate) fn new(limit: Option<usize>) -> Self {
+        Self {
+            records: std::collections::VecDeque::new(),
+            limit,
+            dropped: 0,
+        }
+    }
+
+    pub(crate) fn push(&mut self, record: Record) {
+        if self.limit.is_some_and(|limit| self.records.len() >= limit) {
+            if self.records.pop_front().is_none() {
+                // A limit of zero keeps nothing.
+                self.dropped += 1;
+                return;
+            }
+            self.dropped += 1;
+        }
+        self.records.push_back(record);
+    }
+
+    /// The records kept, oldest first, and how many older ones were not.
+    pub(crate) fn finish(self) -> (Vec<Record>, u64) {
+        (self.records.into(), self.dropped)
+    }
+}
+
+#[cfg(test)]
+mod kept_tests {
+    use super::*;
+
+    #[test]
+    fn a_limited_kept_trace_keeps_the_newest_records_and_counts_the_rest() {
+        let record = |t| Record {
+            t,
+            entry: Entry::Activate {
+                plugin: "E".into(),
+            },
+        };
+        let mut kept = KeptTrace::new(Some(3));
+        (0..10).for_each(|t| kept.push(record(t)));
+        let (records, dropped) = kept.finish();
+        assert_eq!(records.iter().map(|r| r.t).collect::<Vec<_>>(), [7, 8, 9]);
+        assert_eq!(dropped, 7);
+        let mut all = KeptTrace::new(None);
+        (0..10).for_each(|t| all.push(record(t)));
+        assert_eq!(all.finish(), ((0..10).map(record).collect(), 0));
+        let mut none = KeptTrace::new(Some(0));
+        none.push(record(1));
+        assert_eq!(none.finish(), (vec![], 1));
+    }
+}
