@@ -163,8 +163,14 @@ impl fmt::Display for PayloadType {
 /// response's start slot was given, and so on. Signals without a payload
 /// (an event whose `check` returns `bool`, `exited` of a start slot that
 /// returns nothing) carry an empty payload, rendered as JSON `null`.
+///
+/// One emission's value is shared by every connection it reaches (cloning
+/// a payload clones a reference, not the value).
 #[derive(Clone, PartialEq)]
-pub struct Payload(pub(crate) Option<Val>);
+pub struct Payload(pub(crate) Shared);
+
+/// A signal's value, shared by its deliveries.
+pub(crate) type Shared = Option<std::sync::Arc<Val>>;
 
 impl fmt::Debug for Payload {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -175,12 +181,12 @@ impl fmt::Debug for Payload {
 impl Payload {
     /// The value as wasmtime sees it, if the signal carries one.
     pub fn value(&self) -> Option<&Val> {
-        self.0.as_ref()
+        self.0.as_deref()
     }
 
     /// The value rendered as JSON (the form used by the trace and the CLI).
     pub fn to_json(&self) -> Json {
-        self.0.as_ref().map(val_to_json).unwrap_or(Json::Null)
+        self.0.as_deref().map(val_to_json).unwrap_or(Json::Null)
     }
 
     /// The value as an unsigned integer, if it is one.

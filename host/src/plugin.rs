@@ -435,22 +435,26 @@ impl PluginInstance {
         }
     }
 
+    /// Runs `start` with the signal's payload (shared with the signal's
+    /// other deliveries: the call reads it in place).
     pub async fn start(
         &mut self,
-        payload: Option<Val>,
+        payload: Option<Arc<Val>>,
         has_result: bool,
     ) -> Result<Option<Val>, Fault> {
         let Some(f) = self.start else {
             return Err(Fault::missing("start"));
         };
-        self.call(f, payload.as_slice(), has_result).await
+        let params = payload.as_deref().map_or(&[][..], std::slice::from_ref);
+        self.call(f, params, has_result).await
     }
 
-    pub async fn interrupt(&mut self, payload: Option<Val>) -> Result<(), Fault> {
+    pub async fn interrupt(&mut self, payload: Option<Arc<Val>>) -> Result<(), Fault> {
         let Some(f) = self.interrupt else {
             return Ok(());
         };
-        self.call(f, payload.as_slice(), false).await.map(drop)
+        let params = payload.as_deref().map_or(&[][..], std::slice::from_ref);
+        self.call(f, params, false).await.map(drop)
     }
 
     pub async fn exit(&mut self) -> Result<(), Fault> {

@@ -176,7 +176,10 @@ fn a_kept_trace_is_bounded_to_its_newest_records() {
         radar::example::listing23(virtual_system().trace_limit(limit))
             .build()
             .expect("builds")
-            .run_with(Some(Duration::from_secs(30)), radar::example::listing23_program)
+            .run_with(
+                Some(Duration::from_secs(30)),
+                radar::example::listing23_program,
+            )
             .expect("runs")
     };
     let whole = run(None);

@@ -104,12 +104,14 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
                 && !entry.swap.as_ref().is_some_and(|s| s.discard_check);
             match outcome {
                 Err(fault) => st.fault(pid, fault),
-                Ok(Some(payload)) if counts => st.emit(pid, Signal::Triggered, payload),
+                Ok(Some(payload)) if counts => {
+                    st.emit(pid, Signal::Triggered, payload.map(Arc::new))
+                }
                 Ok(Some(payload)) => {
                     let plugin = st.plugins[pid].name.clone();
                     st.record(Entry::Discarded {
                         plugin,
-                        payload: Payload(payload).to_json(),
+                        payload: Payload(payload.map(Arc::new)).to_json(),
                     });
                 }
                 Ok(None) => {}
@@ -295,7 +297,7 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
             if let Some(u) = activation.and_then(|a| a.until) {
                 st.disconnect(u, "until");
             }
-            st.emit(pid, Signal::Exited, result);
+            st.emit(pid, Signal::Exited, result.map(Arc::new));
         });
     }
 }

@@ -32,7 +32,7 @@ use wasmtime::component::Val;
 use crate::clock::{ClockKind, StopFlag, StopReason, TimeBase};
 use crate::error::RadarError;
 use crate::executor::{Executor, LocalTask, TaskId};
-use crate::payload::{json_to_val, val_to_json, Payload, PayloadType};
+use crate::payload::{json_to_val, val_to_json, Payload, PayloadType, Shared};
 use crate::plugin::{Fault, InstanceSetup, Kind, Limits, PluginCode, PluginInstance};
 use crate::trace::inputs::{Input, InputRecorder, Origin, TimedInput, TraceDigest};
 use crate::trace::{Entry, Record, TraceSink};
@@ -343,7 +343,7 @@ pub(crate) fn emit_from_plugin(
             .plugin(plugin)
             .map_err(|e| wasmtime::format_err!("{e}"))?;
         st.record_logs();
-        st.emit(pid, Signal::Named(signal), payload);
+        st.emit(pid, Signal::Named(signal), payload.map(Arc::new));
         Ok(())
     })
 }
@@ -393,7 +393,7 @@ impl Phase {
 
 /// A start signal a response has accepted but not begun.
 struct StartRequest {
-    payload: Option<Val>,
+    payload: Shared,
     /// The connection that delivered it (0: an injection).
     via: u64,
     /// The `F → R.interrupt` connection of `once E start R until F`, which
@@ -405,7 +405,7 @@ struct StartRequest {
 struct Delivery {
     /// The connection it came through (0: an injection).
     via: u64,
-    payload: Option<Val>,
+    payload: Shared,
     busy: Busy,
     /// See [`StartRequest::until`].
     until: Option<u64>,
@@ -418,7 +418,7 @@ struct Activation {
     /// The connection whose start began it (0: an injection).
     via: u64,
     /// Its start payload, for a `restart` swap that starts it again.
-    payload: Option<Val>,
+    payload: Shared,
     /// See [`StartRequest::until`].
     until: Option<u64>,
 }
@@ -458,7 +458,7 @@ struct PluginEntry {
     /// Starts waiting behind the running activation (`busy = queue`).
     queue: VecDeque<StartRequest>,
     activation: Option<Activation>,
-    stop_request: Option<(StopReason, Option<Val>)>,
+    stop_request: Option<(StopReason, Shared)>,
     /// A new version waiting for the plugin's safe point.
     swap: Option<swap::PendingSwap>,
     /// `Plugin.start`, the label of dropped records for accepted starts.
@@ -1358,7 +1358,7 @@ impl Scheduler {
             Command::BoardRead { entry, reply } => {
                 let _ = reply.send(core.with(|st| {
                     st.board_type(&entry)?;
-                    Ok(st.board_read(&entry).map(|v| Payload(Some(v))))
+                    Ok(st.board_read(&entry).map(|v| Payload(Some(Arc::new(v)))))
                 }));
             }
             Command::Swap {

@@ -375,13 +375,13 @@ impl State {
 
     /// Emits `signal` from `pid` and routes it to every connection, in the
     /// order the connections were made.
-    pub(super) fn emit(&mut self, pid: usize, signal: Signal, payload: Option<Val>) {
+    pub(super) fn emit(&mut self, pid: usize, signal: Signal, payload: Shared) {
         if self.base.kind() == ClockKind::Virtual {
             self.count_in_instant(false);
         }
         if self.tracing() {
             let plugin = self.plugins[pid].name.clone();
-            let json = payload.as_ref().map(val_to_json).unwrap_or(Json::Null);
+            let json = payload.as_deref().map(val_to_json).unwrap_or(Json::Null);
             self.record(Entry::Signal {
                 plugin,
                 signal: signal.as_str().into(),
@@ -436,7 +436,7 @@ impl State {
         });
     }
 
-    pub(super) fn deliver(&mut self, id: u64, payload: &Option<Val>) {
+    pub(super) fn deliver(&mut self, id: u64, payload: &Shared) {
         let now = self.now();
         let Some(conn) = self.connections.get_mut(&id) else {
             return; // removed by an earlier delivery of this same signal
@@ -818,7 +818,11 @@ impl State {
         for request in withdrawn {
             self.withdraw_start(pid, request, "fault");
         }
-        self.emit(pid, Signal::Faulted, Some(Val::String(fault.cause)));
+        self.emit(
+            pid,
+            Signal::Faulted,
+            Some(Arc::new(Val::String(fault.cause))),
+        );
     }
 
     /// Resolves and parses an injection: the slot and the payload as the
@@ -896,7 +900,7 @@ impl State {
         });
         let delivery = Delivery {
             via: 0,
-            payload: value,
+            payload: value.map(Arc::new),
             busy: Busy::Drop,
             until: None,
             serves: None,

@@ -358,9 +358,7 @@ mod kept_tests {
     fn a_limited_kept_trace_keeps_the_newest_records_and_counts_the_rest() {
         let record = |t| Record {
             t,
-            entry: Entry::Activate {
-                plugin: "E".into(),
-            },
+            entry: Entry::Activate { plugin: "E".into() },
         };
         let mut kept = KeptTrace::new(Some(3));
         (0..10).for_each(|t| kept.push(record(t)));
