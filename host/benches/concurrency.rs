@@ -2,8 +2,9 @@
 //! started at 0 s and sleeping inside `start` (one count a second for ten
 //! seconds), run under the virtual clock; at 1.5 s a native program notes
 //! the resident memory and the memory mappings, then the run ends at 2 s.
-//! Prints, for each N, the faults, the resident memory per plugin before
-//! the run and per running response, then searches for the largest N that
+//! Prints, for each N, the faults, the resident memory per plugin built
+//! (before its instance is made, when the run begins) and per running
+//! response (instance, memory, stack, the call waiting), then searches for the largest N that
 //! runs with no fault (the kernel's `vm.max_map_count` is the limit here).
 //! Target: 10,000 running at once in ≤ 512 MiB with none faulting.
 //! `RADAR_CONCURRENCY_N` sets the sizes (comma separated);
@@ -95,7 +96,7 @@ fn main() {
     println!("responses running at once (TestResponse sleeping in start, virtual clock)");
     println!(
         "{:>7}  {:>7}  {:>9}  {:>12}  {:>12}  {:>9}  {:>8}  {:>8}",
-        "N", "faults", "RSS MiB", "KiB/plugin", "KiB/running", "mappings", "build", "run"
+        "N", "faults", "RSS MiB", "KiB/built", "KiB/running", "mappings", "build", "run"
     );
     for n in sizes {
         let o = run(n);

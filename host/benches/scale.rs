@@ -3,8 +3,9 @@
 //! `bench-response` (whose `start` returns at once), under the virtual
 //! clock with the trace off. Each N is run for two lengths of virtual time
 //! and the cost per cycle is the difference of wall times over the
-//! difference of cycles, so start-up is left out. Prints the cost at each N
-//! and its ratio to the cost at N = 1 (target: ≤ 1.3× at N = 10,000).
+//! difference of cycles, so start-up is left out. Prints the cost at each N,
+//! its ratio to the cost at N = 1 (target: ≤ 1.3× at N = 10,000), and the
+//! throughput it makes: cycles and signals (three a cycle) per second.
 //!
 //! `cargo bench -p radar --bench scale` (`RADAR_SCALE_MAX=1000` to stop
 //! earlier, `RADAR_SCALE_ONLY=10000` for one size; with
@@ -72,10 +73,14 @@ fn main() {
         let cycles = n as u64 * (long - short);
         let per_cycle = t_long.saturating_sub(t_short).as_secs_f64() * 1e9 / cycles as f64;
         let base_cost = *base.get_or_insert(per_cycle);
+        // A cycle is three signals: triggered, started, exited.
         println!(
-            "N = {n:>6} pairs: {per_cycle:>8.0} ns per cycle ({:.2}× N = 1; target ≤ 1.3×) \
+            "N = {n:>6} pairs: {per_cycle:>8.0} ns per cycle ({:.2}× N = 1; target ≤ 1.3×), \
+             {:.0} cycles/s, {:.0} signals/s \
              [{long} ms of virtual time: {:.1} ms, {short} ms: {:.1} ms]",
             per_cycle / base_cost,
+            1e9 / per_cycle,
+            3e9 / per_cycle,
             t_long.as_secs_f64() * 1e3,
             t_short.as_secs_f64() * 1e3
         );

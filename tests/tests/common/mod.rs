@@ -9,9 +9,12 @@ use radar::{ClockKind, Plugin, Radar, RadarError, RunReport, System, SystemBuild
 use radar_fixtures::plugins;
 use serde_json::Value as Json;
 
-/// A virtual-clock system builder.
+/// A virtual-clock system builder that keeps every trace record (the laws
+/// are checked on the whole trace; a swap storm makes millions).
 pub fn virtual_system() -> SystemBuilder {
-    System::builder().clock(ClockKind::Virtual)
+    System::builder()
+        .clock(ClockKind::Virtual)
+        .trace_limit(None)
 }
 
 /// TestEvent triggering every `every` whole seconds (one count a second).
@@ -51,6 +54,10 @@ where
 /// Panics, showing the records around each, if the run's trace breaks a
 /// law of DESIGN §1.1 (conservation, once, activations, faults).
 pub fn checked(report: RunReport) -> RunReport {
+    assert_eq!(
+        report.trace_dropped, 0,
+        "the kept trace lost its oldest records: build with trace_limit(None)"
+    );
     assert_lawful(&report.trace);
     report
 }
