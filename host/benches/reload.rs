@@ -73,99 +73,86 @@ fn count_to(text: &str, from: &str, to: &str) -> String {
     text.replace(from, to)
 }
 
-fn python_script(dir: &Path) -> (PathBuf, Editor) {
-    let app = dir.join("app.py");
-    std::fs::copy(root().join("plugins/test-event-py/app.py"), &app).expect("copy app.py");
+fn edit_python(text: &str, k: u32) -> String {
+    count_to(
+        text,
+        "config(\"count_to\", 5)",
+        &format!("config(\"count_to\", {})", 5 + k),
+    )
+}
+
+fn edit_javascript(text: &str, k: u32) -> String {
+    count_to(
+        text,
+        "config('count_to', 5)",
+        &format!("config('count_to', {})", 5 + k),
+    )
+}
+
+/// TestEvent's script (`plugins/{example}`) on a development runtime.
+fn script(dir: &Path, example: &str, runtime: &str) -> PathBuf {
+    let main = dir.join(Path::new(example).file_name().expect("a file"));
+    std::fs::copy(root().join("plugins").join(example), &main).expect("copy the script");
     let manifest = format!(
-        "[plugins.TestEvent]\nwasm = \"{}\"\nsource = \"app.py\"\n{MANIFEST_TAIL}",
-        plugins::TEST_EVENT_PY_DEV
+        "[plugins.TestEvent]\nwasm = \"{runtime}\"\nsource = \"{}\"\n{MANIFEST_TAIL}",
+        main.file_name().expect("a file").to_string_lossy()
     );
     std::fs::write(dir.join("radar.toml"), manifest).expect("manifest");
-    (app, |text, k| {
-        count_to(
-            text,
-            "config(\"count_to\", 5)",
-            &format!("config(\"count_to\", {})", 5 + k),
-        )
-    })
+    main
+}
+
+/// TestEvent's source (`plugins/{example}`) in a folder of its own with
+/// the `marker` file that names its world, built by `guest-sdk/{language}/build`.
+fn built(dir: &Path, example: &str, marker: (&str, &str), language: &str) -> PathBuf {
+    let (folder, file) = example.split_once('/').expect("folder/file");
+    let plugin = dir.join(folder);
+    std::fs::create_dir_all(&plugin).expect("folder");
+    std::fs::copy(root().join("plugins").join(example), plugin.join(file)).expect("copy source");
+    copy_tree(&root().join("plugins/wit/test-event"), &dir.join("wit"));
+    std::fs::write(plugin.join(marker.0), marker.1).expect("marker file");
+    let extension = Path::new(file)
+        .extension()
+        .expect("an extension")
+        .to_string_lossy();
+    let manifest = format!(
+        "[plugins.TestEvent]\nwasm = \"e.wasm\"\n{MANIFEST_TAIL}\n\
+         [plugins.TestEvent.build]\ncommand = \"sh {} ../e.wasm\"\nworkdir = \"{folder}\"\nwatch = [\"*.{extension}\"]\n",
+        root().join("guest-sdk").join(language).join("build").display()
+    );
+    std::fs::write(dir.join("radar.toml"), manifest).expect("manifest");
+    plugin.join(file)
+}
+
+fn python_script(dir: &Path) -> (PathBuf, Editor) {
+    let runtime = plugins::TEST_EVENT_PY_DEV;
+    (script(dir, "test-event-py/app.py", runtime), edit_python)
 }
 
 fn javascript_script(dir: &Path) -> (PathBuf, Editor) {
-    let app = dir.join("app.js");
-    std::fs::copy(root().join("plugins/test-event-js/app.js"), &app).expect("copy app.js");
-    let manifest = format!(
-        "[plugins.TestEvent]\nwasm = \"{}\"\nsource = \"app.js\"\n{MANIFEST_TAIL}",
-        plugins::TEST_EVENT_JS_DEV
-    );
-    std::fs::write(dir.join("radar.toml"), manifest).expect("manifest");
-    (app, |text, k| {
-        count_to(
-            text,
-            "config('count_to', 5)",
-            &format!("config('count_to', {})", 5 + k),
-        )
-    })
+    let runtime = plugins::TEST_EVENT_JS_DEV;
+    (
+        script(dir, "test-event-js/app.js", runtime),
+        edit_javascript,
+    )
 }
 
 fn python_build(dir: &Path) -> (PathBuf, Editor) {
-    let plugin = dir.join("test-event-py");
-    std::fs::create_dir_all(&plugin).expect("folder");
-    std::fs::copy(
-        root().join("plugins/test-event-py/app.py"),
-        plugin.join("app.py"),
-    )
-    .expect("copy app.py");
-    copy_tree(&root().join("plugins/wit/test-event"), &dir.join("wit"));
-    std::fs::write(
-        plugin.join("pyproject.toml"),
-        "[project]\nname = \"e\"\nversion = \"0.1.0\"\n\n[tool.radar]\nwit = \"../wit\"\nworld = \"test-event\"\n",
-    )
-    .expect("pyproject");
-    let build = root().join("guest-sdk/python/build");
-    let manifest = format!(
-        "[plugins.TestEvent]\nwasm = \"e.wasm\"\n{MANIFEST_TAIL}\n\
-         [plugins.TestEvent.build]\ncommand = \"sh {} ../e.wasm\"\nworkdir = \"test-event-py\"\nwatch = [\"*.py\"]\n",
-        build.display()
+    let pyproject = "[project]\nname = \"e\"\nversion = \"0.1.0\"\n\n\
+        [tool.radar]\nwit = \"../wit\"\nworld = \"test-event\"\n";
+    let main = built(
+        dir,
+        "test-event-py/app.py",
+        ("pyproject.toml", pyproject),
+        "python",
     );
-    std::fs::write(dir.join("radar.toml"), manifest).expect("manifest");
-    (plugin.join("app.py"), |text, k| {
-        count_to(
-            text,
-            "config(\"count_to\", 5)",
-            &format!("config(\"count_to\", {})", 5 + k),
-        )
-    })
+    (main, edit_python)
 }
 
 fn javascript_build(dir: &Path) -> (PathBuf, Editor) {
-    let plugin = dir.join("test-event-js");
-    std::fs::create_dir_all(&plugin).expect("folder");
-    std::fs::copy(
-        root().join("plugins/test-event-js/app.js"),
-        plugin.join("app.js"),
-    )
-    .expect("copy app.js");
-    copy_tree(&root().join("plugins/wit/test-event"), &dir.join("wit"));
-    std::fs::write(
-        plugin.join("package.json"),
-        "{\"name\": \"e\", \"private\": true, \"type\": \"module\", \
-         \"radar\": {\"wit\": \"../wit\", \"world\": \"test-event\"}}\n",
-    )
-    .expect("package.json");
-    let build = root().join("guest-sdk/js/build");
-    let manifest = format!(
-        "[plugins.TestEvent]\nwasm = \"e.wasm\"\n{MANIFEST_TAIL}\n\
-         [plugins.TestEvent.build]\ncommand = \"sh {} ../e.wasm\"\nworkdir = \"test-event-js\"\nwatch = [\"*.js\"]\n",
-        build.display()
-    );
-    std::fs::write(dir.join("radar.toml"), manifest).expect("manifest");
-    (plugin.join("app.js"), |text, k| {
-        count_to(
-            text,
-            "config('count_to', 5)",
-            &format!("config('count_to', {})", 5 + k),
-        )
-    })
+    let package = "{\"name\": \"e\", \"private\": true, \"type\": \"module\", \
+        \"radar\": {\"wit\": \"../wit\", \"world\": \"test-event\"}}\n";
+    let main = built(dir, "test-event-js/app.js", ("package.json", package), "js");
+    (main, edit_javascript)
 }
 
 fn rust_build(dir: &Path) -> (PathBuf, Editor) {

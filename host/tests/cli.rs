@@ -117,6 +117,21 @@ fn a_response_whose_exited_starts_it_restarts_on_each_exit() {
     );
 }
 
+/// `radar run MANIFEST --clock real --for FOR --watch --trace TRACE`,
+/// started with its output piped.
+fn watching(manifest: &str, trace: &Path, run_for: &str) -> std::process::Child {
+    Command::new(env!("CARGO_BIN_EXE_radar"))
+        .args([
+            "run", manifest, "--clock", "real", "--for", run_for, "--watch",
+        ])
+        .arg("--trace")
+        .arg(trace)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("radar starts")
+}
+
 fn write_manifest(dir: &Path, body: &str) -> String {
     let path = dir.join("radar.toml");
     std::fs::write(&path, body).expect("manifest written");
@@ -326,22 +341,7 @@ fn watch_rebuilds_and_swaps_a_plugin_whose_source_changes_and_keeps_it_when_a_bu
         ),
     );
     let trace = dir.path().join("t.jsonl");
-    let child = Command::new(env!("CARGO_BIN_EXE_radar"))
-        .args([
-            "run",
-            &manifest,
-            "--clock",
-            "real",
-            "--for",
-            "6s",
-            "--watch",
-            "--trace",
-            trace.to_str().expect("utf-8 path"),
-        ])
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("radar starts");
+    let child = watching(&manifest, &trace, "6s");
     std::thread::sleep(std::time::Duration::from_millis(1500));
     std::fs::write(&source, plugins::COUNTER_EVENT_V2).expect("source edited");
     std::thread::sleep(std::time::Duration::from_millis(2000));
@@ -409,22 +409,7 @@ fn watch_swaps_an_edited_script_in_without_a_build_and_keeps_it_when_it_does_not
         ),
     );
     let trace = dir.path().join("t.jsonl");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_radar"))
-        .args([
-            "run",
-            &manifest,
-            "--clock",
-            "real",
-            "--for",
-            "5s",
-            "--watch",
-            "--trace",
-            trace.to_str().expect("utf-8 path"),
-        ])
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("radar starts");
+    let mut child = watching(&manifest, &trace, "5s");
     // The run (and the watcher) begins once the runtime is compiled, which
     // takes seconds the first time: its header line says so.
     let mut lines = std::io::BufRead::lines(std::io::BufReader::new(

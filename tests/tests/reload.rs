@@ -33,6 +33,14 @@ fn system(event: Plugin) -> TestSystem {
     .fuel_as_time(1_000_000_000)
 }
 
+/// The payloads of TestEvent's triggers.
+fn payloads(run: &radar::testing::TestRun) -> Vec<serde_json::Value> {
+    run.signals("TestEvent.triggered")
+        .into_iter()
+        .map(|(_, p)| p)
+        .collect()
+}
+
 fn scripted() -> Plugin {
     Plugin::file("TestEvent", plugins::TEST_EVENT_PY_DEV).source(source())
 }
@@ -43,12 +51,6 @@ fn a_script_on_its_runtime_triggers_as_the_built_plugin() {
         .run_for(secs(16.0))
         .expect("runs");
     let script = system(scripted()).run_for(secs(16.0)).expect("runs");
-    let payloads = |run: &radar::testing::TestRun| -> Vec<_> {
-        run.signals("TestEvent.triggered")
-            .into_iter()
-            .map(|(_, p)| p)
-            .collect()
-    };
     assert_eq!(payloads(&script), [json!(5), json!(5), json!(5)]);
     assert_eq!(payloads(&built), payloads(&script));
     assert_eq!(script.starts("TestResponse").len(), 2);
@@ -86,12 +88,7 @@ fn an_edited_script_is_swapped_in_on_the_same_runtime() {
     assert_ne!(swaps[0].0, swaps[0].1);
     // Before: every fifth count; after (from the check that ends at 7 s),
     // every second: at about 9, 11 and 13 s.
-    let payloads: Vec<_> = run
-        .signals("TestEvent.triggered")
-        .into_iter()
-        .map(|(_, p)| p)
-        .collect();
-    assert_eq!(payloads, [json!(5), json!(2), json!(2), json!(2)]);
+    assert_eq!(payloads(&run), [json!(5), json!(2), json!(2), json!(2)]);
 }
 
 #[test]
@@ -129,12 +126,6 @@ fn a_javascript_script_on_its_runtime_triggers_as_the_built_plugin_and_reloads()
         .expect("runs");
     let scripted = || Plugin::file("TestEvent", plugins::TEST_EVENT_JS_DEV).source(js_source());
     let script = system(scripted()).run_for(secs(16.0)).expect("runs");
-    let payloads = |run: &radar::testing::TestRun| -> Vec<_> {
-        run.signals("TestEvent.triggered")
-            .into_iter()
-            .map(|(_, p)| p)
-            .collect()
-    };
     assert_eq!(payloads(&script), [json!(5), json!(5), json!(5)]);
     assert_eq!(payloads(&built), payloads(&script));
     // An edit swapped in on the same runtime.
