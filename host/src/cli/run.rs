@@ -320,8 +320,14 @@ pub fn run(args: RunArgs) -> Result<()> {
                 say(format_args!("Radar: {}, {clock} clock\n", path.display()));
             }
             if args.watch {
-                workspace::watch(manifest.builds(), system.handle(), print_watch_event)
-                    .context("cannot watch the plugins' files")?;
+                let versions = system.versions();
+                workspace::watch(
+                    manifest.builds(),
+                    system.handle(),
+                    versions,
+                    print_watch_event,
+                )
+                .context("cannot watch the plugins' files")?;
             }
             system.run(run_for)?
         }

@@ -102,6 +102,10 @@ const JS_BUILD: &str = include_str!("../../../guest-sdk/js/build");
 const JS_PINS: &str = include_str!("../../../guest-sdk/js/package.json");
 const JS_LOCK: &str = include_str!("../../../guest-sdk/js/package-lock.json");
 const JS_HELPERS: &str = include_str!("../../../guest-sdk/js/radar_guest.js");
+const PYTHON_DEV_RUNTIME: &str = include_str!("../../../guest-sdk/python/radar_dev.py");
+const PYTHON_DEV_GENERATOR: &str = include_str!("../../../guest-sdk/python/dev_runtime.py");
+const JS_DEV_RUNTIME: &str = include_str!("../../../guest-sdk/js/radar_dev.js");
+const JS_DEV_GENERATOR: &str = include_str!("../../../guest-sdk/js/dev_runtime.js");
 
 /// Whether `name` can name a plugin, a WIT world and package, and a crate.
 fn valid_name(name: &str) -> bool {
@@ -279,6 +283,24 @@ to = "{name}.start"
 "#
         ),
     };
+    let script = match language {
+        Language::Rust => String::new(),
+        Language::Python | Language::Js => {
+            let main = if language == Language::Python {
+                "app.py"
+            } else {
+                "app.js"
+            };
+            format!(
+                r#"# Quicker edits, no build per save: run the script on this world's
+# development runtime. Here, set   wasm = "target/dev.wasm",
+# source = "{main}"   and the build command to
+# "sh tools/build --dev target/dev.wasm", then run `radar build` once;
+# --watch swaps each edit of {main} in and rebuilds only when wit/ changes.
+"#
+            )
+        }
+    };
     format!(
         r#"# `{name}` ({language}), ready to run from this folder:
 #     radar build                      # runs the build command below
@@ -286,7 +308,7 @@ to = "{name}.start"
 #     radar run radar.toml --clock real --watch   # edit, save, see it swapped
 # Copy the [plugins.{name}] tables into a system's radar.toml to use it
 # there (paths are relative to the manifest).
-
+{script}
 [plugins.{name}]
 wasm = "{wasm}"
 config = {{ interval_s = 1 }}
@@ -501,6 +523,16 @@ world = "{name}"
         ("tools/build".into(), PYTHON_BUILD.into(), true),
         ("tools/requirements.txt".into(), PYTHON_PINS.into(), false),
         ("tools/radar_guest.py".into(), PYTHON_HELPERS.into(), false),
+        (
+            "tools/radar_dev.py".into(),
+            PYTHON_DEV_RUNTIME.into(),
+            false,
+        ),
+        (
+            "tools/dev_runtime.py".into(),
+            PYTHON_DEV_GENERATOR.into(),
+            false,
+        ),
         (".gitignore".into(), "/target\n__pycache__/\n".into(), false),
     ]
 }
@@ -578,6 +610,12 @@ export const slots = {{
         ("tools/package.json".into(), JS_PINS.into(), false),
         ("tools/package-lock.json".into(), JS_LOCK.into(), false),
         ("tools/radar_guest.js".into(), JS_HELPERS.into(), false),
+        ("tools/radar_dev.js".into(), JS_DEV_RUNTIME.into(), false),
+        (
+            "tools/dev_runtime.js".into(),
+            JS_DEV_GENERATOR.into(),
+            false,
+        ),
         (".gitignore".into(), "/target\n".into(), false),
     ]
 }
@@ -616,6 +654,11 @@ mod tests {
                 assert!(manifest.contains("[plugins.demo.build]"), "{manifest}");
                 assert!(manifest.contains("builtin:"), "{manifest}");
                 assert!(files.iter().any(|f| f.0 == "wit/world.wit"));
+                if language != Language::Rust {
+                    assert!(manifest.contains("build --dev"), "{manifest}");
+                    assert!(files.iter().any(|f| f.0.starts_with("tools/radar_dev.")));
+                    assert!(files.iter().any(|f| f.0.starts_with("tools/dev_runtime.")));
+                }
             }
         }
     }

@@ -14,7 +14,7 @@
 //! edit is checked ([`super::check_script`]) and swapped in as it is, with
 //! no build and no compile.
 
-use std::collections::{BTreeSet, HashMap};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::PathBuf;
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
@@ -58,11 +58,13 @@ pub enum WatchEvent {
     SwapRefused(RadarError),
 }
 
-/// Starts watching `builds` for the system `radar` drives; `report` hears
-/// what happens. The watcher ends with the run.
+/// Starts watching `builds` for the system `radar` drives, whose plugins
+/// run `versions` (`System::versions`: a save that changes nothing swaps
+/// nothing); `report` hears what happens. The watcher ends with the run.
 pub fn watch(
     builds: Vec<Build>,
     radar: Radar,
+    versions: BTreeMap<String, String>,
     mut report: impl FnMut(WatchEvent) + Send + 'static,
 ) -> Result<(), notify::Error> {
     let (tx, rx) = mpsc::channel();
@@ -92,13 +94,7 @@ pub fn watch(
         std::fs::create_dir_all(dir).map_err(notify::Error::io)?;
         watcher.watch(dir, *mode)?;
     }
-    let mut running: HashMap<String, String> = builds
-        .iter()
-        .filter_map(|b| {
-            let bytes = std::fs::read(&b.wasm).ok()?;
-            Some((b.plugin.clone(), version_of(&bytes)))
-        })
-        .collect();
+    let mut running: HashMap<String, String> = versions.into_iter().collect();
     std::thread::Builder::new()
         .name("radar-watch".into())
         .spawn(move || {
@@ -133,7 +129,10 @@ pub fn watch(
                     }
                 }
                 for b in &builds {
-                    let rebuild = b.command.is_some() && changed.iter().any(|p| watched(b, p));
+                    // A script's own files are swapped in as they are; the
+                    // build (of its runtime) runs for the other sources.
+                    let rebuild = b.command.is_some()
+                        && changed.iter().any(|p| watched(b, p) && !script_of(b, p));
                     let replaced = changed.contains(&b.wasm);
                     let edited = changed.iter().any(|p| script_of(b, p));
                     if edited && !rebuild && !replaced {
