@@ -461,9 +461,14 @@ fn scenario() -> impl Strategy<Value = Scenario> {
                 steps
             });
             // Slow enough for compute to matter next to the fixtures' sleeps.
+            // (Not faster: at 10^9 fuel a second a loop of activations, such
+            // as `R.started → R.start` with its `until R.started`, takes a
+            // microsecond a turn, so it is no livelock (time passes) and
+            // makes about fifty million records a virtual second: a case
+            // drawn so ran the test out of memory.)
             let fuel = prop::option::weighted(
                 0.3,
-                prop::sample::select(vec![200_000u64, 5_000_000, 1_000_000_000]),
+                prop::sample::select(vec![100_000u64, 200_000, 1_000_000]),
             );
             (Just(plugins), Just(e), timed, fuel)
         })
