@@ -62,6 +62,8 @@ pub enum StopReason {
     Exit = 2,
     /// The event lost its last connection.
     Deactivate = 3,
+    /// The plugin is to fault (blamed for a burst): its host calls trap.
+    Fault = 4,
 }
 
 /// A line a plugin logged, waiting to be copied into the trace.
@@ -80,9 +82,23 @@ struct Shared {
     /// Virtual time; only the scheduler's thread moves it.
     virtual_now: AtomicU64,
     timers: Mutex<Timers>,
-    logs: Mutex<Vec<LogLine>>,
+    logs: Mutex<PendingLogs>,
     has_logs: AtomicBool,
 }
+
+/// Log lines waiting to be copied into the trace, bounded in bytes: a
+/// deliberative program that logs without end while the scheduler waits
+/// for it must not grow the host without bound.
+#[derive(Default)]
+struct PendingLogs {
+    lines: Vec<LogLine>,
+    bytes: usize,
+    /// Lines dropped since the last take, and their bytes.
+    dropped: (u64, u64),
+}
+
+/// The most bytes of log lines that wait to be written.
+const PENDING_LOG_BYTES: usize = 16 << 20;
 
 struct Timers {
     seq: u64,
@@ -122,7 +138,7 @@ impl TimeBase {
                 seq: 0,
                 queue: BTreeMap::new(),
             }),
-            logs: Mutex::new(Vec::new()),
+            logs: Mutex::new(PendingLogs::default()),
             has_logs: AtomicBool::new(false),
         }))
     }
@@ -210,12 +226,19 @@ impl TimeBase {
 
     pub fn push_log(&self, plugin: &Arc<str>, level: &'static str, message: String) {
         let t = self.now();
-        lock(&self.0.logs).push(LogLine {
-            t,
-            plugin: plugin.clone(),
-            level,
-            message,
-        });
+        let mut logs = lock(&self.0.logs);
+        if logs.bytes + message.len() > PENDING_LOG_BYTES {
+            logs.dropped.0 += 1;
+            logs.dropped.1 += message.len() as u64;
+        } else {
+            logs.bytes += message.len();
+            logs.lines.push(LogLine {
+                t,
+                plugin: plugin.clone(),
+                level,
+                message,
+            });
+        }
         self.0.has_logs.store(true, Ordering::Release);
     }
 
@@ -225,7 +248,22 @@ impl TimeBase {
         {
             return Vec::new();
         }
-        std::mem::take(&mut *lock(&self.0.logs))
+        let mut logs = lock(&self.0.logs);
+        logs.bytes = 0;
+        let mut lines = std::mem::take(&mut logs.lines);
+        let (count, bytes) = std::mem::take(&mut logs.dropped);
+        if count > 0 {
+            lines.push(LogLine {
+                t: lines.last().map_or_else(|| self.now(), |l| l.t),
+                plugin: Arc::from("(radar)"),
+                level: "warn",
+                message: format!(
+                    "{count} log line(s), {bytes} bytes, dropped: more than {PENDING_LOG_BYTES} \
+                     bytes of log lines waited to be written"
+                ),
+            });
+        }
+        lines
     }
 
     /// A future that completes at `deadline` (nanoseconds since the run
@@ -242,26 +280,64 @@ impl TimeBase {
 
 /// A per-plugin request to stop the running slot at its next interruption
 /// point. Set by the scheduler, read by the plugin's host calls.
+///
+/// It also carries a fault the scheduler has blamed on the plugin (a burst
+/// of signals or steps): every host call, and the epoch callback of a call
+/// that computes, then traps with that cause, so the plugin faults at a
+/// point that does not depend on the machine's timing.
 #[derive(Default)]
 pub(crate) struct StopFlag {
     reason: AtomicU8,
     waker: Mutex<Option<Waker>>,
+    faulting: AtomicBool,
+    fault: Mutex<Option<String>>,
 }
 
 impl StopFlag {
     pub fn request(&self, reason: StopReason) {
         self.reason.store(reason as u8, Ordering::Relaxed);
+        self.wake();
+    }
+
+    fn wake(&self) {
         let waker = self.waker.lock().unwrap_or_else(|e| e.into_inner()).take();
         if let Some(w) = waker {
             w.wake();
         }
     }
 
+    /// Clears a stop request (not a fault).
     pub fn clear(&self) {
         self.reason.store(0, Ordering::Relaxed);
     }
 
+    /// The plugin is to fault with `cause` at its next host call (or in
+    /// the call it is computing).
+    pub fn request_fault(&self, cause: String) {
+        *self.fault.lock().unwrap_or_else(|e| e.into_inner()) = Some(cause);
+        self.faulting.store(true, Ordering::Release);
+        self.wake();
+    }
+
+    /// The fault waiting for the plugin, if any.
+    pub fn fault(&self) -> Option<String> {
+        if !self.faulting.load(Ordering::Acquire) {
+            return None;
+        }
+        self.fault.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+
+    /// The plugin faulted (or was reset): no fault waits any more.
+    pub fn clear_fault(&self) {
+        if self.faulting.swap(false, Ordering::AcqRel) {
+            *self.fault.lock().unwrap_or_else(|e| e.into_inner()) = None;
+        }
+    }
+
     pub fn get(&self) -> Option<StopReason> {
+        if self.faulting.load(Ordering::Relaxed) {
+            return Some(StopReason::Fault);
+        }
         match self.reason.load(Ordering::Relaxed) {
             1 => Some(StopReason::Interrupt),
             2 => Some(StopReason::Exit),

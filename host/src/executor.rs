@@ -91,12 +91,11 @@ impl Executor {
         self.tasks.remove(&id);
     }
 
-    /// Polls the next ready task once. Returns false if none was ready.
-    pub fn run_one(&mut self) -> bool {
+    /// Polls the next ready task once: which one, or `None` if none was
+    /// ready.
+    pub fn run_one(&mut self) -> Option<TaskId> {
         loop {
-            let Some(id) = self.ready.pop() else {
-                return false;
-            };
+            let id = self.ready.pop()?;
             let Some(slot) = self.tasks.get_mut(&id) else {
                 continue; // finished or cancelled since it was woken
             };
@@ -110,7 +109,7 @@ impl Executor {
             if let Poll::Ready(()) = future.as_mut().poll(&mut cx) {
                 self.tasks.remove(&id);
             }
-            return true;
+            return Some(id);
         }
     }
 }
@@ -172,7 +171,7 @@ mod tests {
         executor.insert(1, yielding("a", log.clone()));
         executor.insert(2, yielding("b", log.clone()));
         executor.insert(3, yielding("c", log.clone()));
-        while executor.run_one() {}
+        while executor.run_one().is_some() {}
         assert_eq!(*log.borrow(), ["a1", "b1", "c1", "a2", "b2", "c2"]);
     }
 
@@ -196,7 +195,7 @@ mod tests {
         );
         executor.insert(2, yielding("gone", log.clone()));
         executor.cancel(2);
-        while executor.run_one() {}
+        while executor.run_one().is_some() {}
         assert_eq!(*log.borrow(), ["polled", "polled"]);
     }
 }

@@ -17,8 +17,10 @@ pub mod clock;
 pub mod error;
 pub mod example;
 pub(crate) mod executor;
+mod limiter;
 mod limits;
 pub mod manifest;
+mod panics;
 pub mod payload;
 pub mod plugin;
 pub mod realtime;
@@ -29,6 +31,7 @@ pub mod system;
 pub mod testing;
 pub mod timeline;
 pub mod trace;
+mod watchdog;
 pub mod workspace;
 
 pub use clock::ClockKind;
@@ -37,6 +40,7 @@ pub use payload::{Payload, PayloadType};
 pub use plugin::Limits;
 pub use scheduler::{AnonymousSlot, Busy, Mode, ProgramFailure, SwapPolicy};
 pub use system::{
-    Connection, Deliberative, Link, Plugin, PreparedVersion, Radar, RunReport, System,
+    Connection, Deliberative, Interrupter, Link, Plugin, PreparedVersion, Radar, RunReport, System,
     SystemBuilder, Task,
 };
+pub use watchdog::DEFAULT_STALL_TIMEOUT;

@@ -22,7 +22,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Cmd {
     /// Runs a system: the manifest's, or the paper's Listing 2/3 example.
-    Run(cli::run::RunArgs),
+    Run(Box<cli::run::RunArgs>),
     /// Runs scenario folders (a radar.toml, inputs.jsonl, expect.jsonl,
     /// scenario.toml) under the virtual clock and compares each trace with
     /// the expected one.
@@ -51,7 +51,7 @@ enum Cmd {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Some(Cmd::Run(args)) => cli::run::run(args),
+        Some(Cmd::Run(args)) => cli::run::run(*args),
         Some(Cmd::Test(args)) => cli::test::test(args),
         Some(Cmd::Build { manifest }) => cli::workspace::build_all(manifest),
         Some(Cmd::New {

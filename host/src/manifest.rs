@@ -6,9 +6,16 @@
 //! config = { count_to = 5 }
 //! period_ms = 10                       # optional: an event's check period
 //! fuel = 200000000                     # optional: fuel per call
+//! memory_bytes = 67108864              # optional: all its memories together
+//! payload_bytes = 1048576              # optional: one payload it emits
+//!                                      # (also table_elements, memories,
+//!                                      # tables, instances, log_bytes)
 //! board = { read = ["range"] }         # optional: blackboard grants (read, write)
 //! wasi = { env = { ROBOT = "r2" }, dirs = [{ host = "maps", guest = "/maps" }] }
 //!                                      # optional: what of the host WASI shows
+//!
+//! [limits]
+//! memory = "8GiB"                      # optional: all plugins together
 //!
 //! [[connect]]
 //! mode = "whenever"                    # once | whenever
@@ -57,8 +64,67 @@ pub struct Manifest {
     /// Static connections, made when the run begins.
     #[serde(default)]
     pub connect: Vec<ConnectEntry>,
+    /// Limits of the whole system.
+    pub limits: Option<SystemLimitsEntry>,
     #[serde(skip)]
     dir: PathBuf,
+}
+
+/// `[limits]`: what the whole system may take.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SystemLimitsEntry {
+    /// The memory all plugins may take together (their linear memories
+    /// and tables): bytes, or a size such as `"8GiB"` or `"512MiB"`.
+    /// Default: 80 % of the memory available when the system is built.
+    pub memory: Option<ByteSize>,
+}
+
+/// A size in bytes: a number, or text with a unit (`B`, `KiB`, `MiB`,
+/// `GiB`, `KB`, `MB`, `GB`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(try_from = "toml::Value")]
+pub struct ByteSize(pub usize);
+
+impl TryFrom<toml::Value> for ByteSize {
+    type Error = String;
+
+    fn try_from(value: toml::Value) -> Result<Self, String> {
+        match value {
+            toml::Value::Integer(n) => usize::try_from(n)
+                .map(ByteSize)
+                .map_err(|_| format!("{n} is not a size in bytes")),
+            toml::Value::String(text) => parse_bytes(&text).map(ByteSize),
+            other => Err(format!("{other} is not a size (try 8GiB or 512MiB)")),
+        }
+    }
+}
+
+/// Parses a size such as `8GiB`, `512MiB`, `64KiB`, `2GB` or `4096`.
+pub fn parse_bytes(text: &str) -> Result<usize, String> {
+    let text = text.trim();
+    let split = text
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(text.len());
+    let (number, unit) = text.split_at(split);
+    let value: f64 = number
+        .parse()
+        .map_err(|_| format!("`{text}` is not a size (try 8GiB or 512MiB)"))?;
+    let scale: f64 = match unit.trim() {
+        "" | "B" => 1.0,
+        "KiB" => 1024.0,
+        "MiB" => 1024.0 * 1024.0,
+        "GiB" => 1024.0 * 1024.0 * 1024.0,
+        "KB" | "kB" => 1e3,
+        "MB" => 1e6,
+        "GB" => 1e9,
+        other => {
+            return Err(format!(
+                "unknown unit `{other}` in `{text}` (B, KiB, MiB, GiB, KB, MB, GB)"
+            ))
+        }
+    };
+    Ok((value * scale) as usize)
 }
 
 /// `[plugins.NAME]`.
@@ -79,14 +145,56 @@ pub struct PluginEntry {
     pub period_ms: Option<u64>,
     /// Fuel per call.
     pub fuel: Option<u64>,
-    /// Memory limit in bytes.
+    /// Bytes of linear memory, all its memories together.
     pub memory_bytes: Option<usize>,
+    /// Table elements, all its tables together.
+    pub table_elements: Option<usize>,
+    /// Linear memories it may define.
+    pub memories: Option<usize>,
+    /// Tables it may define.
+    pub tables: Option<usize>,
+    /// Core instances it may make.
+    pub instances: Option<usize>,
+    /// Bytes of log lines one call may write.
+    pub log_bytes: Option<usize>,
+    /// Bytes one payload it emits may take.
+    pub payload_bytes: Option<usize>,
     /// How to build the component (`radar build`, `radar run --watch`).
     pub build: Option<BuildEntry>,
     /// What it may do with the blackboard: `{ read = [...], write = [...] }`.
     pub board: Option<BoardGrantEntry>,
     /// What of the host it sees through WASI (nothing by default).
     pub wasi: Option<WasiEntry>,
+}
+
+impl PluginEntry {
+    /// The plugin's limits, if its table sets any (the others default).
+    fn limits(&self) -> Option<Limits> {
+        let set = [
+            self.memory_bytes,
+            self.table_elements,
+            self.memories,
+            self.tables,
+            self.instances,
+            self.log_bytes,
+            self.payload_bytes,
+        ];
+        if self.fuel.is_none() && set.iter().all(Option::is_none) {
+            return None;
+        }
+        let d = Limits::default();
+        Some(Limits {
+            fuel_per_call: self.fuel.unwrap_or(d.fuel_per_call),
+            memory_bytes: self.memory_bytes.unwrap_or(d.memory_bytes),
+            table_elements: self.table_elements.unwrap_or(d.table_elements),
+            memories: self.memories.unwrap_or(d.memories),
+            tables: self.tables.unwrap_or(d.tables),
+            instances: self.instances.unwrap_or(d.instances),
+            log_bytes: self.log_bytes.unwrap_or(d.log_bytes),
+            payload_bytes: self.payload_bytes.unwrap_or(d.payload_bytes),
+            ..d
+        })
+    }
 }
 
 /// `[plugins.NAME.wasi]`: what the plugin sees of the host through WASI.
@@ -289,8 +397,11 @@ impl Manifest {
     }
 
     /// Adds the manifest's plugins, and its deliberative program if it has
-    /// one, to a system builder.
+    /// one, to a system builder, with the system's limits.
     pub fn add_plugins(&self, mut builder: SystemBuilder) -> SystemBuilder {
+        if let Some(ByteSize(bytes)) = self.limits.as_ref().and_then(|l| l.memory) {
+            builder = builder.memory_budget(bytes);
+        }
         if let Some(d) = &self.deliberative {
             let mut program = match builtin_name(&d.wasm).and_then(crate::example::wasm::builtin) {
                 Some(wasm) => Deliberative::bytes(wasm),
@@ -335,10 +446,7 @@ impl Manifest {
             if let Some(ms) = entry.period_ms {
                 plugin = plugin.period(Duration::from_millis(ms));
             }
-            if entry.fuel.is_some() || entry.memory_bytes.is_some() {
-                let mut limits = Limits::default();
-                limits.fuel_per_call = entry.fuel.unwrap_or(limits.fuel_per_call);
-                limits.memory_bytes = entry.memory_bytes.unwrap_or(limits.memory_bytes);
+            if let Some(limits) = entry.limits() {
                 plugin = plugin.limits(limits);
             }
             builder = builder.plugin(plugin);
@@ -447,5 +555,15 @@ mod tests {
         assert_eq!(parse_duration("2m"), Ok(Duration::from_secs(120)));
         assert!(parse_duration("soon").is_err());
         assert!(parse_duration("5 parsecs").is_err());
+    }
+
+    #[test]
+    fn sizes_parse_with_units() {
+        assert_eq!(parse_bytes("4096"), Ok(4096));
+        assert_eq!(parse_bytes("64KiB"), Ok(64 << 10));
+        assert_eq!(parse_bytes("1.5GiB"), Ok(3 << 29));
+        assert_eq!(parse_bytes("2GB"), Ok(2_000_000_000));
+        assert!(parse_bytes("lots").is_err());
+        assert!(parse_bytes("3 parsecs").is_err());
     }
 }

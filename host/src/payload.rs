@@ -85,7 +85,31 @@ impl PayloadType {
                 err: r.err().as_ref().map(boxed),
             },
             T::Flags(f) => Self::Flags(f.names().map(str::to_string).collect()),
-            other => Self::Unsupported(format!("{other:?}")),
+            T::Own(_) => Self::Unsupported("resource".into()),
+            T::Borrow(_) => Self::Unsupported("borrowed resource".into()),
+            T::Future(_) => Self::Unsupported("future".into()),
+            T::Stream(_) => Self::Unsupported("stream".into()),
+            T::ErrorContext => Self::Unsupported("error-context".into()),
+            _ => Self::Unsupported("a type Radar does not know".into()),
+        }
+    }
+
+    /// The first part of the type that cannot travel between plugins (a
+    /// resource, a stream, a future), if there is one.
+    pub fn unsupported(&self) -> Option<&str> {
+        match self {
+            Self::Unsupported(what) => Some(what),
+            Self::List(t) | Self::Option(t) => t.unsupported(),
+            Self::Record(fields) => fields.iter().find_map(|(_, t)| t.unsupported()),
+            Self::Tuple(items) => items.iter().find_map(Self::unsupported),
+            Self::Variant(cases) => cases
+                .iter()
+                .find_map(|(_, t)| t.as_ref().and_then(Self::unsupported)),
+            Self::Result { ok, err } => ok
+                .as_deref()
+                .and_then(Self::unsupported)
+                .or_else(|| err.as_deref().and_then(Self::unsupported)),
+            _ => None,
         }
     }
 }
@@ -154,7 +178,7 @@ impl fmt::Display for PayloadType {
                 (Some(ok), Some(err)) => write!(f, "result<{ok}, {err}>"),
             },
             Self::Flags(names) => write!(f, "flags {{ {} }}", names.join(", ")),
-            Self::Unsupported(what) => write!(f, "unsupported({what})"),
+            Self::Unsupported(what) => f.write_str(what),
         }
     }
 }
@@ -218,10 +242,12 @@ pub fn val_to_json(val: &Val) -> Json {
         Val::U64(n) => json!(n),
         // The shortest decimal that reads back as the same f32 (0.4, not
         // 0.4000000059604645).
-        Val::Float32(x) => num(Number::from_f64(
+        Val::Float32(x) if x.is_finite() => num(Number::from_f64(
             x.to_string().parse::<f64>().unwrap_or(f64::from(*x)),
         )),
-        Val::Float64(x) => num(Number::from_f64(*x)),
+        Val::Float32(x) => non_finite(f64::from(*x)),
+        Val::Float64(x) if x.is_finite() => num(Number::from_f64(*x)),
+        Val::Float64(x) => non_finite(*x),
         Val::Char(c) => json!(c.to_string()),
         Val::String(s) => json!(s),
         Val::List(items) | Val::Tuple(items) | Val::FixedLengthList(items) => {
@@ -257,6 +283,117 @@ pub fn val_to_json(val: &Val) -> Json {
     }
 }
 
+/// JSON has no NaN or infinities: they are written as the strings `"NaN"`,
+/// `"Infinity"` and `"-Infinity"` (as JavaScript's `Number()` reads them),
+/// and read back as such for `f32` and `f64`.
+fn non_finite(x: f64) -> Json {
+    Json::String(
+        if x.is_nan() {
+            "NaN"
+        } else if x > 0.0 {
+            "Infinity"
+        } else {
+            "-Infinity"
+        }
+        .into(),
+    )
+}
+
+/// A float from JSON: a number, or one of [`non_finite`]'s strings.
+fn float(json: &Json) -> Option<f64> {
+    match json {
+        Json::String(s) => match s.as_str() {
+            "NaN" => Some(f64::NAN),
+            "Infinity" => Some(f64::INFINITY),
+            "-Infinity" => Some(f64::NEG_INFINITY),
+            _ => None,
+        },
+        other => other.as_f64(),
+    }
+}
+
+/// The bytes `val` takes, counted as in a plugin's memory (the canonical
+/// ABI's sizes, strings and lists with their contents), or `Err` with the
+/// count so far as soon as it passes `limit`: a payload too large is
+/// refused without being walked to its end.
+pub(crate) fn check_size(val: &Val, limit: usize) -> Result<usize, usize> {
+    fn walk(val: &Val, total: &mut usize, limit: usize) -> Result<(), ()> {
+        *total += match val {
+            Val::Bool(_) | Val::S8(_) | Val::U8(_) => 1,
+            Val::S16(_) | Val::U16(_) => 2,
+            Val::S32(_) | Val::U32(_) | Val::Float32(_) | Val::Char(_) | Val::Enum(_) => 4,
+            Val::S64(_) | Val::U64(_) | Val::Float64(_) => 8,
+            Val::String(s) => 8 + s.len(),
+            Val::Flags(names) => 4 + names.len(),
+            Val::List(items) | Val::FixedLengthList(items) => {
+                *total += 8;
+                for item in items {
+                    walk(item, total, limit)?;
+                }
+                0
+            }
+            Val::Tuple(items) => {
+                for item in items {
+                    walk(item, total, limit)?;
+                }
+                0
+            }
+            Val::Record(fields) => {
+                for (_, v) in fields {
+                    walk(v, total, limit)?;
+                }
+                0
+            }
+            Val::Map(pairs) => {
+                *total += 8;
+                for (k, v) in pairs {
+                    walk(k, total, limit)?;
+                    walk(v, total, limit)?;
+                }
+                0
+            }
+            Val::Variant(_, v) | Val::Option(v) => {
+                if let Some(v) = v {
+                    walk(v, total, limit)?;
+                }
+                4
+            }
+            Val::Result(r) => {
+                if let Some(v) = r.as_ref().unwrap_or_else(|e| e) {
+                    walk(v, total, limit)?;
+                }
+                4
+            }
+            Val::Resource(_) | Val::Future(_) | Val::Stream(_) | Val::ErrorContext(_) => 4,
+        };
+        if *total > limit {
+            Err(())
+        } else {
+            Ok(())
+        }
+    }
+    let mut total = 0;
+    match walk(val, &mut total, limit) {
+        Ok(()) => Ok(total),
+        Err(()) => Err(total),
+    }
+}
+
+/// The most bytes of a payload a trace record shows: a larger one is
+/// recorded as `{"$cut": {"bytes": N}}`, N being at least its size, so that
+/// a trace (in memory, in a file, on a terminal) stays small and quick to
+/// write however large the payloads that flow.
+pub const TRACE_PAYLOAD_BYTES: usize = 64 << 10;
+
+/// A value as a trace record shows it: [`val_to_json`], or for a payload
+/// over [`TRACE_PAYLOAD_BYTES`] a note of its size.
+pub(crate) fn trace_json(val: &Val) -> Json {
+    match check_size(val, TRACE_PAYLOAD_BYTES) {
+        Ok(_) => val_to_json(val),
+        Err(at_least) => json!({ "$cut": { "bytes": at_least } }),
+    }
+}
+
 /// Parses JSON into a value of type `ty`: the inverse of [`val_to_json`].
 pub fn json_to_val(json: &Json, ty: &PayloadType) -> Result<Val, String> {
     use PayloadType as P;
@@ -283,8 +420,8 @@ pub fn json_to_val(json: &Json, ty: &PayloadType) -> Result<Val, String> {
         P::U32 => Val::U32(int(0, u32::MAX.into())? as u32),
         P::S64 => Val::S64(int(i64::MIN.into(), i64::MAX.into())? as i64),
         P::U64 => Val::U64(int(0, u64::MAX.into())? as u64),
-        P::F32 => Val::Float32(json.as_f64().ok_or_else(mismatch)? as f32),
-        P::F64 => Val::Float64(json.as_f64().ok_or_else(mismatch)?),
+        P::F32 => Val::Float32(float(json).ok_or_else(mismatch)? as f32),
+        P::F64 => Val::Float64(float(json).ok_or_else(mismatch)?),
         P::Char => {
             let s = json.as_str().ok_or_else(mismatch)?;
             let mut chars = s.chars();
@@ -428,6 +565,47 @@ mod tests {
         assert!(err.contains("expected u32"), "{err}");
         let err = json_to_val(&json!(300), &PayloadType::U8).expect_err("refused");
         assert!(err.contains("out of range"), "{err}");
+    }
+
+    #[test]
+    fn nan_and_infinities_survive_json() {
+        for (x, text) in [
+            (f64::NAN, "NaN"),
+            (f64::INFINITY, "Infinity"),
+            (f64::NEG_INFINITY, "-Infinity"),
+        ] {
+            let json = val_to_json(&Val::Float64(x));
+            assert_eq!(json, json!(text));
+            let back = json_to_val(&json, &PayloadType::F64).expect("parses");
+            assert!(
+                matches!(back, Val::Float64(y) if y.to_bits() == x.to_bits() || (x.is_nan() && y.is_nan()))
+            );
+            let json32 = val_to_json(&Val::Float32(x as f32));
+            assert_eq!(json32, json!(text));
+            assert!(json_to_val(&json32, &PayloadType::F32).is_ok());
+        }
+        assert!(json_to_val(&json!("nan"), &PayloadType::F64).is_err());
+    }
+
+    #[test]
+    fn a_payloads_size_is_counted_as_in_memory_and_stops_past_the_limit() {
+        let bytes = Val::List((0..100).map(Val::U8).collect());
+        assert_eq!(check_size(&bytes, 1_000), Ok(108));
+        assert_eq!(check_size(&bytes, 50), Err(51));
+        let cut = trace_json(&Val::List(vec![Val::U8(0); TRACE_PAYLOAD_BYTES]));
+        assert!(cut["$cut"]["bytes"]
+            .as_u64()
+            .is_some_and(|b| b as usize > TRACE_PAYLOAD_BYTES));
+    }
+
+    #[test]
+    fn resources_are_named_as_what_cannot_travel() {
+        let ty = PayloadType::Option(Box::new(PayloadType::Record(vec![(
+            "handle".into(),
+            PayloadType::Unsupported("resource".into()),
+        )])));
+        assert_eq!(ty.unsupported(), Some("resource"));
+        assert_eq!(PayloadType::U32.unsupported(), None);
     }
 
     #[test]

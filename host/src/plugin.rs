@@ -20,7 +20,7 @@ use sha2::{Digest, Sha256};
 use wasmtime::component::{
     types, Component, ComponentExportIndex, Func, InstancePre, Linker, ResourceTable, Val,
 };
-use wasmtime::{Config, Engine, Store, StoreLimits, StoreLimitsBuilder, Trap, WasmBacktrace};
+use wasmtime::{Config, Engine, Store, StoreContextMut, Trap, WasmBacktrace};
 use wasmtime_wasi::{WasiCtx, WasiCtxView, WasiView};
 
 use crate::capability::board::{self, BoardPort};
@@ -28,20 +28,44 @@ use crate::capability::clock::{ClockState, VirtualWasiClock};
 use crate::capability::config::ConfigState;
 use crate::capability::logging::LogState;
 use crate::capability::random::SeededRandom;
+use crate::capability::wasi::{RadarWasiView, WaitClock};
 use crate::capability::{signals, TypesState};
 use crate::clock::{ClockKind, StopFlag, TimeBase};
 use crate::error::RadarError;
+use crate::limiter::{GrowthLimits, MemoryBudget, StoreLimiter};
 use crate::payload::PayloadType;
 use crate::scheduler::SignalName;
 use crate::stderr::StderrTail;
+use crate::watchdog::{CallWatch, RunStopped, RunWatch};
 
-/// Limits that bound every call into a plugin.
+/// Limits that bound a plugin: every call into it, everything it can grow,
+/// and everything it can make the host hold. Each has a default that keeps
+/// one plugin from taking the machine; a manifest's plugin table overrides
+/// any of them (`fuel`, `memory_bytes`, `table_elements`, `memories`,
+/// `tables`, `instances`, `log_bytes`, `payload_bytes`).
 #[derive(Clone, Debug)]
 pub struct Limits {
     /// Fuel (roughly, wasm instructions) one call may use before it traps.
     pub fuel_per_call: u64,
-    /// Bytes of linear memory the plugin may grow to.
+    /// Bytes of linear memory the plugin may hold, all its memories
+    /// together.
     pub memory_bytes: usize,
+    /// Table elements the plugin may hold, all its tables together.
+    pub table_elements: usize,
+    /// Linear memories the plugin may define.
+    pub memories: usize,
+    /// Tables the plugin may define.
+    pub tables: usize,
+    /// Core instances the plugin may make (a component is several: its
+    /// modules, adapters and shims).
+    pub instances: usize,
+    /// Bytes of log lines one call may write; what is over is cut, and a
+    /// last line says how much.
+    pub log_bytes: usize,
+    /// Bytes one payload the plugin emits may take (a signal's payload,
+    /// `check`'s or `start`'s result, a blackboard write), counted as in
+    /// the plugin's memory: a larger one faults the plugin.
+    pub payload_bytes: usize,
     /// Fuel between two forced yields, so that compute-bound guests share the
     /// scheduler's thread fairly under the real clock. Under the virtual
     /// clock a call runs until it returns or waits: the order of a run must
@@ -55,7 +79,25 @@ impl Default for Limits {
         Self {
             fuel_per_call: 200_000_000,
             memory_bytes: 64 << 20,
+            table_elements: 1 << 20,
+            memories: 16,
+            tables: 64,
+            instances: 128,
+            log_bytes: 1 << 20,
+            payload_bytes: 1 << 20,
             fuel_yield_interval: 10_000,
+        }
+    }
+}
+
+impl Limits {
+    pub(crate) fn growth(&self) -> GrowthLimits {
+        GrowthLimits {
+            memory_bytes: self.memory_bytes,
+            table_elements: self.table_elements,
+            memories: self.memories,
+            tables: self.tables,
+            instances: self.instances,
         }
     }
 }
@@ -153,10 +195,32 @@ pub(crate) struct PluginCtx {
     pub(crate) log: LogState,
     pub(crate) config: ConfigState,
     pub(crate) types: TypesState,
+    /// The most bytes one payload the plugin emits may take.
+    pub(crate) payload_bytes: usize,
+    waits: WaitClock,
+    watch: CallWatch,
     wasi: WasiCtx,
     table: ResourceTable,
-    limits: StoreLimits,
+    limits: StoreLimiter,
 }
+
+impl RadarWasiView for PluginCtx {
+    fn wait_clock(&self) -> &WaitClock {
+        &self.waits
+    }
+
+    fn charge_compute(store: &mut StoreContextMut<'_, Self>) -> u64 {
+        crate::capability::clock::charge_compute(store)
+    }
+
+    fn pending_compute(store: &StoreContextMut<'_, Self>) -> u64 {
+        crate::capability::clock::pending_compute(store).1
+    }
+}
+
+/// Resources (WASI's pollables, streams, descriptors) one store may hold:
+/// a guest that opens without end faults instead of growing the host.
+const RESOURCES: usize = 65_536;
 
 impl WasiView for PluginCtx {
     fn ctx(&mut self) -> WasiCtxView<'_> {
@@ -200,6 +264,10 @@ pub(crate) struct InstanceSetup {
     pub wasi: Arc<WasiGrants>,
     /// Fuel used by the plugin's calls so far, all instances together.
     pub fuel_used: Arc<AtomicU64>,
+    /// The memory all the system's plugins may take together.
+    pub budget: Arc<MemoryBudget>,
+    /// What stops a call from outside it (see [`crate::watchdog`]).
+    pub watch: Arc<RunWatch>,
 }
 
 /// How a call into a plugin ended badly.
@@ -211,6 +279,9 @@ pub(crate) struct Fault {
     pub backtrace: Option<String>,
     /// The call used up its fuel (rather than trapping on its own).
     pub out_of_fuel: bool,
+    /// The call was ended because the run is being stopped (a signal, a
+    /// stall): not the plugin's fault, and not recorded as one.
+    pub run_stopped: bool,
 }
 
 impl Fault {
@@ -221,15 +292,22 @@ impl Fault {
                 .downcast_ref::<WasmBacktrace>()
                 .map(|b| b.to_string().trim_end().to_string()),
             out_of_fuel: matches!(err.downcast_ref::<Trap>(), Some(Trap::OutOfFuel)),
+            run_stopped: err.downcast_ref::<RunStopped>().is_some(),
+        }
+    }
+
+    /// A fault with this cause and nothing else to say.
+    pub(crate) fn new(cause: impl Into<String>) -> Self {
+        Self {
+            cause: cause.into(),
+            backtrace: None,
+            out_of_fuel: false,
+            run_stopped: false,
         }
     }
 
     fn missing(export: &str) -> Self {
-        Self {
-            cause: format!("plugin has no `{export}` export"),
-            backtrace: None,
-            out_of_fuel: false,
-        }
+        Self::new(format!("plugin has no `{export}` export"))
     }
 }
 
@@ -270,6 +348,13 @@ pub(crate) fn describe_fault(err: &wasmtime::Error) -> String {
         Some(_) => format!("trapped: {}", text.trim_start_matches("wasm trap: ")),
         None => text,
     };
+    // wasmtime's own bound on what one value may take in the host as it
+    // is lifted (see `PluginCode::instantiate`).
+    if text.contains("fuel allocated for hostcalls has been exhausted") {
+        return "it handed the host a value (a payload, a result, a log line) larger than \
+                its `payload_bytes` allows"
+            .into();
+    }
     match crate::limits::explain(&text) {
         Some(limit) => format!("{text}: {limit}"),
         None => text,
@@ -278,11 +363,7 @@ pub(crate) fn describe_fault(err: &wasmtime::Error) -> String {
 
 impl PluginCode {
     pub async fn instantiate(&self, setup: InstanceSetup) -> Result<PluginInstance, Fault> {
-        let counted = crate::limits::room_for_instance().map_err(|cause| Fault {
-            cause,
-            backtrace: None,
-            out_of_fuel: false,
-        })?;
+        let counted = crate::limits::room_for_instance().map_err(Fault::new)?;
         let real_clock = setup.base.kind() == ClockKind::Real;
         let mut wasi = WasiCtx::builder();
         for (key, value) in &setup.wasi.env {
@@ -297,12 +378,15 @@ impl PluginCode {
             } else {
                 wasmtime_wasi::FsPerms::ReadOnly
             };
-            wasi.preopened_dir(host, guest, perms).map_err(|e| Fault {
-                cause: format!("cannot open {} for the plugin: {e:#}", host.display()),
-                backtrace: None,
-                out_of_fuel: false,
+            wasi.preopened_dir(host, guest, perms).map_err(|e| {
+                Fault::new(format!(
+                    "cannot open {} for the plugin: {e:#}",
+                    host.display()
+                ))
             })?;
         }
+        // Radar grants no network (see `capability::wasi`).
+        wasi.allow_tcp(false).allow_udp(false);
         let stderr = StderrTail::default();
         wasi.stderr(stderr.clone());
         if setup.base.kind() == ClockKind::Virtual {
@@ -313,30 +397,45 @@ impl PluginCode {
                 .insecure_random(SeededRandom::new(!seed))
                 .insecure_random_seed(u128::from(seed));
         }
+        let mut table = ResourceTable::new();
+        table.set_max_capacity(RESOURCES);
         let ctx = PluginCtx {
+            waits: WaitClock::Scheduler {
+                base: setup.base.clone(),
+                stop: setup.stop.clone(),
+            },
+            watch: CallWatch::new(setup.watch, setup.stop.clone(), setup.name.clone()),
             clock: ClockState {
                 base: setup.base.clone(),
                 stop: setup.stop,
                 fuel_mark: setup.limits.fuel_per_call,
             },
-            log: LogState {
-                name: setup.name,
-                base: setup.base,
-            },
+            log: LogState::new(setup.name, setup.base, setup.limits.log_bytes),
             config: ConfigState {
                 values: setup.config,
                 script: self.script.clone(),
             },
             types: TypesState,
+            payload_bytes: setup.limits.payload_bytes,
             wasi: wasi.build(),
-            table: ResourceTable::new(),
-            limits: StoreLimitsBuilder::new()
-                .memory_size(setup.limits.memory_bytes)
-                .trap_on_grow_failure(true)
-                .build(),
+            table,
+            limits: StoreLimiter::new(setup.limits.growth(), setup.budget),
         };
         let mut store = Store::new(self.pre.engine(), ctx);
         store.limiter(|ctx| &mut ctx.limits);
+        // What one value the guest hands the host may take in the host,
+        // counted by wasmtime as it is lifted, before it is allocated: so a
+        // payload over `payload_bytes` (each of its bytes at most one `Val`)
+        // never gets to take the host's memory.
+        store.set_hostcall_fuel(
+            setup
+                .limits
+                .payload_bytes
+                .saturating_mul(std::mem::size_of::<Val>()),
+        );
+        let fuel_budget = setup.limits.fuel_per_call;
+        store.epoch_deadline_callback(move |mut ctx| ctx.data_mut().watch.check(fuel_budget));
+        store.set_epoch_deadline(1);
         let fault = |e: wasmtime::Error| Fault::from_error(&e);
         store
             .fuel_async_yield_interval(real_clock.then_some(setup.limits.fuel_yield_interval))
@@ -379,15 +478,34 @@ impl PluginCode {
 }
 
 impl PluginInstance {
+    /// Calls `export` (`func`) under the plugin's limits: fuel, a log
+    /// budget, the watchdog (see [`crate::watchdog`]), and the payload size
+    /// of its result. A panic of the host while serving the call (a bug of
+    /// Radar or of `wasmtime_wasi`, which the guest may have provoked) is
+    /// caught and faults the plugin: no guest behaviour takes the host down.
     async fn call(
         &mut self,
         func: Func,
+        export: &'static str,
         params: &[Val],
         has_result: bool,
     ) -> Result<Option<Val>, Fault> {
         let fault = |e: wasmtime::Error| Fault::from_error(&e);
+        if let Some(cause) = self.store.data().clock.stop.fault() {
+            // Blamed for a burst while it was not in a call: it faults now,
+            // before it runs again.
+            return Err(Fault::new(cause));
+        }
         self.store.set_fuel(self.fuel_per_call).map_err(fault)?;
-        self.store.data_mut().clock.fuel_mark = self.fuel_per_call;
+        let now = {
+            let data = self.store.data_mut();
+            data.clock.fuel_mark = self.fuel_per_call;
+            data.log.begin_call();
+            let now = data.clock.base.now();
+            data.watch.begin(export, now);
+            now
+        };
+        self.store.set_epoch_deadline(1);
         let mut results = [Val::Bool(false)];
         let slots = if has_result {
             &mut results[..]
@@ -395,17 +513,43 @@ impl PluginInstance {
             &mut results[..0]
         };
         self.stderr.clear();
-        let called = func.call_async(&mut self.store, params, slots).await;
+        let called = {
+            let mut call = std::pin::pin!(func.call_async(&mut self.store, params, slots));
+            std::future::poll_fn(|cx| {
+                let _quiet = crate::panics::QuietPanics::enter();
+                match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    std::future::Future::poll(call.as_mut(), cx)
+                })) {
+                    Ok(poll) => poll.map(Ok),
+                    Err(panic) => std::task::Poll::Ready(Err(panic)),
+                }
+            })
+            .await
+        };
+        let called = match called {
+            Ok(called) => called,
+            Err(panic) => {
+                // The store may be inconsistent: the plugin faults, and its
+                // next instance is a fresh one.
+                return Err(Fault::new(format!(
+                    "the host failed while serving its call of `{export}` at {:.3} s: {}                      (a bug of Radar's: please report it)",
+                    now as f64 / 1e9,
+                    crate::panics::message(&*panic).replace('\n', " ")
+                )));
+            }
+        };
+        self.store.data_mut().log.end_call();
         let left = self.store.get_fuel().unwrap_or(0);
         self.fuel_used.fetch_add(
             self.fuel_per_call.saturating_sub(left),
             std::sync::atomic::Ordering::Relaxed,
         );
+        let stopped = matches!(&called, Err(e) if e.downcast_ref::<RunStopped>().is_some());
         // Fuel as time: the compute not yet counted takes its time now, so
         // that what follows the call (its end, its result) comes later.
         let clock = &self.store.data().clock;
         let compute = clock.base.fuel_nanos(clock.fuel_mark.saturating_sub(left));
-        if compute > 0 {
+        if compute > 0 && !stopped {
             let deadline = clock.base.now().saturating_add(compute);
             let _ = clock.base.sleep_until(deadline, None).await;
         }
@@ -418,6 +562,11 @@ impl PluginInstance {
             fault
         })?;
         let [result] = results;
+        if has_result {
+            let limit = self.store.data().payload_bytes;
+            crate::payload::check_size(&result, limit)
+                .map_err(|size| Fault::new(too_large(export, "result", size, limit)))?;
+        }
         Ok(has_result.then_some(result))
     }
 
@@ -428,7 +577,7 @@ impl PluginInstance {
         let Some(f) = self.check else {
             return Err(Fault::missing("check"));
         };
-        match self.call(f, &[], true).await? {
+        match self.call(f, "check", &[], true).await? {
             Some(Val::Bool(true)) => Ok(Some(None)),
             Some(Val::Option(Some(v))) => Ok(Some(Some(*v))),
             _ => Ok(None),
@@ -446,7 +595,7 @@ impl PluginInstance {
             return Err(Fault::missing("start"));
         };
         let params = payload.as_deref().map_or(&[][..], std::slice::from_ref);
-        self.call(f, params, has_result).await
+        self.call(f, "start", params, has_result).await
     }
 
     pub async fn interrupt(&mut self, payload: Option<Arc<Val>>) -> Result<(), Fault> {
@@ -454,12 +603,12 @@ impl PluginInstance {
             return Ok(());
         };
         let params = payload.as_deref().map_or(&[][..], std::slice::from_ref);
-        self.call(f, params, false).await.map(drop)
+        self.call(f, "interrupt", params, false).await.map(drop)
     }
 
     pub async fn exit(&mut self) -> Result<(), Fault> {
         let Some(f) = self.exit else { return Ok(()) };
-        self.call(f, &[], false).await.map(drop)
+        self.call(f, "exit", &[], false).await.map(drop)
     }
 
     /// The plugin's state in its own format, if it exports `snapshot`.
@@ -467,7 +616,7 @@ impl PluginInstance {
         let Some(f) = self.snapshot else {
             return Ok(None);
         };
-        match self.call(f, &[], true).await? {
+        match self.call(f, "snapshot", &[], true).await? {
             Some(Val::List(bytes)) => Ok(Some(
                 bytes
                     .into_iter()
@@ -493,7 +642,7 @@ impl PluginInstance {
             return Ok(Ok(()));
         };
         let bytes = Val::List(state.into_iter().map(Val::U8).collect());
-        match self.call(f, &[bytes], true).await? {
+        match self.call(f, "restore", &[bytes], true).await? {
             Some(Val::Result(Err(error))) => Ok(Err(match error.as_deref() {
                 Some(Val::String(text)) => text.clone(),
                 _ => "restore returned an error".into(),
@@ -501,6 +650,14 @@ impl PluginInstance {
             _ => Ok(Ok(())),
         }
     }
+}
+
+/// The fault of a payload over the plugin's `payload_bytes`.
+pub(crate) fn too_large(export: &str, what: &str, size: usize, limit: usize) -> String {
+    format!(
+        "its `{export}` {what} takes {size} bytes, over its limit of {limit} \
+         (`payload_bytes` in its manifest table)"
+    )
 }
 
 /// A component's version: the first 12 hex digits of its sha256.
@@ -565,7 +722,11 @@ impl EngineFlavour {
         // a memory is one mapping fewer (the guard after it stays, so
         // bounds checks are still elided).
         config.guard_before_linear_memory(false);
+        // So that a call that computes can be stopped from outside it
+        // (a signal, a stall: see `crate::watchdog`).
+        config.epoch_interruption(true);
         let engine = Engine::new(&config).map_err(|e| RadarError::Engine(format!("{e:#}")))?;
+        crate::watchdog::watch_engine(&engine);
         let mut linker = Linker::new(&engine);
         crate::capability::add_to_linker(&mut linker)
             .map_err(|e| RadarError::Engine(format!("{e:#}")))?;
@@ -756,6 +917,17 @@ impl Loader {
         let engine = component.engine();
         let declared = signals::declared(engine, &component).map_err(wrong)?;
         let board_ports = board::declared(engine, &component).map_err(wrong)?;
+        let ports = board_ports.as_ref().map_or(&[][..], |b| &b.ports);
+        if let Some((port, what)) = ports
+            .iter()
+            .find_map(|p| p.ty.unsupported().map(|what| (p, what)))
+        {
+            return Err(wrong(format!(
+                "its blackboard entry `{}` is a {what}; entries hold values, so a resource, a \
+                 stream or a future cannot be one",
+                port.entry
+            )));
+        }
         let kind = self.validate(
             plugin,
             &component,
@@ -910,6 +1082,35 @@ impl Loader {
                     }
                 }
                 _ => {}
+            }
+        }
+        // Payloads travel between plugins by value: a resource, a stream or
+        // a future cannot be one. Refused here, naming where, rather than
+        // when a value first crosses (a fault of the receiver).
+        let by_value = |what: &str, unsupported: &str| {
+            wrong(format!(
+                "{what} a {unsupported}; payloads travel between plugins by value, so a \
+                 resource, a stream or a future cannot be one"
+            ))
+        };
+        for (name, f) in funcs
+            .iter()
+            .filter(|(n, _)| ["check", "start", "interrupt", "exit"].contains(&n.as_str()))
+        {
+            for (_, t) in f.params() {
+                if let Some(what) = PayloadType::from_wasm(&t).unsupported() {
+                    return Err(by_value(&format!("`{name}` takes"), what));
+                }
+            }
+            for t in f.results() {
+                if let Some(what) = PayloadType::from_wasm(&t).unsupported() {
+                    return Err(by_value(&format!("`{name}` returns"), what));
+                }
+            }
+        }
+        for (name, payload) in signals {
+            if let Some(what) = payload.as_ref().and_then(PayloadType::unsupported) {
+                return Err(by_value(&format!("its signal `{name}` carries"), what));
             }
         }
         let params =

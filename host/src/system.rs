@@ -85,8 +85,10 @@ thread_local! {
     /// here take part in that system's lockstep (see the module docs).
     static NATIVE_CONTEXT: Cell<u64> = const { Cell::new(0) };
 }
+use crate::limiter::MemoryBudget;
 use crate::trace::inputs::{Input, InputRecorder, Origin, TimedInput, TraceDigest};
 use crate::trace::{Record, TraceSink};
+use crate::watchdog::{RunWatch, Stopping};
 
 /// Where a plugin's component comes from.
 #[derive(Clone, Debug)]
@@ -275,10 +277,13 @@ pub struct SystemBuilder {
     realtime: crate::realtime::RealTime,
     keep_trace: bool,
     trace_limit: Option<usize>,
+    trace_bytes: usize,
     cache_dir: Option<PathBuf>,
     seed: u64,
     limits: Limits,
     period: Duration,
+    memory_budget: Option<usize>,
+    stall_timeout: Option<Duration>,
 }
 
 impl Default for SystemBuilder {
@@ -296,10 +301,13 @@ impl Default for SystemBuilder {
             realtime: crate::realtime::RealTime::default(),
             keep_trace: true,
             trace_limit: Some(DEFAULT_TRACE_LIMIT),
+            trace_bytes: DEFAULT_TRACE_BYTES,
             cache_dir: default_cache_dir(),
             seed: 0,
             limits: Limits::default(),
             period: Duration::from_millis(10),
+            memory_budget: None,
+            stall_timeout: Some(crate::watchdog::DEFAULT_STALL_TIMEOUT),
         }
     }
 }
@@ -479,12 +487,25 @@ impl SystemBuilder {
     }
 
     /// How many records [`RunReport::trace`] keeps at most: the newest
-    /// ones; [`RunReport::trace_dropped`] counts the older ones it let go
+    /// ones, also within [`SystemBuilder::trace_bytes`];
+    /// [`RunReport::trace_dropped`] counts the older ones it let go
     /// (default: [`DEFAULT_TRACE_LIMIT`], so that a long run's kept trace
-    /// stays bounded; `None`: every record, as tests that check a whole
-    /// trace need). Trace files (`trace_to`) get every record either way.
+    /// stays bounded; `None`: every record, whatever their size, as tests
+    /// that check a whole trace need). Trace files (`trace_to`) get every
+    /// record either way.
     pub fn trace_limit(mut self, limit: Option<usize>) -> Self {
         self.trace_limit = limit;
+        self
+    }
+
+    /// How many bytes (about as the records' JSON takes) the kept trace
+    /// holds at most when it has a [`SystemBuilder::trace_limit`]: the
+    /// newest records within both bounds are kept (default
+    /// [`DEFAULT_TRACE_BYTES`]). A payload larger than
+    /// [`crate::payload::TRACE_PAYLOAD_BYTES`] is recorded by its size
+    /// alone, in every sink.
+    pub fn trace_bytes(mut self, bytes: usize) -> Self {
+        self.trace_bytes = bytes;
         self
     }
 
@@ -503,6 +524,26 @@ impl SystemBuilder {
     /// Limits for plugins that do not set their own.
     pub fn default_limits(mut self, limits: Limits) -> Self {
         self.limits = limits;
+        self
+    }
+
+    /// The memory all plugins may take together, in bytes: their linear
+    /// memories and tables, drawn as they grow (a manifest's `[limits]
+    /// memory`). A growth past it faults the plugin that asked, naming the
+    /// budget. Default: 80 % of the memory the machine has available when
+    /// the system is built.
+    pub fn memory_budget(mut self, bytes: usize) -> Self {
+        self.memory_budget = Some(bytes);
+        self
+    }
+
+    /// How long a run may make no progress, in wall-clock time, while one
+    /// plugin call computes (a check spinning under a huge fuel budget,
+    /// under the virtual clock) before the run is stopped, naming the
+    /// plugin and its call (default [`crate::DEFAULT_STALL_TIMEOUT`];
+    /// `None`: never).
+    pub fn stall_timeout(mut self, timeout: Option<Duration>) -> Self {
+        self.stall_timeout = timeout;
         self
     }
 
@@ -588,7 +629,13 @@ impl SystemBuilder {
             })?),
         };
         let (tx, rx) = unbounded();
+        let budget = Arc::new(match self.memory_budget {
+            Some(bytes) => MemoryBudget::new(bytes),
+            None => MemoryBudget::from_machine(),
+        });
         Ok(System {
+            budget,
+            watch: Arc::new(RunWatch::new(self.stall_timeout)),
             loader: Arc::new(Mutex::new(loader)),
             setups: SharedSetups::default(),
             id: NEXT_SYSTEM.fetch_add(1, Ordering::Relaxed),
@@ -604,7 +651,7 @@ impl SystemBuilder {
             fuel_per_second: self.fuel_per_second,
             realtime: self.realtime,
             keep_trace: self.keep_trace,
-            trace_limit: self.trace_limit,
+            trace_limit: self.trace_limit.map(|n| (n, self.trace_bytes)),
             seed: self.seed,
             tx,
             rx,
@@ -618,9 +665,17 @@ impl SystemBuilder {
 /// `radar test` do.
 pub const DEFAULT_TRACE_LIMIT: usize = 1_000_000;
 
+/// How many bytes of records [`RunReport::trace`] keeps by default (see
+/// [`SystemBuilder::trace_bytes`]).
+pub const DEFAULT_TRACE_BYTES: usize = 256 << 20;
+
 /// A set of plugins ready to run. See the module docs.
 pub struct System {
     id: u64,
+    /// The memory all plugins may take together.
+    budget: Arc<MemoryBudget>,
+    /// What stops a call from outside it.
+    watch: Arc<RunWatch>,
     /// Kept for swaps: one engine for the whole run.
     loader: Arc<Mutex<Loader>>,
     setups: SharedSetups,
@@ -636,7 +691,8 @@ pub struct System {
     fuel_per_second: Option<u64>,
     realtime: crate::realtime::RealTime,
     keep_trace: bool,
-    trace_limit: Option<usize>,
+    /// At most so many records and so many bytes (`None`: every record).
+    trace_limit: Option<(usize, usize)>,
     seed: u64,
     tx: Sender<Command>,
     rx: Receiver<Command>,
@@ -675,6 +731,10 @@ pub struct RunReport {
     /// kernel's memory mappings): how many, and the first one's fault,
     /// which names the limit and how to raise it.
     pub machine_limit: Option<(usize, String)>,
+    /// The run was stopped from outside its course: the reason (`signal`:
+    /// [`Radar::interrupt`]; `stalled`: no progress for the stall timeout)
+    /// and what happened, as the trace's last record says.
+    pub stopped: Option<(String, String)>,
 }
 
 impl RunReport {
@@ -711,7 +771,15 @@ impl System {
             system: self.id,
             loader: self.loader.clone(),
             setups: self.setups.clone(),
+            watch: self.watch.clone(),
         }
+    }
+
+    /// What stops this system's run from any thread, as its user would
+    /// (see [`Interrupter`]); unlike a [`Radar`] handle, it does not keep
+    /// the run's command channel open.
+    pub fn interrupter(&self) -> Interrupter {
+        Interrupter(self.watch.clone())
     }
 
     /// Runs the system alone (connections come from external handles) until
@@ -751,19 +819,18 @@ impl System {
     ) -> Result<RunReport, RadarError> {
         let base = TimeBase::with_fuel_time(self.clock, self.fuel_per_second);
         if let Some(code) = self.program.take() {
-            let (clock, seed) = (base.clone(), self.seed);
+            let setup = crate::capability::system::ProgramRun {
+                base: base.clone(),
+                seed: self.seed,
+                budget: self.budget.clone(),
+                watch: self.watch.clone(),
+            };
             native_thread(
                 "radar-deliberative-component",
                 self.handle(),
                 None,
                 move |radar| {
-                    crate::capability::system::run(
-                        radar,
-                        code,
-                        Arc::from(PROGRAM_NAME),
-                        clock,
-                        seed,
-                    )
+                    crate::capability::system::run(radar, code, Arc::from(PROGRAM_NAME), setup)
                 },
                 |outcome| Command::ProgramDone { outcome },
             )
@@ -814,6 +881,8 @@ impl System {
             links: self.links,
             inputs: self.inputs,
             board: self.board,
+            budget: self.budget.clone(),
+            watch: self.watch.clone(),
         });
         *self.setups.lock().unwrap_or_else(|e| e.into_inner()) = scheduler.instance_setups();
         // After the run's other threads are made: they do not inherit it.
@@ -838,6 +907,7 @@ impl System {
             fuel: end.fuel,
             replay_divergence: end.divergence,
             machine_limit: end.machine_limit,
+            stopped: end.stopped.map(|s| (s.reason.to_string(), s.message)),
         })
     }
 }
@@ -870,7 +940,7 @@ where
                 match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| body(handle))) {
                     Ok(Ok(())) => Ok(()),
                     Ok(Err(e)) => Err(ProgramFailure::Error(e.to_string())),
-                    Err(panic) => Err(ProgramFailure::Panicked(panic_message(&*panic))),
+                    Err(panic) => Err(ProgramFailure::Panicked(crate::panics::message(&*panic))),
                 };
             let _ = tx.send(done(outcome));
         })
@@ -914,14 +984,6 @@ fn load_version(
             };
             (version, e)
         })
-}
-
-fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
-    panic
-        .downcast_ref::<&str>()
-        .map(|s| s.to_string())
-        .or_else(|| panic.downcast_ref::<String>().cloned())
-        .unwrap_or_else(|| "(no message)".into())
 }
 
 fn run_anonymous_slots(jobs: Receiver<AnonymousJob>, tx: Sender<Command>) {
@@ -1085,6 +1147,7 @@ pub struct Radar {
     system: u64,
     loader: Arc<Mutex<Loader>>,
     setups: SharedSetups,
+    watch: Arc<RunWatch>,
 }
 
 impl Radar {
@@ -1386,6 +1449,32 @@ impl Radar {
     /// Ends the run.
     pub fn stop(&self) {
         let _ = self.tx.send(Command::Stop);
+    }
+
+    /// Stops the run as its user would, with Ctrl-C (see
+    /// [`Interrupter::interrupt`]).
+    pub fn interrupt(&self, why: impl Into<String>) {
+        Interrupter(self.watch.clone()).interrupt(why);
+        let _ = self.tx.send(Command::Stop);
+    }
+}
+
+/// Stops a run as its user would, with Ctrl-C (see
+/// [`System::interrupter`], [`Radar::interrupt`]): made for signal
+/// handlers, it holds nothing of the run but the flag it sets.
+#[derive(Clone)]
+pub struct Interrupter(Arc<RunWatch>);
+
+impl Interrupter {
+    /// Stops the run: a call that computes now ends within a few tens of
+    /// milliseconds (not held against its plugin), the scheduler stops
+    /// within as long, the trace sinks write what they hold, and the
+    /// trace's last record is `stopped`, reason `signal`, saying `why`.
+    pub fn interrupt(&self, why: impl Into<String>) {
+        self.0.stop(Stopping {
+            reason: "signal",
+            message: why.into(),
+        });
     }
 }
 

@@ -205,6 +205,7 @@ impl<W: Write + Send> Timeline<W> {
                 version,
                 reason,
             } => format!("swap of {plugin} to {version} rolled back: {reason}"),
+            Entry::Stopped { reason, message } => format!("RUN STOPPED ({reason}): {message}"),
             Entry::ProgramEnd { outcome, error } => match error {
                 Some(error) => format!("deliberative program ended: {outcome}: {error}"),
                 None => format!("deliberative program ended: {outcome}"),

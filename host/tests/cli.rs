@@ -8,7 +8,7 @@ use radar_fixtures::plugins;
 
 mod common;
 
-use common::{radar, text};
+use common::{radar, text, write_manifest};
 
 #[test]
 fn with_no_arguments_it_prints_the_paper_example_timeline() {
@@ -132,12 +132,6 @@ fn watching(manifest: &str, trace: &Path, run_for: &str) -> std::process::Child 
         .expect("radar starts")
 }
 
-fn write_manifest(dir: &Path, body: &str) -> String {
-    let path = dir.join("radar.toml");
-    std::fs::write(&path, body).expect("manifest written");
-    path.to_str().expect("utf-8 path").to_string()
-}
-
 #[test]
 fn a_manifest_system_runs_with_its_static_connections() {
     let dir = tempfile::tempdir().expect("temp dir");
@@ -246,12 +240,18 @@ fn inject_sends_payloads_into_slots_at_given_times() {
 
 #[test]
 fn a_loop_that_takes_no_time_ends_the_run_with_one_line() {
+    // Two responses that restart each other: no one plugin is to blame.
     let dir = tempfile::tempdir().expect("temp dir");
+    let restart = |from: &str, to: &str| {
+        format!("[[connect]]\nmode = \"whenever\"\nfrom = \"{from}.started\"\nto = \"{to}.start\"\nbusy = \"restart\"\n")
+    };
     let manifest = write_manifest(
         dir.path(),
         &format!(
-            "[plugins.R]\nwasm = \"{}\"\n\n[[connect]]\nmode = \"whenever\"\nfrom = \"R.started\"\nto = \"R.start\"\nbusy = \"restart\"\n",
-            plugins::COUNT_UP
+            "[plugins.R]\nwasm = \"{0}\"\n[plugins.S]\nwasm = \"{0}\"\n\n{1}{2}",
+            plugins::COUNT_UP,
+            restart("R", "S"),
+            restart("S", "R"),
         ),
     );
     let out = radar(&[

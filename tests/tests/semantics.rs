@@ -1056,11 +1056,48 @@ fn native_contexts_woken_together_take_turns_deterministically() {
 
 #[test]
 fn a_loop_of_connections_that_takes_no_time_stops_the_run_and_says_so() {
-    // Each start restarts the response at once: virtual time would never
-    // advance again.
-    let system = virtual_system().plugin(Plugin::file("R", radar_fixtures::plugins::COUNT_UP));
+    // Two responses that restart each other at once: virtual time would
+    // never advance again, and no one plugin makes most of the signals.
+    let count_up = |name| Plugin::file(name, radar_fixtures::plugins::COUNT_UP);
+    let system = virtual_system().plugin(count_up("R")).plugin(count_up("S"));
     let report = within_a_minute(|| {
         run(system, 10, |radar| {
+            radar.sleep(Duration::from_secs(1))?;
+            for (from, to) in [("R", "S"), ("S", "R")] {
+                radar
+                    .connect(
+                        Link::whenever(&format!("{from}.started"), &format!("{to}.start"))
+                            .busy(Busy::Restart),
+                    )?
+                    .keep();
+            }
+            radar.inject("R.start", json!(null))
+        })
+    });
+    assert_eq!(report.livelock, Some(Duration::from_secs(1)));
+    assert_eq!(report.ended_at, Duration::from_secs(1));
+    let trace = records(&report);
+    let stopped = find(&trace, json!({"kind": "stopped", "reason": "livelock"}));
+    assert_eq!(stopped.len(), 1);
+    assert!(stopped[0]["message"]
+        .as_str()
+        .is_some_and(|m| m.contains("without virtual time advancing")));
+    assert!(
+        find(&trace, json!({"kind": "fault"})).is_empty(),
+        "nobody blamed"
+    );
+}
+
+#[test]
+fn a_plugin_that_makes_a_loop_alone_is_blamed_for_it_and_the_run_goes_on() {
+    // Each start restarts the response at once: all the signals are R's.
+    let system = virtual_system()
+        .plugin(Plugin::file("R", radar_fixtures::plugins::COUNT_UP))
+        .plugin(test_event("E", 2))
+        .plugin(test_response("Q", 1, 0.5));
+    let report = within_a_minute(|| {
+        run(system, 10, |radar| {
+            radar.whenever("E", "Q")?.keep();
             radar.sleep(Duration::from_secs(1))?;
             radar
                 .connect(Link::whenever("R.started", "R.start").busy(Busy::Restart))?
@@ -1068,12 +1105,19 @@ fn a_loop_of_connections_that_takes_no_time_stops_the_run_and_says_so() {
             radar.inject("R.start", json!(null))
         })
     });
-    assert_eq!(report.livelock, Some(Duration::from_secs(1)));
-    assert_eq!(report.ended_at, Duration::from_secs(1));
+    assert_eq!(report.livelock, None);
+    assert_eq!(report.ended_at, Duration::from_secs(10));
     let trace = records(&report);
-    let last_log = find(&trace, json!({"kind": "log", "plugin": "(radar)"}));
-    assert_eq!(last_log.len(), 1);
-    assert!(last_log[0]["message"]
+    let fault = find(&trace, json!({"kind": "fault", "plugin": "R"}));
+    assert_eq!(fault.len(), 1);
+    assert_eq!(fault[0]["t"], json!(ns(1.0)));
+    assert!(fault[0]["error"]
         .as_str()
-        .is_some_and(|m| m.contains("without virtual time advancing")));
+        .is_some_and(|m| m.starts_with("a burst: it emitted")));
+    // The rest runs on: Q starts at each of E's triggers.
+    let starts = times(
+        &trace,
+        json!({"kind": "slot-begin", "plugin": "Q", "slot": "start"}),
+    );
+    assert_eq!(starts.len(), 5);
 }

@@ -15,8 +15,8 @@
 use wasmtime::component::{types, Component, Linker, Val};
 use wasmtime::Engine;
 
-use crate::payload::PayloadType;
-use crate::plugin::PluginCtx;
+use crate::payload::{check_size, PayloadType};
+use crate::plugin::{too_large, PluginCtx};
 use crate::scheduler::{board_read_from_plugin, board_write_from_plugin};
 
 /// Whether an import is a plugin's blackboard interface.
@@ -130,7 +130,12 @@ pub(crate) fn link(linker: &mut Linker<PluginCtx>, declared: &Declared) -> wasmt
             }
             Access::Write => {
                 instance.func_new(&port.function, move |store, _ty, params, _results| {
-                    let plugin = store.data().log.name.clone();
+                    let data = store.data();
+                    check_size(&params[0], data.payload_bytes).map_err(|size| {
+                        let what = format!("write of entry `{entry}`");
+                        wasmtime::Error::msg(too_large(&what, "value", size, data.payload_bytes))
+                    })?;
+                    let plugin = data.log.name.clone();
                     board_write_from_plugin(&plugin, &entry, params[0].clone())
                 })?
             }

@@ -41,8 +41,9 @@ pub(crate) fn add_to_linker(linker: &mut Linker<PluginCtx>) -> wasmtime::Result<
                 .now()
                 .saturating_add(compute)
                 .saturating_add(nanos);
-            let sleep = state.base.sleep_until(deadline, Some(state.stop.clone()));
-            Box::new(async move { Ok((sleep.await.map_err(interruption),)) })
+            let stop = state.stop.clone();
+            let sleep = state.base.sleep_until(deadline, Some(stop.clone()));
+            Box::new(async move { Ok((woke(sleep.await, &stop)?,)) })
         },
     )?;
     clock.func_wrap_async(
@@ -56,19 +57,20 @@ pub(crate) fn add_to_linker(linker: &mut Linker<PluginCtx>) -> wasmtime::Result<
                 state.base.sleep_until(deadline, Some(stop.clone()))
             });
             Box::new(async move {
-                let woke = match sleep {
+                let result = match sleep {
                     // Its compute takes time: other tasks run meanwhile.
                     Some(sleep) => sleep.await,
-                    None => YieldNow::new(stop).await,
+                    None => YieldNow::new(stop.clone()).await,
                 };
-                Ok((woke.map_err(interruption),))
+                Ok((woke(result, &stop)?,))
             })
         },
     )?;
     clock.func_wrap(
         "interrupted",
         |store: StoreContextMut<'_, PluginCtx>, (): ()| {
-            Ok((store.data().clock.stop.get().map(interruption),))
+            let stop = &store.data().clock.stop;
+            Ok((woke(stop.get().map_or(Ok(()), Err), stop)?.err(),))
         },
     )?;
     Ok(())
@@ -76,7 +78,7 @@ pub(crate) fn add_to_linker(linker: &mut Linker<PluginCtx>) -> wasmtime::Result<
 
 /// Fuel as time: the running call's fuel level, and the time its compute
 /// since the last charge stands for (0 when fuel is not time).
-fn pending_compute(store: &StoreContextMut<'_, PluginCtx>) -> (u64, u64) {
+pub(crate) fn pending_compute(store: &StoreContextMut<'_, PluginCtx>) -> (u64, u64) {
     let state = &store.data().clock;
     if !state.base.fuel_is_time() {
         return (0, 0);
@@ -88,7 +90,7 @@ fn pending_compute(store: &StoreContextMut<'_, PluginCtx>) -> (u64, u64) {
 
 /// Turns the running call's compute since the last charge into time: the
 /// nanoseconds to wait before going on.
-fn charge_compute(store: &mut StoreContextMut<'_, PluginCtx>) -> u64 {
+pub(crate) fn charge_compute(store: &mut StoreContextMut<'_, PluginCtx>) -> u64 {
     let (left, nanos) = pending_compute(store);
     if nanos > 0 {
         store.data_mut().clock.fuel_mark = left;
@@ -96,12 +98,24 @@ fn charge_compute(store: &mut StoreContextMut<'_, PluginCtx>) -> u64 {
     nanos
 }
 
-fn interruption(reason: StopReason) -> Interruption {
-    match reason {
-        StopReason::Interrupt => Interruption::Interrupt,
-        StopReason::Exit => Interruption::Exit,
-        StopReason::Deactivate => Interruption::Deactivate,
-    }
+/// How a wait ended, as the guest sees it: done, or interrupted with the
+/// reason; a fault waiting for the plugin (see [`StopFlag`]) is a trap.
+fn woke(
+    result: Result<(), StopReason>,
+    stop: &StopFlag,
+) -> wasmtime::Result<Result<(), Interruption>> {
+    Ok(Err(match result {
+        Ok(()) => return Ok(Ok(())),
+        Err(StopReason::Interrupt) => Interruption::Interrupt,
+        Err(StopReason::Exit) => Interruption::Exit,
+        Err(StopReason::Deactivate) => Interruption::Deactivate,
+        Err(StopReason::Fault) => return Err(fault_trap(stop)),
+    }))
+}
+
+/// The trap of a fault the scheduler has blamed on the plugin.
+pub(crate) fn fault_trap(stop: &StopFlag) -> wasmtime::Error {
+    wasmtime::Error::msg(stop.fault().unwrap_or_else(|| "faulted".into()))
 }
 
 /// The clocks WASI sees under the virtual clock: scheduler time, so that a

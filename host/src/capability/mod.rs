@@ -9,8 +9,9 @@
 //! - [`signals`]: the named signals a plugin declares and emits;
 //! - [`board`]: the blackboard entries a plugin reads and writes;
 //! - [`system`]: what a deliberative component wires the system with;
-//! - WASI (`wasmtime_wasi`), with virtual clocks and seeded randomness under
-//!   the virtual clock (see [`clock::VirtualWasiClock`] and
+//! - WASI (`wasmtime_wasi`), with its waits and file streams served by
+//!   Radar ([`wasi`]), virtual clocks and seeded randomness under the
+//!   virtual clock (see [`clock::VirtualWasiClock`] and
 //!   [`random::SeededRandom`]).
 
 use wasmtime::component::{HasSelf, Linker};
@@ -24,6 +25,7 @@ pub(crate) mod logging;
 pub(crate) mod random;
 pub(crate) mod signals;
 pub(crate) mod system;
+pub(crate) mod wasi;
 
 /// The bindings of `radar:reactive`'s host interfaces.
 pub(crate) mod bindings {
@@ -49,7 +51,7 @@ impl bindings::radar::reactive::types::Host for TypesState {}
 /// `board` interfaces are typed by its world: [`signals::link`] and
 /// [`board::link`] add them per component.)
 pub(crate) fn add_to_linker(linker: &mut Linker<PluginCtx>) -> wasmtime::Result<()> {
-    wasmtime_wasi::p2::add_to_linker_async(linker)?;
+    wasi::add_to_linker(linker)?;
     bindings::radar::reactive::types::add_to_linker::<PluginCtx, HasSelf<TypesState>>(
         linker,
         |ctx| &mut ctx.types,

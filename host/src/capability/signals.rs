@@ -9,8 +9,8 @@
 use wasmtime::component::{types, Component, Linker};
 use wasmtime::Engine;
 
-use crate::payload::PayloadType;
-use crate::plugin::PluginCtx;
+use crate::payload::{check_size, PayloadType};
+use crate::plugin::{too_large, PluginCtx};
 use crate::scheduler::{emit_from_plugin, SignalName};
 
 /// The signals every plugin has already, which a plugin cannot declare.
@@ -93,7 +93,14 @@ pub(crate) fn link(
     for (name, _) in signals {
         let signal = SignalName::intern(name);
         instance.func_new(name, move |store, _type, params, _results| {
-            let plugin = store.data().log.name.clone();
+            let data = store.data();
+            if let Some(payload) = params.first() {
+                check_size(payload, data.payload_bytes).map_err(|size| {
+                    let what = format!("signal `{}`", signal.as_str());
+                    wasmtime::Error::msg(too_large(&what, "payload", size, data.payload_bytes))
+                })?;
+            }
+            let plugin = data.log.name.clone();
             emit_from_plugin(&plugin, signal, params.first().cloned())
         })?;
     }

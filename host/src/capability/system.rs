@@ -12,17 +12,21 @@ use std::time::Duration;
 
 use wasmtime::component::types::ComponentItem;
 use wasmtime::component::{Component, HasSelf, Linker, Resource, ResourceTable};
-use wasmtime::{Engine, Store, StoreLimits, StoreLimitsBuilder};
+use wasmtime::Engine;
+use wasmtime::Store;
 use wasmtime_wasi::{WasiCtx, WasiCtxView, WasiView};
 
 use super::clock::VirtualWasiClock;
 use super::config::ConfigState;
 use super::logging::LogState;
+use super::wasi::{ProgramClock, RadarWasiView, WaitClock};
 use super::Level;
-use crate::clock::{ClockKind, TimeBase};
+use crate::clock::{ClockKind, StopFlag, TimeBase};
 use crate::executor::block_on;
+use crate::limiter::{MemoryBudget, StoreLimiter};
 use crate::system::{Connection, Link, Radar};
-use crate::{Busy, RadarError};
+use crate::watchdog::{CallWatch, RunWatch};
+use crate::{Busy, Limits, RadarError};
 
 mod bindings {
     wasmtime::component::bindgen!({
@@ -97,7 +101,34 @@ pub(crate) struct ProgramCtx {
     config: ConfigState,
     table: ResourceTable,
     wasi: WasiCtx,
-    limits: StoreLimits,
+    limits: StoreLimiter,
+    waits: WaitClock,
+    watch: CallWatch,
+}
+
+impl RadarWasiView for ProgramCtx {
+    fn wait_clock(&self) -> &WaitClock {
+        &self.waits
+    }
+}
+
+/// A program's WASI waits are its sleeps, on its own thread.
+struct ProgramSleeps(Radar);
+
+impl ProgramClock for ProgramSleeps {
+    fn now(&self) -> u64 {
+        self.0
+            .now()
+            .map(|d| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))
+            .unwrap_or(0)
+    }
+
+    fn sleep_until(&self, deadline: u64) {
+        let now = self.now();
+        if deadline > now {
+            let _ = self.0.sleep(Duration::from_nanos(deadline - now));
+        }
+    }
 }
 
 impl WasiView for ProgramCtx {
@@ -246,18 +277,32 @@ impl super::bindings::radar::reactive::config::Host for ProgramCtx {
 
 impl super::bindings::radar::reactive::types::Host for ProgramCtx {}
 
+/// What a program's run shares with the system: its time, seed, memory
+/// budget and watchdog.
+pub(crate) struct ProgramRun {
+    pub base: TimeBase,
+    pub seed: u64,
+    pub budget: Arc<MemoryBudget>,
+    pub watch: Arc<RunWatch>,
+}
+
 /// Runs a deliberative component's `run` on the calling thread (a native
 /// context of the run), as `name`; its error or trap is the program's.
 pub(crate) fn run(
     radar: Radar,
     code: ProgramCode,
     name: Arc<str>,
-    base: TimeBase,
-    seed: u64,
+    setup: ProgramRun,
 ) -> Result<(), String> {
+    let ProgramRun {
+        base,
+        seed,
+        budget,
+        watch,
+    } = setup;
     let engine = code.component.engine().clone();
     let mut linker: Linker<ProgramCtx> = Linker::new(&engine);
-    let linked = wasmtime_wasi::p2::add_to_linker_async(&mut linker).and_then(|()| {
+    let linked = super::wasi::add_to_linker(&mut linker).and_then(|()| {
         bindings::Deliberative::add_to_linker::<ProgramCtx, HasSelf<ProgramCtx>>(
             &mut linker,
             |ctx| ctx,
@@ -272,26 +317,36 @@ pub(crate) fn run(
             .insecure_random(super::random::SeededRandom::new(!seed))
             .insecure_random_seed(u128::from(seed));
     }
+    wasi.allow_tcp(false).allow_udp(false);
     static MAILBOXES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+    let growth = Limits {
+        memory_bytes: code.memory_bytes,
+        ..Limits::default()
+    }
+    .growth();
     let ctx = ProgramCtx {
+        waits: WaitClock::Program(Arc::new(ProgramSleeps(radar.clone()))),
+        watch: CallWatch::new(watch, Arc::new(StopFlag::default()), name.clone()),
         radar,
         mailbox: MAILBOXES.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         listeners: std::collections::HashSet::new(),
-        log: LogState { name, base },
+        log: LogState::new(name, base, usize::MAX),
         config: ConfigState {
             values: code.config.clone(),
             script: None,
         },
         table: ResourceTable::new(),
         wasi: wasi.build(),
-        limits: StoreLimitsBuilder::new()
-            .memory_size(code.memory_bytes)
-            .trap_on_grow_failure(true)
-            .build(),
+        limits: StoreLimiter::new(growth, budget),
     };
     let mut store = Store::new(&engine, ctx);
     store.limiter(|ctx| &mut ctx.limits);
     store.set_fuel(code.fuel).map_err(|e| format!("{e:#}"))?;
+    let fuel = code.fuel;
+    let now = store.data().log.base.now();
+    store.data_mut().watch.begin("run", now);
+    store.epoch_deadline_callback(move |mut ctx| ctx.data_mut().watch.check(fuel));
+    store.set_epoch_deadline(1);
     let program = block_on(bindings::Deliberative::instantiate_async(
         &mut store,
         &code.component,

@@ -100,6 +100,11 @@ pub struct RunArgs {
     /// Real clock: pin the scheduler's thread to this CPU (from 0).
     #[arg(long)]
     cpu: Option<usize>,
+    /// Stop the run, naming the plugin and its call, when it makes no
+    /// progress for this long in wall-clock time while one call computes
+    /// (a check spinning under a huge fuel budget); `0` never stops it.
+    #[arg(long, value_parser = parse_duration, default_value = "10s")]
+    stall_timeout: Duration,
 }
 
 /// One `--swap`.
@@ -218,7 +223,8 @@ pub fn run(args: RunArgs) -> Result<()> {
     let mut builder = System::builder()
         .clock(args.clock)
         .keep_trace(keep)
-        .seed(args.seed);
+        .seed(args.seed)
+        .stall_timeout(Some(args.stall_timeout).filter(|t| !t.is_zero()));
     if !args.quiet {
         builder = builder.trace_to(Timeline::new(std::io::stdout()));
     }
@@ -297,6 +303,7 @@ pub fn run(args: RunArgs) -> Result<()> {
             }
             .build()?;
             warn_of_changed_plugins(replay.as_deref(), &system);
+            stop_on_signals(&system);
             if !args.quiet {
                 say(format_args!(
                     "Radar: {what}, {clock} clock, {:.1} s\n",
@@ -316,6 +323,7 @@ pub fn run(args: RunArgs) -> Result<()> {
             let manifest = Manifest::load(path)?;
             let system = manifest.add_to(builder).build()?;
             warn_of_changed_plugins(replay.as_deref(), &system);
+            stop_on_signals(&system);
             if !args.quiet {
                 say(format_args!("Radar: {}, {clock} clock\n", path.display()));
             }
@@ -332,6 +340,19 @@ pub fn run(args: RunArgs) -> Result<()> {
             system.run(run_for)?
         }
     };
+    if let Some((reason, message)) = &report.stopped {
+        let trace = args
+            .trace
+            .as_ref()
+            .map(|p| format!("; {} holds the run up to there", p.display()))
+            .unwrap_or_default();
+        eprintln!(
+            "radar: run stopped at {:.3} s ({reason}): {message}{trace}",
+            report.ended_at.as_secs_f64()
+        );
+        // 130: the shell's code for a run ended by Ctrl-C.
+        std::process::exit(if reason == "signal" { 130 } else { 1 });
+    }
     if let Some(at) = report.livelock {
         anyhow::bail!(
             "stopped at {:.3} s: the system kept working without virtual time advancing \
@@ -366,6 +387,21 @@ pub fn run(args: RunArgs) -> Result<()> {
         ));
     }
     Ok(())
+}
+
+/// Ctrl-C, SIGTERM or SIGHUP stop the run as its user asked: the call
+/// computing now ends, the trace is written to its end with a `stopped`
+/// record; a second signal ends the process at once.
+fn stop_on_signals(system: &System) {
+    let handle = system.interrupter();
+    let signals = std::sync::atomic::AtomicU32::new(0);
+    // Only one handler per process: a second `run` in it keeps the first.
+    let _ = ctrlc::set_handler(move || {
+        if signals.fetch_add(1, std::sync::atomic::Ordering::SeqCst) > 0 {
+            std::process::exit(130);
+        }
+        handle.interrupt("stopped by the user (SIGINT, SIGTERM or SIGHUP)");
+    });
 }
 
 /// A replay of a recording made with other versions of the plugins may

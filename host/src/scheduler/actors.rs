@@ -88,6 +88,13 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
                 .await;
             continue;
         };
+        if let Some(cause) = stop.fault() {
+            // Blamed for a burst (see `State::burst`): it faults here,
+            // between checks.
+            core.with(|st| st.fault(pid, Fault::new(cause)));
+            instance = None;
+            continue;
+        }
         let next = core.with(|st| st.plugins[pid].next_check);
         if core.base.now() < next {
             let _ = core.base.sleep_until(next, Some(stop.clone())).await;

@@ -141,7 +141,7 @@ impl State {
     /// `(native)`.
     pub(super) fn board_write(&mut self, by: &str, entry: &str, value: Val) {
         if let Some((_, slot)) = self.board.entries.get_mut(entry) {
-            let json = val_to_json(&value);
+            let json = trace_json(&value);
             *slot = Some(value);
             self.record(Entry::BoardWrite {
                 entry: entry.to_string(),

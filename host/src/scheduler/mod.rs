@@ -32,10 +32,12 @@ use wasmtime::component::Val;
 use crate::clock::{ClockKind, StopFlag, StopReason, TimeBase};
 use crate::error::RadarError;
 use crate::executor::{Executor, LocalTask, TaskId};
-use crate::payload::{json_to_val, val_to_json, Payload, PayloadType, Shared};
+use crate::limiter::MemoryBudget;
+use crate::payload::{json_to_val, trace_json, Payload, PayloadType, Shared};
 use crate::plugin::{Fault, InstanceSetup, Kind, Limits, PluginCode, PluginInstance};
 use crate::trace::inputs::{Input, InputRecorder, Origin, TimedInput, TraceDigest};
 use crate::trace::{Entry, Record, TraceSink};
+use crate::watchdog::RunWatch;
 
 mod actors;
 pub(crate) mod board;
@@ -344,7 +346,11 @@ pub(crate) fn emit_from_plugin(
             .map_err(|e| wasmtime::format_err!("{e}"))?;
         st.record_logs();
         st.emit(pid, Signal::Named(signal), payload.map(Arc::new));
-        Ok(())
+        // Blamed for a burst by this very emission: it faults here.
+        match st.plugins[pid].stop.fault() {
+            Some(cause) => Err(wasmtime::Error::msg(cause)),
+            None => Ok(()),
+        }
     })
 }
 
@@ -461,8 +467,32 @@ struct PluginEntry {
     stop_request: Option<(StopReason, Shared)>,
     /// A new version waiting for the plugin's safe point.
     swap: Option<swap::PendingSwap>,
+    /// Signals and task steps it made at the current virtual instant.
+    burst: BurstCount,
     /// `Plugin.start`, the label of dropped records for accepted starts.
     start_label: Arc<str>,
+}
+
+/// A plugin's signals and task steps at one virtual instant (see
+/// [`InstantSignals`]).
+#[derive(Default)]
+struct BurstCount {
+    at: u64,
+    signals: u64,
+    steps: u64,
+}
+
+impl BurstCount {
+    /// The counts at `now` (signals, steps): zero when time has moved on.
+    fn at(&mut self, now: u64) -> (&mut u64, &mut u64) {
+        if self.at != now {
+            *self = Self {
+                at: now,
+                ..Self::default()
+            };
+        }
+        (&mut self.signals, &mut self.steps)
+    }
 }
 
 impl PluginEntry {
@@ -710,6 +740,9 @@ pub(crate) struct State {
     /// Plugins that faulted on a limit of the machine: how many, and the
     /// first one's fault.
     machine_limit: Option<(usize, String)>,
+    /// The memory all plugins may take together.
+    budget: Arc<MemoryBudget>,
+    watch: Arc<RunWatch>,
 }
 
 /// A spawned native context, running or ended.
@@ -722,9 +755,12 @@ enum NativeTask {
 
 /// Counts the signals of one virtual instant. A system wired into a loop
 /// that takes no time (`R.exited → R.start` on a start that returns at once,
-/// `R.started → R.start` with `restart`) would otherwise stop virtual time
-/// for good, with the trace growing until memory runs out; the run is ended
-/// instead, and says so.
+/// `R.started → R.start` with `restart`), or a plugin that emits without end
+/// in one call, would otherwise stop virtual time for good, with the trace
+/// growing until memory runs out. Past the limit, the plugin that made
+/// more than three quarters of the instant's signals faults, and the run
+/// goes on; if no plugin did, the run is ended, and says so (see
+/// `State::burst`).
 pub(crate) struct InstantSignals {
     at: u64,
     signals: u64,
@@ -807,6 +843,8 @@ pub(crate) struct RunEnd {
     pub divergence: Option<String>,
     /// Plugins that faulted on a limit of the machine.
     pub machine_limit: Option<(usize, String)>,
+    /// The run was stopped from outside its course (a signal, a stall).
+    pub stopped: Option<crate::watchdog::Stopping>,
 }
 
 /// What a run is made of.
@@ -826,6 +864,10 @@ pub(crate) struct RunSetup {
     pub inputs: Vec<StaticInput>,
     /// The blackboard's entries and their types (see [`board::plan`]).
     pub board: BTreeMap<String, PayloadType>,
+    /// The memory all plugins may take together.
+    pub budget: Arc<MemoryBudget>,
+    /// What stops a call from outside it (see [`crate::watchdog`]).
+    pub watch: Arc<RunWatch>,
 }
 
 /// Under the real clock, how long before a deadline the scheduler stops
@@ -875,6 +917,10 @@ pub(crate) struct Scheduler {
     inputs: Vec<StaticInput>,
     /// Static inputs applied at their recorded places (see `inputs`).
     placed: inputs::Placed,
+    /// Each plugin's actor task, by task: whose steps a step is.
+    actors: HashMap<TaskId, usize>,
+    /// What stops a call from outside it (a signal, a stall).
+    watch: Arc<RunWatch>,
 }
 
 impl Scheduler {
@@ -891,6 +937,8 @@ impl Scheduler {
             links,
             inputs,
             board,
+            budget,
+            watch,
         } = setup;
         let mut by_name = BTreeMap::new();
         let plugin_count = plugins.len();
@@ -920,6 +968,7 @@ impl Scheduler {
                     activation: None,
                     stop_request: None,
                     swap: None,
+                    burst: BurstCount::default(),
                 }
             })
             .collect();
@@ -951,6 +1000,8 @@ impl Scheduler {
             board: board::Blackboard::new(board),
             mailboxes: HashMap::new(),
             machine_limit: None,
+            budget,
+            watch: watch.clone(),
         };
         Self {
             core: Rc::new(Core {
@@ -963,6 +1014,8 @@ impl Scheduler {
             links,
             inputs,
             placed: inputs::Placed::new(),
+            actors: HashMap::new(),
+            watch,
         }
     }
 
@@ -1010,7 +1063,8 @@ impl Scheduler {
             } else {
                 Box::pin(response_actor(core, pid))
             };
-            self.core.with(|st| st.spawn(task));
+            let id = self.core.with(|st| st.spawn(task));
+            self.actors.insert(id, pid);
         }
         let core = self.core.clone();
         core.with(|st| -> Result<(), RadarError> {
@@ -1026,7 +1080,7 @@ impl Scheduler {
         let mut spin = SpinWindow::new();
         loop {
             let (stop, lockstep) = self.core.with(|st| (st.stop, st.turns.running()));
-            if stop {
+            if stop || self.watch.stopping().is_some() {
                 break;
             }
             if !self.placed.is_empty() {
@@ -1038,10 +1092,12 @@ impl Scheduler {
             }
             if kind == ClockKind::Virtual && lockstep {
                 // Native code is running: nothing else may happen until it
-                // blocks or finishes.
-                match self.commands.recv() {
+                // blocks or finishes (the loop's top looks whether the run
+                // is being stopped meanwhile).
+                match self.commands.recv_timeout(crate::watchdog::TICK) {
                     Ok(cmd) => self.handle(cmd),
-                    Err(_) => self.core.with(|st| st.turns.abandon()),
+                    Err(RecvTimeoutError::Timeout) => {}
+                    Err(RecvTimeoutError::Disconnected) => self.core.with(|st| st.turns.abandon()),
                 }
                 continue;
             }
@@ -1056,10 +1112,12 @@ impl Scheduler {
                 }
                 self.core.base.fire_due(now);
             }
-            if self.executor.run_one() {
+            if let Some(task) = self.executor.run_one() {
+                self.watch.step();
                 if kind == ClockKind::Virtual {
+                    let pid = self.actors.get(&task).copied();
                     self.core.with(|st| {
-                        st.count_in_instant(true);
+                        st.count_task_step(pid);
                         st.count_step();
                     });
                 }
@@ -1113,8 +1171,10 @@ impl Scheduler {
                     if self.core.with(State::trace_idle) {
                         continue;
                     }
-                    // Sleep until the spinning stretch before the deadline.
-                    let wait = wait.map(|w| w - spin.now);
+                    // Sleep until the spinning stretch before the deadline,
+                    // a tick at most: the loop's top looks whether the run
+                    // is being stopped.
+                    let wait = wait.map(|w| (w - spin.now).min(crate::watchdog::TICK));
                     let received = match wait {
                         Some(w) => {
                             let asleep = std::time::Instant::now();
@@ -1124,10 +1184,7 @@ impl Scheduler {
                             }
                             received
                         }
-                        None => self
-                            .commands
-                            .recv()
-                            .map_err(|_| RecvTimeoutError::Disconnected),
+                        None => self.commands.recv_timeout(crate::watchdog::TICK),
                     };
                     match received {
                         Ok(cmd) => self.handle(cmd),
@@ -1157,9 +1214,17 @@ impl Scheduler {
                 })
                 .collect()
         });
+        let stopped = self.watch.stopping();
         let (trace, program_outcome, trace_errors, divergence, machine_limit) =
             self.core.with(|st| {
                 st.record_logs();
+                if let Some(stopped) = &stopped {
+                    // The last record of the run says who stopped it, and why.
+                    st.record(Entry::Stopped {
+                        reason: stopped.reason.into(),
+                        message: stopped.message.clone(),
+                    });
+                }
                 st.waiters.clear();
                 st.turns.abandon();
                 st.record_input(Input::End { digest: None });
@@ -1195,6 +1260,7 @@ impl Scheduler {
             fuel,
             divergence,
             machine_limit,
+            stopped,
         }
     }
 

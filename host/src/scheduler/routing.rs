@@ -376,12 +376,9 @@ impl State {
     /// Emits `signal` from `pid` and routes it to every connection, in the
     /// order the connections were made.
     pub(super) fn emit(&mut self, pid: usize, signal: Signal, payload: Shared) {
-        if self.base.kind() == ClockKind::Virtual {
-            self.count_in_instant(false);
-        }
         if self.tracing() {
             let plugin = self.plugins[pid].name.clone();
-            let json = payload.as_deref().map(val_to_json).unwrap_or(Json::Null);
+            let json = payload.as_deref().map(trace_json).unwrap_or(Json::Null);
             self.record(Entry::Signal {
                 plugin,
                 signal: signal.as_str().into(),
@@ -399,41 +396,99 @@ impl State {
         }
         ids.clear();
         self.route_buffer = ids;
+        // Counted once the emission is recorded and delivered: a burst's
+        // record comes after the signal that crossed the limit.
+        if self.base.kind() == ClockKind::Virtual {
+            self.count_signal(pid);
+        }
     }
 
-    /// Counts a signal (or, `step`, a task's step) of the current virtual
-    /// instant, and ends the run once there are more than any system that
-    /// makes progress would have (see [`InstantSignals`]).
-    pub(super) fn count_in_instant(&mut self, step: bool) {
+    /// Counts a signal `pid` emits at the current virtual instant; past
+    /// the instant's limit, a burst (see [`InstantSignals`]).
+    pub(super) fn count_signal(&mut self, pid: usize) {
         let now = self.now();
         let instant = self.instant.at(now);
-        let over = if step {
-            instant.steps += 1;
-            instant.steps == instant.step_limit
-        } else {
-            instant.signals += 1;
-            instant.signals == instant.limit
-        };
-        if !over || instant.livelock.is_some() {
-            return;
+        instant.signals += 1;
+        let over = instant.signals >= instant.limit;
+        *self.plugins[pid].burst.at(now).0 += 1;
+        if over {
+            self.burst(false);
         }
-        instant.livelock = Some(now);
-        self.stop = true;
-        let (count, what) = if step {
-            (instant.step_limit, "task steps")
+    }
+
+    /// Counts a task step at the current virtual instant, `pid`'s if the
+    /// task is a plugin's actor; past the instant's limit, a burst.
+    pub(super) fn count_task_step(&mut self, pid: Option<usize>) {
+        let now = self.now();
+        let instant = self.instant.at(now);
+        instant.steps += 1;
+        let over = instant.steps >= instant.step_limit;
+        if let Some(pid) = pid {
+            *self.plugins[pid].burst.at(now).1 += 1;
+        }
+        if over {
+            self.burst(true);
+        }
+    }
+
+    /// The instant's signals (or task steps) passed their limit: a plugin
+    /// that made more than three quarters of them is to blame, and faults
+    /// (at its next host call, or before its next call), and the run goes
+    /// on; if none did (a loop through several plugins), the run is
+    /// stopped as a livelock, with a `stopped` record that says why.
+    fn burst(&mut self, steps: bool) {
+        let now = self.now();
+        let (total, what) = if steps {
+            let total = self.instant.steps;
+            self.instant.steps = 0;
+            (total, "task steps")
         } else {
-            (instant.limit, "signals")
+            let total = self.instant.signals;
+            self.instant.signals = 0;
+            (total, "signals")
         };
-        let message = format!(
-            "{count} {what} at {:.3} s without virtual time advancing: something loops \
-             without taking time; the run is stopped",
-            now as f64 / 1e9
-        );
-        self.record(Entry::Log {
-            plugin: "(radar)".into(),
-            level: "error".into(),
-            message,
-        });
+        let mut blamed: Option<(usize, u64)> = None;
+        for (pid, entry) in self.plugins.iter_mut().enumerate() {
+            let (signals, task_steps) = entry.burst.at(now);
+            let count = if steps { task_steps } else { signals };
+            let made = std::mem::take(count);
+            if made * 4 > total * 3 && blamed.is_none_or(|(_, m)| made > m) {
+                blamed = Some((pid, made));
+            }
+        }
+        let at = now as f64 / 1e9;
+        match blamed {
+            Some((pid, made)) => {
+                let cause = if steps {
+                    format!(
+                        "a burst: it took {made} of {total} task steps at {at:.3} s without \
+                         virtual time advancing (a loop of yields that takes no time)"
+                    )
+                } else {
+                    format!(
+                        "a burst: it emitted {made} of {total} signals at {at:.3} s without \
+                         virtual time advancing (a loop that takes no time, or too many \
+                         signals in one call)"
+                    )
+                };
+                self.plugins[pid].stop.request_fault(cause);
+            }
+            None if self.instant.livelock.is_none() => {
+                self.instant.livelock = Some(now);
+                self.stop = true;
+                let message = format!(
+                    "{total} {what} at {at:.3} s without virtual time advancing, no plugin \
+                     making three quarters of them: something loops without taking time (connections \
+                     that form a loop, such as `A.exited → B.start` and `B.exited → \
+                     A.start` with starts that return at once); the run is stopped"
+                );
+                self.record(Entry::Stopped {
+                    reason: "livelock".into(),
+                    message,
+                });
+            }
+            None => {}
+        }
     }
 
     pub(super) fn deliver(&mut self, id: u64, payload: &Shared) {
@@ -782,9 +837,15 @@ impl State {
     }
 
     pub(super) fn fault(&mut self, pid: usize, fault: Fault) {
+        if fault.run_stopped {
+            // Not the plugin's doing: the run ends, and says why.
+            self.stop = true;
+            return;
+        }
         let entry = &mut self.plugins[pid];
         entry.lifecycle = Lifecycle::Error;
         entry.stop.clear();
+        entry.stop.clear_fault();
         entry.stop_request = None;
         let withdrawn: Vec<StartRequest> = entry
             .next
@@ -930,6 +991,8 @@ impl State {
                 wasi: entry.def.wasi.clone(),
                 seed: self.seed,
                 fuel_used: entry.fuel_used.clone(),
+                budget: self.budget.clone(),
+                watch: self.watch.clone(),
             },
         )
     }

@@ -420,6 +420,7 @@ impl Checker {
             | Entry::BoardWrite { .. }
             | Entry::Log { .. }
             | Entry::ProgramEnd { .. }
+            | Entry::Stopped { .. }
             | Entry::SwapRequest { .. }
             | Entry::SwapRefused { .. }
             | Entry::SwapRolledBack { .. } => {}

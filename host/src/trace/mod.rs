@@ -159,6 +159,12 @@ pub enum Entry {
         by: Arc<str>,
         value: Json,
     },
+    /// The run was stopped before its end, and why: `signal` (the user
+    /// stopped it: SIGINT, SIGTERM), `stalled` (no progress for the stall
+    /// timeout while a call computed), `livelock` (signals or steps kept
+    /// coming without virtual time advancing, and no plugin made most of
+    /// them). The run's last record.
+    Stopped { reason: Name, message: String },
     /// Deliberative code finished: `outcome` is `ok`, `error` (with the
     /// error) or `panicked`.
     ProgramEnd {
@@ -196,12 +202,20 @@ pub struct JsonLines<W: Write + Send> {
     pending: Vec<Record>,
     line: String,
     error: Option<std::io::Error>,
+    /// When the sink last wrote and flushed: under the virtual clock the
+    /// scheduler is never idle, so the file is also brought up to date
+    /// every [`JsonLines::FLUSH_EVERY`] of wall time.
+    flushed: std::time::Instant,
 }
 
 impl<W: Write + Send> JsonLines<W> {
     /// Records waiting to be written, at most: then they are written at
     /// once, idle or not.
     pub const BATCH: usize = 4096;
+
+    /// The longest a record waits in the sink, in wall-clock time, when
+    /// records keep coming (it is looked at every 256 records).
+    pub const FLUSH_EVERY: std::time::Duration = std::time::Duration::from_millis(200);
 
     /// Records written to `out`.
     pub fn new(out: W) -> Self {
@@ -210,6 +224,7 @@ impl<W: Write + Send> JsonLines<W> {
             pending: Vec::new(),
             line: String::new(),
             error: None,
+            flushed: std::time::Instant::now(),
         }
     }
 
@@ -239,6 +254,10 @@ impl<W: Write + Send> TraceSink for JsonLines<W> {
         self.pending.push(record.clone());
         if self.pending.len() >= Self::BATCH {
             self.write_pending();
+        } else if self.pending.len().is_multiple_of(256)
+            && self.flushed.elapsed() >= Self::FLUSH_EVERY
+        {
+            self.idle();
         }
     }
 
@@ -249,6 +268,7 @@ impl<W: Write + Send> TraceSink for JsonLines<W> {
                 self.error.get_or_insert(e);
             }
         }
+        self.flushed = std::time::Instant::now();
     }
 
     fn finish(&mut self) -> Result<(), String> {
@@ -314,39 +334,84 @@ pub fn to_json_lines(records: &[Record]) -> String {
 }
 
 /// The records a run keeps for its report ([`crate::RunReport::trace`]):
-/// every one, or the newest `limit` of them, so that a long run's kept
-/// trace does not grow without bound.
+/// every one, or the newest of them within a count and a size, so that a
+/// long run's kept trace does not grow without bound.
 #[derive(Debug)]
 pub(crate) struct KeptTrace {
-    records: std::collections::VecDeque<Record>,
-    limit: Option<usize>,
+    records: std::collections::VecDeque<(Record, usize)>,
+    /// At most so many records and about so many bytes.
+    limit: Option<(usize, usize)>,
+    bytes: usize,
     dropped: u64,
 }
 
 impl KeptTrace {
-    pub(crate) fn new(limit: Option<usize>) -> Self {
+    pub(crate) fn new(limit: Option<(usize, usize)>) -> Self {
         Self {
             records: std::collections::VecDeque::new(),
             limit,
+            bytes: 0,
             dropped: 0,
         }
     }
 
     pub(crate) fn push(&mut self, record: Record) {
-        if self.limit.is_some_and(|limit| self.records.len() >= limit) {
-            if self.records.pop_front().is_none() {
-                // A limit of zero keeps nothing.
+        let Some((count, bytes)) = self.limit else {
+            self.records.push_back((record, 0));
+            return;
+        };
+        let size = record.approx_bytes();
+        self.bytes += size;
+        self.records.push_back((record, size));
+        while self.records.len() > count || (self.bytes > bytes && !self.records.is_empty()) {
+            if let Some((_, size)) = self.records.pop_front() {
+                self.bytes -= size;
                 self.dropped += 1;
-                return;
             }
-            self.dropped += 1;
         }
-        self.records.push_back(record);
     }
 
     /// The records kept, oldest first, and how many older ones were not.
     pub(crate) fn finish(self) -> (Vec<Record>, u64) {
-        (self.records.into(), self.dropped)
+        (
+            self.records.into_iter().map(|(r, _)| r).collect(),
+            self.dropped,
+        )
+    }
+}
+
+impl Record {
+    /// About the bytes the record takes, as JSON and in memory: what a kept
+    /// trace's size bound counts.
+    fn approx_bytes(&self) -> usize {
+        fn json(value: &Json) -> usize {
+            match value {
+                Json::Null | Json::Bool(_) | Json::Number(_) => 8,
+                Json::String(s) => 8 + s.len(),
+                Json::Array(items) => 8 + items.iter().map(json).sum::<usize>(),
+                Json::Object(fields) => {
+                    8 + fields.iter().map(|(k, v)| k.len() + json(v)).sum::<usize>()
+                }
+            }
+        }
+        let variable = match &self.entry {
+            Entry::Signal { payload, .. }
+            | Entry::Discarded { payload, .. }
+            | Entry::Inject { payload, .. } => json(payload),
+            Entry::BoardWrite { entry, value, .. } => entry.len() + json(value),
+            Entry::Log { message, .. } => message.len(),
+            Entry::Fault {
+                error, backtrace, ..
+            } => error.len() + backtrace.as_ref().map_or(0, String::len),
+            Entry::Stopped { message, .. } => message.len(),
+            Entry::SwapRefused { reason, .. } | Entry::SwapRolledBack { reason, .. } => {
+                reason.len()
+            }
+            Entry::Connect { from, to, .. } => from.len() + to.len(),
+            Entry::ProgramEnd { error, .. } => error.as_ref().map_or(0, String::len),
+            _ => 0,
+        };
+        std::mem::size_of::<Self>() + variable
     }
 }
 
@@ -360,7 +425,7 @@ mod kept_tests {
             t,
             entry: Entry::Activate { plugin: "E".into() },
         };
-        let mut kept = KeptTrace::new(Some(3));
+        let mut kept = KeptTrace::new(Some((3, usize::MAX)));
         (0..10).for_each(|t| kept.push(record(t)));
         let (records, dropped) = kept.finish();
         assert_eq!(records.iter().map(|r| r.t).collect::<Vec<_>>(), [7, 8, 9]);
@@ -368,8 +433,27 @@ mod kept_tests {
         let mut all = KeptTrace::new(None);
         (0..10).for_each(|t| all.push(record(t)));
         assert_eq!(all.finish(), ((0..10).map(record).collect(), 0));
-        let mut none = KeptTrace::new(Some(0));
+        let mut none = KeptTrace::new(Some((0, usize::MAX)));
         none.push(record(1));
         assert_eq!(none.finish(), (vec![], 1));
+    }
+
+    #[test]
+    fn a_kept_trace_is_bounded_in_bytes_too() {
+        let log = |t, bytes| Record {
+            t,
+            entry: Entry::Log {
+                plugin: "Chatty".into(),
+                level: "info".into(),
+                message: "x".repeat(bytes),
+            },
+        };
+        let mut kept = KeptTrace::new(Some((1_000, 10_000)));
+        for t in 0..10 {
+            kept.push(log(t, 3_000));
+        }
+        let (records, dropped) = kept.finish();
+        assert_eq!(records.iter().map(|r| r.t).collect::<Vec<_>>(), [7, 8, 9]);
+        assert_eq!(dropped, 7);
     }
 }

@@ -1,6 +1,7 @@
 //! What the command-line tests share: running the `radar` binary.
 #![allow(dead_code)]
 
+use std::path::Path;
 use std::process::{Command, Output};
 
 /// Runs `radar` with `args`, to the end.
@@ -14,4 +15,11 @@ pub fn radar(args: &[&str]) -> Output {
 /// Bytes a process wrote, as text.
 pub fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// Writes `body` as `radar.toml` in `dir`; its path.
+pub fn write_manifest(dir: &Path, body: &str) -> String {
+    let path = dir.join("radar.toml");
+    std::fs::write(&path, body).expect("manifest written");
+    path.to_str().expect("utf-8 path").to_string()
 }

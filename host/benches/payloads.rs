@@ -1,0 +1,113 @@
+//! Large payloads under the real clock (issue 18): how late a well-behaved
+//! sleeper's 10 ms sleeps end while another plugin emits a payload of N
+//! bytes every 10 ms, with the trace written to a file and the timeline
+//! rendered (to a sink). Each payload is lifted from the emitter's memory
+//! and its trace record cut to its size (over 64 KiB): what is left is
+//! the cost the sleeper can see.
+//!
+//! `cargo bench -p radar --bench payloads` (`RADAR_PAYLOAD_SECS` sets each
+//! run's length, default 5). Prints the sleeper's lateness (p50, p99, max)
+//! for each size, and the ratio of its p99 to that with no payloads, in
+//! the same run.
+
+use std::fs::File;
+use std::io::BufWriter;
+use std::time::Duration;
+
+use radar::timeline::Timeline;
+use radar::trace::{Entry, JsonLines};
+use radar::{ClockKind, Limits, Link, Plugin, System};
+use radar_fixtures::plugins;
+
+const PERIOD_MS: u64 = 10;
+
+/// The sleeper's lateness, in µs, beside `bytes`-byte payloads every 10 ms
+/// (none if 0).
+fn lateness(secs: u64, bytes: usize) -> Result<(Vec<f64>, usize), String> {
+    let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
+    let file = File::create(dir.path().join("trace.jsonl")).map_err(|e| e.to_string())?;
+    let mut builder = System::builder()
+        .clock(ClockKind::Real)
+        .trace_to(JsonLines::new(BufWriter::new(file)))
+        .trace_to(Timeline::new(std::io::sink()))
+        .plugin(
+            Plugin::file("Sleeper", plugins::TEST_RESPONSE)
+                .config("interval_s", PERIOD_MS as f64 / 1e3)
+                .config("count_for_s", secs as f64),
+        )
+        .inject_at(Duration::ZERO, "Sleeper.start", serde_json::json!(0));
+    if bytes > 0 {
+        builder = builder
+            .plugin(
+                Plugin::file("Payloads", plugins::HOSTILE_EVENT)
+                    .config("mode", "payload")
+                    .config("bytes", bytes)
+                    .period(Duration::from_millis(PERIOD_MS))
+                    .limits(Limits {
+                        payload_bytes: bytes + 64,
+                        ..Limits::default()
+                    }),
+            )
+            .plugin(Plugin::file("R", plugins::BENCH_RESPONSE))
+            .connect(Link::whenever("Payloads.triggered", "R.start"));
+    }
+    let report = builder
+        .build()
+        .map_err(|e| e.to_string())?
+        .run(Some(Duration::from_secs(secs)))
+        .map_err(|e| e.to_string())?;
+    let mut late = Vec::new();
+    let mut last: Option<u64> = None;
+    let mut payloads = 0;
+    for r in &report.trace {
+        match &r.entry {
+            Entry::Log {
+                plugin, message, ..
+            } if &**plugin == "Sleeper" && message.starts_with("count") => {
+                if let Some(before) = last {
+                    let t = r.t.saturating_sub(before + PERIOD_MS * 1_000_000);
+                    late.push(t as f64 / 1e3);
+                }
+                last = Some(r.t);
+            }
+            Entry::Signal { plugin, .. } if &**plugin == "Payloads" => payloads += 1,
+            Entry::Fault { plugin, error, .. } => {
+                return Err(format!("{plugin} faulted: {error}"));
+            }
+            _ => {}
+        }
+    }
+    Ok((late, payloads))
+}
+
+fn percentile(sorted: &[f64], p: f64) -> f64 {
+    sorted[((sorted.len() - 1) as f64 * p).round() as usize]
+}
+
+fn main() {
+    let secs: u64 = std::env::var("RADAR_PAYLOAD_SECS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(5);
+    println!("sleeper lateness (µs) beside a payload every {PERIOD_MS} ms, {secs} s each, trace file + timeline on");
+    let mut baseline = None;
+    for bytes in [0usize, 64 << 10, 256 << 10, 1 << 20, 4 << 20] {
+        match lateness(secs, bytes) {
+            Ok((mut late, payloads)) if !late.is_empty() => {
+                late.sort_by(f64::total_cmp);
+                let p99 = percentile(&late, 0.99);
+                let base = *baseline.get_or_insert(p99);
+                println!(
+                    "  {:>8} bytes: {payloads:>4} payloads; p50 {:>8.1}  p99 {:>8.1}  max {:>8.1}  (p99 {:.1}x no payloads)",
+                    bytes,
+                    percentile(&late, 0.5),
+                    p99,
+                    late[late.len() - 1],
+                    p99 / base.max(1.0)
+                );
+            }
+            Ok(_) => println!("  {bytes:>8} bytes: no samples"),
+            Err(e) => println!("  {bytes:>8} bytes: {e}"),
+        }
+    }
+}

@@ -1,0 +1,241 @@
+//! Stopping a guest call from outside it: a run stopped by the user, a run
+//! that makes no progress, a plugin blamed for a burst.
+//!
+//! The scheduler runs guest code on its own thread, so while a call
+//! computes, nothing else of the run moves: a check that spins with a huge
+//! fuel budget under the virtual clock would hold the run for good, and a
+//! Ctrl-C would find the scheduler unable to write the end of its trace.
+//! Every engine is made with epoch interruption, and one ticker thread
+//! advances every engine's epoch every [`TICK`]; each store's epoch
+//! callback ([`CallWatch::check`]) then decides, at most a tick late,
+//! whether the running call may go on:
+//!
+//! - the plugin has a fault waiting (a burst blamed on it, see
+//!   `scheduler`): the call traps with that cause;
+//! - the run is being stopped (a signal, a stall): the call traps, and the
+//!   scheduler ends the run with a `stopped` record saying why;
+//! - the run has made no progress (no scheduler step) for the stall
+//!   timeout while this call computes: the run is stopped as stalled,
+//!   naming the plugin and its call.
+//!
+//! None of this changes a run that is not stopped: the callback only
+//! decides whether to go on, so a virtual-clock run stays deterministic.
+
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, OnceLock};
+use std::time::{Duration, Instant};
+
+use wasmtime::{Engine, EngineWeak, UpdateDeadline};
+
+use crate::clock::StopFlag;
+
+/// How often every engine's epoch advances.
+pub(crate) const TICK: Duration = Duration::from_millis(50);
+
+/// The default stall timeout: how long a virtual-clock run may make no
+/// progress while one call computes.
+pub const DEFAULT_STALL_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// Why a run was stopped from outside its own course.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct Stopping {
+    /// `signal` (the user: SIGINT, SIGTERM), `stalled`.
+    pub reason: &'static str,
+    /// One line that says what happened.
+    pub message: String,
+}
+
+/// What a run's stores and its scheduler share to stop a call.
+#[derive(Debug, Default)]
+pub(crate) struct RunWatch {
+    /// Scheduler steps so far.
+    progress: AtomicU64,
+    stopping_now: AtomicBool,
+    stopping: Mutex<Option<Stopping>>,
+    /// How long the run may make no progress while a call computes
+    /// (`None`: forever).
+    stall_after: Option<Duration>,
+}
+
+impl RunWatch {
+    pub(crate) fn new(stall_after: Option<Duration>) -> Self {
+        Self {
+            stall_after,
+            ..Self::default()
+        }
+    }
+
+    /// The scheduler took a step.
+    pub(crate) fn step(&self) {
+        self.progress.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// Stops the run: the call running now traps at the next tick, and
+    /// the scheduler ends the run. The first reason given is kept.
+    pub(crate) fn stop(&self, stopping: Stopping) {
+        let mut kept = self.stopping.lock().unwrap_or_else(|e| e.into_inner());
+        if kept.is_none() {
+            *kept = Some(stopping);
+        }
+        self.stopping_now.store(true, Ordering::Release);
+    }
+
+    /// Why the run is being stopped, if it is.
+    pub(crate) fn stopping(&self) -> Option<Stopping> {
+        if !self.stopping_now.load(Ordering::Acquire) {
+            return None;
+        }
+        self.stopping
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clone()
+    }
+}
+
+/// The error a call ends with when the run is stopped around it: not the
+/// plugin's fault, and not recorded as one.
+#[derive(Debug, thiserror::Error)]
+#[error("the run was stopped during this call")]
+pub(crate) struct RunStopped;
+
+/// One store's view of its running call, for its epoch callback.
+pub(crate) struct CallWatch {
+    run: Arc<RunWatch>,
+    stop: Arc<StopFlag>,
+    plugin: Arc<str>,
+    /// The export being called, and at what scheduler time.
+    call: &'static str,
+    began_at: u64,
+    /// The run's progress when this call last saw it move, and when.
+    seen: u64,
+    since: Instant,
+}
+
+impl CallWatch {
+    pub(crate) fn new(run: Arc<RunWatch>, stop: Arc<StopFlag>, plugin: Arc<str>) -> Self {
+        Self {
+            run,
+            stop,
+            plugin,
+            call: "",
+            began_at: 0,
+            seen: 0,
+            since: Instant::now(),
+        }
+    }
+
+    /// A call of `export` begins at scheduler time `now`.
+    pub(crate) fn begin(&mut self, export: &'static str, now: u64) {
+        self.call = export;
+        self.began_at = now;
+        self.seen = self.run.progress.load(Ordering::Relaxed);
+        self.since = Instant::now();
+    }
+
+    /// Whether the call may go on (see the module docs).
+    pub(crate) fn check(&mut self, fuel_budget: u64) -> wasmtime::Result<UpdateDeadline> {
+        if let Some(cause) = self.stop.fault() {
+            return Err(wasmtime::Error::msg(cause));
+        }
+        if self.run.stopping().is_some() {
+            return Err(RunStopped.into());
+        }
+        let progress = self.run.progress.load(Ordering::Relaxed);
+        if progress != self.seen {
+            self.seen = progress;
+            self.since = Instant::now();
+        } else if let Some(after) = self.run.stall_after {
+            if self.since.elapsed() >= after {
+                self.run.stop(Stopping {
+                    reason: "stalled",
+                    message: format!(
+                        "no progress for {:.1} s of wall time: `{}`'s {} has computed since \
+                         {:.3} s without returning (its fuel budget, {fuel_budget}, is too \
+                         large to stop it soon); the run is stopped (--stall-timeout sets the time)",
+                        after.as_secs_f64(),
+                        self.plugin,
+                        self.call,
+                        self.began_at as f64 / 1e9,
+                    ),
+                });
+                return Err(RunStopped.into());
+            }
+        }
+        Ok(UpdateDeadline::Continue(1))
+    }
+}
+
+/// Engines whose epochs the ticker advances.
+static ENGINES: Mutex<Vec<EngineWeak>> = Mutex::new(Vec::new());
+static TICKER: OnceLock<()> = OnceLock::new();
+
+/// Has the ticker advance `engine`'s epoch every [`TICK`] for as long as
+/// the engine lives.
+pub(crate) fn watch_engine(engine: &Engine) {
+    ENGINES
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .push(engine.weak());
+    TICKER.get_or_init(|| {
+        // If the thread cannot start, calls are only bounded by fuel: runs
+        // still work, but cannot be stopped mid-call.
+        let _ = std::thread::Builder::new()
+            .name("radar-epoch".into())
+            .spawn(|| loop {
+                std::thread::sleep(TICK);
+                ENGINES
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .retain(|weak| match weak.upgrade() {
+                        Some(engine) => {
+                            engine.increment_epoch();
+                            true
+                        }
+                        None => false,
+                    });
+            });
+    });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_call_may_go_on_while_the_run_makes_progress_and_is_stopped_when_it_stalls() {
+        let run = Arc::new(RunWatch::new(Some(Duration::from_millis(30))));
+        let mut call = CallWatch::new(run.clone(), Arc::default(), "Spin".into());
+        call.begin("check", 10_000_000);
+        assert!(call.check(1).is_ok());
+        std::thread::sleep(Duration::from_millis(20));
+        run.step();
+        assert!(call.check(1).is_ok(), "progress was made");
+        std::thread::sleep(Duration::from_millis(40));
+        let Err(err) = call.check(1) else {
+            panic!("the call should have been stopped as stalled")
+        };
+        assert!(err.downcast_ref::<RunStopped>().is_some());
+        let stopping = run.stopping().expect("the run is stopping");
+        assert_eq!(stopping.reason, "stalled");
+        assert!(
+            stopping.message.contains("`Spin`'s check") && stopping.message.contains("0.010 s"),
+            "{}",
+            stopping.message
+        );
+    }
+
+    #[test]
+    fn the_first_reason_to_stop_is_kept() {
+        let run = RunWatch::new(None);
+        assert_eq!(run.stopping(), None);
+        run.stop(Stopping {
+            reason: "signal",
+            message: "SIGINT".into(),
+        });
+        run.stop(Stopping {
+            reason: "stalled",
+            message: "later".into(),
+        });
+        assert_eq!(run.stopping().map(|s| s.reason), Some("signal"));
+    }
+}

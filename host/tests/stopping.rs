@@ -1,0 +1,238 @@
+//! Stopping a run from outside its course (issue 18): Ctrl-C and SIGTERM,
+//! a virtual-clock run stuck in a call, and limits set in the manifest;
+//! the trace file holds the run up to its end, and says why it ended.
+
+use std::path::Path;
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
+
+use radar_fixtures::plugins;
+
+mod common;
+
+use common::{radar, text, write_manifest};
+
+/// Starts `radar` with `args`, its output captured.
+fn start(args: &[&str]) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_radar"))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the radar binary starts")
+}
+
+fn signal(child: &Child, name: &str) {
+    let status = Command::new("kill")
+        .args([&format!("-{name}"), &child.id().to_string()])
+        .status()
+        .expect("kill runs");
+    assert!(status.success());
+}
+
+/// Waits for `child` to end, at most `limit`; its status and stderr.
+fn wait(mut child: Child, limit: Duration) -> (ExitStatus, String) {
+    let began = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().expect("waitable") {
+            let out = child.wait_with_output().expect("output");
+            return (status, text(&out.stderr));
+        }
+        if began.elapsed() > limit {
+            let _ = child.kill();
+            panic!("radar did not end within {limit:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// The trace file's records, checked against the laws.
+fn trace(path: &Path) -> Vec<serde_json::Value> {
+    let text = std::fs::read_to_string(path).expect("trace written");
+    let records = radar::trace::parse_json_lines(&text).expect("every line is a record");
+    let violations = radar::trace::check(&records);
+    assert!(
+        violations.is_empty(),
+        "{}",
+        radar::trace::explain(&records, &violations, 5)
+    );
+    radar::trace::to_values(&records)
+}
+
+fn pair_manifest(dir: &Path, extra: &str) -> String {
+    write_manifest(
+        dir,
+        &format!(
+            "[plugins.E]\nwasm = \"builtin:test-event\"\n[plugins.R]\nwasm = \"builtin:test-response\"\n\
+             {extra}\n[[connect]]\nmode = \"whenever\"\nfrom = \"E.triggered\"\nto = \"R.start\"\n"
+        ),
+    )
+}
+
+#[test]
+fn ctrl_c_ends_a_real_run_with_its_trace_written_and_saying_so() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let manifest = pair_manifest(dir.path(), "");
+    let trace_path = dir.path().join("t.jsonl");
+    let child = start(&[
+        "run",
+        &manifest,
+        "--clock",
+        "real",
+        "--for",
+        "60s",
+        "-q",
+        "--trace",
+        trace_path.to_str().expect("utf-8"),
+    ]);
+    std::thread::sleep(Duration::from_millis(1500));
+    let during = std::fs::read_to_string(&trace_path).unwrap_or_default();
+    assert!(
+        during.contains(r#""kind":"activate""#),
+        "the trace file is written as the run goes: {during:?}"
+    );
+    let asked = Instant::now();
+    signal(&child, "INT");
+    let (status, stderr) = wait(child, Duration::from_secs(20));
+    assert!(
+        asked.elapsed() < Duration::from_secs(5),
+        "{:?}",
+        asked.elapsed()
+    );
+    assert_eq!(status.code(), Some(130), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "one line: {stderr}");
+    assert!(stderr.contains("stopped by the user"), "{stderr}");
+    let records = trace(&trace_path);
+    let last = records.last().expect("records");
+    assert_eq!(
+        (&last["kind"], &last["reason"]),
+        (&"stopped".into(), &"signal".into())
+    );
+}
+
+fn spin_manifest(dir: &Path) -> String {
+    write_manifest(
+        dir,
+        &format!(
+            "[plugins.Spin]\nwasm = \"{}\"\nfuel = 9000000000000000000\n\
+             [plugins.R]\nwasm = \"builtin:test-response\"\n\n\
+             [[connect]]\nmode = \"whenever\"\nfrom = \"Spin.triggered\"\nto = \"R.exit\"\n",
+            plugins::SPIN_EVENT
+        ),
+    )
+}
+
+#[test]
+fn a_virtual_run_stuck_in_a_call_is_stopped_naming_the_plugin_and_its_call() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let manifest = spin_manifest(dir.path());
+    let trace_path = dir.path().join("t.jsonl");
+    let began = Instant::now();
+    let out = radar(&[
+        "run",
+        &manifest,
+        "--for",
+        "10s",
+        "-q",
+        "--stall-timeout",
+        "1s",
+        "--trace",
+        trace_path.to_str().expect("utf-8"),
+    ]);
+    assert!(began.elapsed() < Duration::from_secs(30));
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = text(&out.stderr);
+    assert_eq!(stderr.lines().count(), 1, "one line: {stderr}");
+    assert!(
+        stderr.contains("(stalled)") && stderr.contains("`Spin`'s check"),
+        "{stderr}"
+    );
+    let records = trace(&trace_path);
+    let last = records.last().expect("records");
+    assert_eq!(
+        (&last["kind"], &last["reason"]),
+        (&"stopped".into(), &"stalled".into())
+    );
+}
+
+#[test]
+fn sigterm_ends_a_virtual_run_stuck_in_a_call_when_no_stall_timeout_would() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let manifest = spin_manifest(dir.path());
+    let trace_path = dir.path().join("t.jsonl");
+    let child = start(&[
+        "run",
+        &manifest,
+        "--for",
+        "10s",
+        "-q",
+        "--stall-timeout",
+        "0",
+        "--trace",
+        trace_path.to_str().expect("utf-8"),
+    ]);
+    std::thread::sleep(Duration::from_millis(1500));
+    signal(&child, "TERM");
+    let (status, stderr) = wait(child, Duration::from_secs(20));
+    assert_eq!(status.code(), Some(130), "{stderr}");
+    let records = trace(&trace_path);
+    let last = records.last().expect("records");
+    assert_eq!(
+        (&last["kind"], &last["reason"]),
+        (&"stopped".into(), &"signal".into())
+    );
+    assert!(
+        records.iter().all(|r| r["kind"] != "fault"),
+        "the call that was stopped is not held against its plugin"
+    );
+}
+
+#[test]
+fn the_manifest_sets_the_systems_memory_budget_and_each_plugins_limits() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let trace_path = dir.path().join("t.jsonl");
+    let run = |manifest: &str| {
+        let out = radar(&[
+            "run",
+            manifest,
+            "--for",
+            "6s",
+            "-q",
+            "--trace",
+            trace_path.to_str().expect("utf-8"),
+        ]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        trace(&trace_path)
+    };
+    // A budget too small for any plugin's memory: each faults naming it.
+    let records = run(&pair_manifest(dir.path(), "[limits]\nmemory = \"64KiB\"\n"));
+    let faults: Vec<&str> = records
+        .iter()
+        .filter(|r| r["kind"] == "fault")
+        .map(|r| r["error"].as_str().unwrap_or_default())
+        .collect();
+    assert_eq!(faults.len(), 2, "{faults:?}");
+    assert!(
+        faults.iter().all(|f| f.contains("memory budget")),
+        "{faults:?}"
+    );
+    // A log budget of 10 bytes a call: R's lines are cut, and it says so.
+    let manifest = write_manifest(
+        dir.path(),
+        "[plugins.E]\nwasm = \"builtin:test-event\"\n[plugins.R]\nwasm = \"builtin:test-response\"\n\
+         log_bytes = 10\n\n[[connect]]\nmode = \"whenever\"\nfrom = \"E.triggered\"\nto = \"R.start\"\n",
+    );
+    let records = run(&manifest);
+    let logs: Vec<&str> = records
+        .iter()
+        .filter(|r| r["kind"] == "log" && r["plugin"] == "R")
+        .map(|r| r["message"].as_str().unwrap_or_default())
+        .collect();
+    assert!(logs.iter().any(|l| l.contains("log_bytes")), "{logs:?}");
+    assert!(
+        logs.iter()
+            .filter(|l| !l.contains("log_bytes"))
+            .all(|l| l.len() <= 10),
+        "{logs:?}"
+    );
+}
