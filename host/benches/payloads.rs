@@ -1,9 +1,10 @@
 //! Large payloads under the real clock (issue 18): how late a well-behaved
 //! sleeper's 10 ms sleeps end while another plugin emits a payload of N
-//! bytes every 10 ms, with the trace written to a file and the timeline
-//! rendered (to a sink). Each payload is lifted from the emitter's memory
-//! and its trace record cut to its size (over 64 KiB): what is left is
-//! the cost the sleeper can see.
+//! bytes every 10 ms to a response that takes it, with the trace written
+//! to a file and the timeline rendered (to a sink). Each payload is lifted
+//! from the emitter's memory, lowered into the receiver's, and its trace
+//! record cut to its size (over 64 KiB): that is the cost the sleeper can
+//! see.
 //!
 //! `cargo bench -p radar --bench payloads` (`RADAR_PAYLOAD_SECS` sets each
 //! run's length, default 5). Prints the sleeper's lateness (p50, p99, max)
@@ -48,7 +49,10 @@ fn lateness(secs: u64, bytes: usize) -> Result<(Vec<f64>, usize), String> {
                         ..Limits::default()
                     }),
             )
-            .plugin(Plugin::file("R", plugins::BENCH_RESPONSE))
+            .plugin(Plugin::file("R", plugins::BYTES_RESPONSE).limits(Limits {
+                payload_bytes: bytes + 64,
+                ..Limits::default()
+            }))
             .connect(Link::whenever("Payloads.triggered", "R.start"));
     }
     let report = builder
@@ -91,7 +95,7 @@ fn main() {
         .unwrap_or(5);
     println!("sleeper lateness (µs) beside a payload every {PERIOD_MS} ms, {secs} s each, trace file + timeline on");
     let mut baseline = None;
-    for bytes in [0usize, 64 << 10, 256 << 10, 1 << 20, 4 << 20] {
+    for bytes in [0usize, 16 << 10, 64 << 10, 256 << 10, 1 << 20] {
         match lateness(secs, bytes) {
             Ok((mut late, payloads)) if !late.is_empty() => {
                 late.sort_by(f64::total_cmp);

@@ -64,7 +64,12 @@ pub struct Limits {
     pub log_bytes: usize,
     /// Bytes one payload the plugin emits may take (a signal's payload,
     /// `check`'s or `start`'s result, a blackboard write), counted as in
-    /// the plugin's memory: a larger one faults the plugin.
+    /// the plugin's memory: a larger one faults the plugin. Payloads cross
+    /// as dynamic values, which costs the scheduler's thread time in
+    /// proportion to their size (`benches/payloads.rs`: about 45 ms a MiB
+    /// emitted and delivered on a 2-core machine), so the default, 256 KiB,
+    /// keeps what one payload can delay other plugins to a few
+    /// milliseconds; raise it for images and point clouds, knowing that.
     pub payload_bytes: usize,
     /// Fuel between two forced yields, so that compute-bound guests share the
     /// scheduler's thread fairly under the real clock. Under the virtual
@@ -84,7 +89,7 @@ impl Default for Limits {
             tables: 64,
             instances: 128,
             log_bytes: 1 << 20,
-            payload_bytes: 1 << 20,
+            payload_bytes: 256 << 10,
             fuel_yield_interval: 10_000,
         }
     }
@@ -348,6 +353,17 @@ pub(crate) fn describe_fault(err: &wasmtime::Error) -> String {
         Some(_) => format!("trapped: {}", text.trim_start_matches("wasm trap: ")),
         None => text,
     };
+    // wasmtime's counts of what a store may define (see `crate::limiter`):
+    // which limit, and its manifest key.
+    for (count, key) in [
+        ("memory count", "memories"),
+        ("table count", "tables"),
+        ("instance count", "instances"),
+    ] {
+        if text.contains(&format!("resource limit exceeded: {count} too high")) {
+            return format!("{text}: more than its limit (`{key}` in its manifest table)");
+        }
+    }
     // wasmtime's own bound on what one value may take in the host as it
     // is lifted (see `PluginCode::instantiate`).
     if text.contains("fuel allocated for hostcalls has been exhausted") {

@@ -106,9 +106,11 @@ pub(crate) struct CallWatch {
     /// The export being called, and at what scheduler time.
     call: &'static str,
     began_at: u64,
-    /// The run's progress when this call last saw it move, and when.
+    /// The run's progress when this call last saw it move, and when (set
+    /// at the first tick that sees it: no clock is read on the way into a
+    /// call).
     seen: u64,
-    since: Instant,
+    since: Option<Instant>,
 }
 
 impl CallWatch {
@@ -120,7 +122,7 @@ impl CallWatch {
             call: "",
             began_at: 0,
             seen: 0,
-            since: Instant::now(),
+            since: None,
         }
     }
 
@@ -129,7 +131,7 @@ impl CallWatch {
         self.call = export;
         self.began_at = now;
         self.seen = self.run.progress.load(Ordering::Relaxed);
-        self.since = Instant::now();
+        self.since = None;
     }
 
     /// Whether the call may go on (see the module docs).
@@ -141,11 +143,11 @@ impl CallWatch {
             return Err(RunStopped.into());
         }
         let progress = self.run.progress.load(Ordering::Relaxed);
-        if progress != self.seen {
+        if progress != self.seen || self.since.is_none() {
             self.seen = progress;
-            self.since = Instant::now();
-        } else if let Some(after) = self.run.stall_after {
-            if self.since.elapsed() >= after {
+            self.since = Some(Instant::now());
+        } else if let (Some(after), Some(since)) = (self.run.stall_after, self.since) {
+            if since.elapsed() >= after {
                 self.run.stop(Stopping {
                     reason: "stalled",
                     message: format!(
@@ -206,7 +208,7 @@ mod tests {
         let run = Arc::new(RunWatch::new(Some(Duration::from_millis(30))));
         let mut call = CallWatch::new(run.clone(), Arc::default(), "Spin".into());
         call.begin("check", 10_000_000);
-        assert!(call.check(1).is_ok());
+        assert!(call.check(1).is_ok(), "the first tick starts the count");
         std::thread::sleep(Duration::from_millis(20));
         run.step();
         assert!(call.check(1).is_ok(), "progress was made");

@@ -303,7 +303,11 @@ fn memory_bytes_counts_all_of_a_plugins_memories_together() {
     );
     let counted = self::faults(&report, "Forty");
     assert_eq!(counted.len(), 1, "{counted:?}");
-    assert!(counted[0].contains("memory"), "{}", counted[0]);
+    assert!(
+        counted[0].contains("memory count") && counted[0].contains("`memories`"),
+        "{}",
+        counted[0]
+    );
     // Each limit can be raised for the plugin that needs it.
     let limits = Limits {
         memories: 64,

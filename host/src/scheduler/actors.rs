@@ -144,9 +144,13 @@ pub(super) fn slot_end(core: &Core, pid: usize, slot: Slot, outcome: &'static st
     });
 }
 
-/// A slot's call trapped: the slot ends `trapped` and the plugin faults.
+/// A slot's call trapped: the slot ends `trapped` and the plugin faults
+/// (unless the call was ended because the run is being stopped: then
+/// nothing is recorded, and the run ends).
 fn trapped(core: &Core, pid: usize, slot: Slot, fault: Fault) {
-    slot_end(core, pid, slot, "trapped");
+    if !fault.run_stopped {
+        slot_end(core, pid, slot, "trapped");
+    }
     core.with(|st| st.fault(pid, fault));
 }
 
