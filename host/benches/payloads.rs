@@ -3,7 +3,7 @@
 //! bytes every 10 ms to a response that takes it, with the trace written
 //! to a file and the timeline rendered (to a sink). Each payload is lifted
 //! from the emitter's memory, lowered into the receiver's, and its trace
-//! record cut to its size (over 64 KiB): that is the cost the sleeper can
+//! record cut to its size (over 16 KiB): that is the cost the sleeper can
 //! see.
 //!
 //! `cargo bench -p radar --bench payloads` (`RADAR_PAYLOAD_SECS` sets each
@@ -13,14 +13,65 @@
 
 use std::fs::File;
 use std::io::BufWriter;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use radar::timeline::Timeline;
-use radar::trace::{Entry, JsonLines};
-use radar::{ClockKind, Limits, Link, Plugin, System};
+use radar::trace::{Entry, JsonLines, Record, TraceSink};
+use radar::{ClockKind, Limits, Link, Plugin, System, SystemBuilder};
 use radar_fixtures::plugins;
 
 const PERIOD_MS: u64 = 10;
+
+/// What a run measured: the sleeper's lateness (µs) and how many payloads
+/// were emitted. A trace sink, so that no record is kept.
+#[derive(Clone, Default)]
+struct Measured(Arc<Mutex<Sample>>);
+
+#[derive(Default)]
+struct Sample {
+    late: Vec<f64>,
+    payloads: usize,
+    last: Option<u64>,
+    fault: Option<String>,
+}
+
+impl TraceSink for Measured {
+    fn record(&mut self, r: &Record) {
+        let mut m = self.0.lock().expect("not poisoned");
+        match &r.entry {
+            Entry::Log {
+                plugin, message, ..
+            } if &**plugin == "Sleeper" && message.starts_with("count") => {
+                if let Some(before) = m.last {
+                    let t = r.t.saturating_sub(before + PERIOD_MS * 1_000_000);
+                    m.late.push(t as f64 / 1e3);
+                }
+                m.last = Some(r.t);
+            }
+            Entry::Signal { plugin, .. } if &**plugin == "Payloads" => m.payloads += 1,
+            Entry::Fault { plugin, error, .. } => {
+                m.fault
+                    .get_or_insert_with(|| format!("{plugin} faulted: {error}"));
+            }
+            _ => {}
+        }
+    }
+}
+
+impl Measured {
+    fn attach(&self, builder: SystemBuilder) -> SystemBuilder {
+        builder.keep_trace(false).trace_to(self.clone())
+    }
+
+    fn take(&self) -> Result<(Vec<f64>, usize), String> {
+        let mut m = self.0.lock().expect("not poisoned");
+        match m.fault.take() {
+            Some(fault) => Err(fault),
+            None => Ok((std::mem::take(&mut m.late), m.payloads)),
+        }
+    }
+}
 
 /// The sleeper's lateness, in µs, beside `bytes`-byte payloads every 10 ms
 /// (none if 0).
@@ -55,33 +106,46 @@ fn lateness(secs: u64, bytes: usize) -> Result<(Vec<f64>, usize), String> {
             }))
             .connect(Link::whenever("Payloads.triggered", "R.start"));
     }
-    let report = builder
+    let measured = Measured::default();
+    measured
+        .attach(builder)
         .build()
         .map_err(|e| e.to_string())?
         .run(Some(Duration::from_secs(secs)))
         .map_err(|e| e.to_string())?;
-    let mut late = Vec::new();
-    let mut last: Option<u64> = None;
-    let mut payloads = 0;
-    for r in &report.trace {
-        match &r.entry {
-            Entry::Log {
-                plugin, message, ..
-            } if &**plugin == "Sleeper" && message.starts_with("count") => {
-                if let Some(before) = last {
-                    let t = r.t.saturating_sub(before + PERIOD_MS * 1_000_000);
-                    late.push(t as f64 / 1e3);
-                }
-                last = Some(r.t);
-            }
-            Entry::Signal { plugin, .. } if &**plugin == "Payloads" => payloads += 1,
-            Entry::Fault { plugin, error, .. } => {
-                return Err(format!("{plugin} faulted: {error}"));
-            }
-            _ => {}
-        }
-    }
-    Ok((late, payloads))
+    measured.take()
+}
+
+/// The sleeper's lateness, in µs, beside a plugin that emits `bytes`-byte
+/// payloads back to back in one call, to a response that takes them.
+fn flood_lateness(secs: u64, bytes: usize) -> Result<(Vec<f64>, usize), String> {
+    let builder = System::builder()
+        .clock(ClockKind::Real)
+        .trace_to(Timeline::new(std::io::sink()))
+        .plugin(
+            Plugin::file("Sleeper", plugins::TEST_RESPONSE)
+                .config("interval_s", PERIOD_MS as f64 / 1e3)
+                .config("count_for_s", secs as f64),
+        )
+        .inject_at(Duration::ZERO, "Sleeper.start", serde_json::json!(0))
+        .plugin(
+            Plugin::file("Payloads", plugins::HOSTILE_EVENT)
+                .config("mode", "flood")
+                .config("bytes", bytes)
+                .config("count", 1_000_000)
+                .period(Duration::from_secs(3600)),
+        )
+        .plugin(Plugin::file("R", plugins::BYTES_RESPONSE))
+        .connect(Link::whenever("Payloads.chunk", "R.start"))
+        .connect(Link::whenever("Payloads.triggered", "R.exit"));
+    let measured = Measured::default();
+    measured
+        .attach(builder)
+        .build()
+        .map_err(|e| e.to_string())?
+        .run(Some(Duration::from_secs(secs)))
+        .map_err(|e| e.to_string())?;
+    measured.take()
 }
 
 fn percentile(sorted: &[f64], p: f64) -> f64 {
@@ -108,6 +172,25 @@ fn main() {
                     p99,
                     late[late.len() - 1],
                     p99 / base.max(1.0)
+                );
+            }
+            Ok(_) => println!("  {bytes:>8} bytes: no samples"),
+            Err(e) => println!("  {bytes:>8} bytes: {e}"),
+        }
+    }
+    println!("the same, beside a plugin emitting payloads back to back in one call (timeline on)");
+    for bytes in [16usize << 10, 256 << 10] {
+        match flood_lateness(secs, bytes) {
+            Ok((mut late, payloads)) if !late.is_empty() => {
+                late.sort_by(f64::total_cmp);
+                let p99 = percentile(&late, 0.99);
+                println!(
+                    "  {:>8} bytes: {payloads:>5} payloads; p50 {:>8.1}  p99 {:>8.1}  max {:>8.1}  (p99 {:.1}x no payloads)",
+                    bytes,
+                    percentile(&late, 0.5),
+                    p99,
+                    late[late.len() - 1],
+                    p99 / baseline.unwrap_or(p99).max(1.0)
                 );
             }
             Ok(_) => println!("  {bytes:>8} bytes: no samples"),

@@ -68,9 +68,11 @@ impl MemoryBudget {
     }
 
     /// The default: 80 % of the memory the machine has available now
-    /// (`MemAvailable` of `/proc/meminfo`), leaving the rest to the host
-    /// itself (traces, payloads in flight) and to other processes; where
-    /// that cannot be read, no budget beyond each plugin's own limits.
+    /// (`MemAvailable` of `/proc/meminfo`, or what the process's control
+    /// groups still allow, if less: a container's limit), leaving the rest
+    /// to the host itself (traces, payloads in flight) and to other
+    /// processes; where none of that can be read, no budget beyond each
+    /// plugin's own limits.
     pub fn from_machine() -> Self {
         match available_memory() {
             Some(available) => Self {
@@ -120,12 +122,53 @@ impl MemoryBudget {
     }
 }
 
-/// `MemAvailable` of `/proc/meminfo`, in bytes.
+/// The memory this process could still take, in bytes: `MemAvailable` of
+/// `/proc/meminfo`, or less if a control group it is in (a container, a
+/// systemd slice) allows less.
 fn available_memory() -> Option<usize> {
     let info = std::fs::read_to_string("/proc/meminfo").ok()?;
     let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
     let kib: usize = line.split_whitespace().nth(1)?.parse().ok()?;
-    kib.checked_mul(1024)
+    let machine = kib.checked_mul(1024)?;
+    Some(cgroup_room().map_or(machine, |room| room.min(machine)))
+}
+
+/// What the process's memory control groups still allow (limit less
+/// usage, the least of it over the group and its parents), for cgroup v2
+/// and v1; `None` if no limit is set or none can be read.
+fn cgroup_room() -> Option<usize> {
+    let groups = std::fs::read_to_string("/proc/self/cgroup").ok()?;
+    let read = |path: &std::path::Path| -> Option<usize> {
+        std::fs::read_to_string(path).ok()?.trim().parse().ok()
+    };
+    let mut room: Option<usize> = None;
+    for line in groups.lines() {
+        let mut parts = line.splitn(3, ':');
+        let (_, controllers, path) = (parts.next()?, parts.next()?, parts.next()?);
+        let (root, limit, usage) = match controllers {
+            "" => ("/sys/fs/cgroup", "memory.max", "memory.current"),
+            c if c.split(',').any(|c| c == "memory") => (
+                "/sys/fs/cgroup/memory",
+                "memory.limit_in_bytes",
+                "memory.usage_in_bytes",
+            ),
+            _ => continue,
+        };
+        let mut dir = std::path::PathBuf::from(root).join(path.trim_start_matches('/'));
+        loop {
+            // "max" (v2) does not parse, and v1's "no limit" is near 2^63.
+            if let (Some(limit), Some(usage)) = (read(&dir.join(limit)), read(&dir.join(usage))) {
+                if limit < 1 << 60 {
+                    let left = limit.saturating_sub(usage);
+                    room = Some(room.map_or(left, |r| r.min(left)));
+                }
+            }
+            if dir.as_os_str().len() <= root.len() || !dir.pop() {
+                break;
+            }
+        }
+    }
+    room
 }
 
 /// The resource limiter of one plugin store: see the module docs.

@@ -313,9 +313,9 @@ fn float(json: &Json) -> Option<f64> {
 }
 
 /// The bytes `val` takes, counted as in a plugin's memory (the canonical
-/// ABI's sizes, strings and lists with their contents), or `Err` with the
-/// count so far as soon as it passes `limit`: a payload too large is
-/// refused without being walked to its end.
+/// ABI's sizes; strings and lists by their contents, so that 256 KiB of
+/// bytes is 262,144), or `Err` with the count so far as soon as it passes
+/// `limit`: a payload too large is refused without being walked to its end.
 pub(crate) fn check_size(val: &Val, limit: usize) -> Result<usize, usize> {
     fn walk(val: &Val, total: &mut usize, limit: usize) -> Result<(), ()> {
         *total += match val {
@@ -323,10 +323,9 @@ pub(crate) fn check_size(val: &Val, limit: usize) -> Result<usize, usize> {
             Val::S16(_) | Val::U16(_) => 2,
             Val::S32(_) | Val::U32(_) | Val::Float32(_) | Val::Char(_) | Val::Enum(_) => 4,
             Val::S64(_) | Val::U64(_) | Val::Float64(_) => 8,
-            Val::String(s) => 8 + s.len(),
+            Val::String(s) => s.len(),
             Val::Flags(names) => 4 + names.len(),
             Val::List(items) | Val::FixedLengthList(items) => {
-                *total += 8;
                 for item in items {
                     walk(item, total, limit)?;
                 }
@@ -345,7 +344,6 @@ pub(crate) fn check_size(val: &Val, limit: usize) -> Result<usize, usize> {
                 0
             }
             Val::Map(pairs) => {
-                *total += 8;
                 for (k, v) in pairs {
                     walk(k, total, limit)?;
                     walk(v, total, limit)?;
@@ -380,17 +378,17 @@ pub(crate) fn check_size(val: &Val, limit: usize) -> Result<usize, usize> {
 }
 
 /// The most bytes of a payload a trace record shows: a larger one is
-/// recorded as `{"$cut": {"bytes": N}}`, N being at least its size, so that
-/// a trace (in memory, in a file, on a terminal) stays small and quick to
-/// write however large the payloads that flow.
-pub const TRACE_PAYLOAD_BYTES: usize = 64 << 10;
+/// recorded as `{"$cut": {"bytes": N}}`, N its size (as [`check_size`]
+/// counts it), so that a trace (in memory, in a file, on a terminal) stays
+/// small and quick to write however large the payloads that flow.
+pub const TRACE_PAYLOAD_BYTES: usize = 16 << 10;
 
 /// A value as a trace record shows it: [`val_to_json`], or for a payload
 /// over [`TRACE_PAYLOAD_BYTES`] a note of its size.
 pub(crate) fn trace_json(val: &Val) -> Json {
-    match check_size(val, TRACE_PAYLOAD_BYTES) {
-        Ok(_) => val_to_json(val),
-        Err(at_least) => json!({ "$cut": { "bytes": at_least } }),
+    match check_size(val, usize::MAX) {
+        Ok(size) if size <= TRACE_PAYLOAD_BYTES => val_to_json(val),
+        Ok(size) | Err(size) => json!({ "$cut": { "bytes": size } }),
     }
 }
 
@@ -590,12 +588,13 @@ mod tests {
     #[test]
     fn a_payloads_size_is_counted_as_in_memory_and_stops_past_the_limit() {
         let bytes = Val::List((0..100).map(Val::U8).collect());
-        assert_eq!(check_size(&bytes, 1_000), Ok(108));
+        assert_eq!(check_size(&bytes, 1_000), Ok(100));
+        assert_eq!(check_size(&bytes, 100), Ok(100));
         assert_eq!(check_size(&bytes, 50), Err(51));
-        let cut = trace_json(&Val::List(vec![Val::U8(0); TRACE_PAYLOAD_BYTES]));
-        assert!(cut["$cut"]["bytes"]
-            .as_u64()
-            .is_some_and(|b| b as usize > TRACE_PAYLOAD_BYTES));
+        let whole = trace_json(&Val::List(vec![Val::U8(0); TRACE_PAYLOAD_BYTES]));
+        assert!(whole.is_array(), "up to the bound a payload is shown whole");
+        let cut = trace_json(&Val::List(vec![Val::U8(0); TRACE_PAYLOAD_BYTES + 1]));
+        assert_eq!(cut, json!({"$cut": {"bytes": TRACE_PAYLOAD_BYTES + 1}}));
     }
 
     #[test]

@@ -202,11 +202,39 @@ pub(crate) struct PluginCtx {
     pub(crate) types: TypesState,
     /// The most bytes one payload the plugin emits may take.
     pub(crate) payload_bytes: usize,
+    /// Real clock: the host's work for the running call (its emissions and
+    /// writes) since it last gave the scheduler's thread to others.
+    host_work: usize,
     waits: WaitClock,
     watch: CallWatch,
     wasi: WasiCtx,
     table: ResourceTable,
     limits: StoreLimiter,
+}
+
+/// Real clock: how much host work (bytes of payload, plus
+/// [`HOST_WORK_PER_CALL`] a call) a plugin's call may cause between two
+/// turns of the others. Fuel yields alone would not do: a loop of
+/// emissions burns little fuel and much host time.
+const HOST_WORK_SLICE: usize = 64 << 10;
+const HOST_WORK_PER_CALL: usize = 1 << 10;
+
+impl PluginCtx {
+    /// Counts host work done for the running call (`bytes` of payload):
+    /// whether the call should now let the other tasks run (real clock
+    /// only: under the virtual clock a call is never cut, so that a run's
+    /// order does not depend on what its calls cost).
+    pub(crate) fn host_work(&mut self, bytes: usize) -> bool {
+        if self.clock.base.kind() != ClockKind::Real {
+            return false;
+        }
+        self.host_work += bytes + HOST_WORK_PER_CALL;
+        if self.host_work < HOST_WORK_SLICE {
+            return false;
+        }
+        self.host_work = 0;
+        true
+    }
 }
 
 impl RadarWasiView for PluginCtx {
@@ -220,6 +248,10 @@ impl RadarWasiView for PluginCtx {
 
     fn pending_compute(store: &StoreContextMut<'_, Self>) -> u64 {
         crate::capability::clock::pending_compute(store).1
+    }
+
+    fn pending_fault(&self) -> Option<String> {
+        self.clock.stop.fault()
     }
 }
 
@@ -433,6 +465,7 @@ impl PluginCode {
             },
             types: TypesState,
             payload_bytes: setup.limits.payload_bytes,
+            host_work: 0,
             wasi: wasi.build(),
             table,
             limits: StoreLimiter::new(setup.limits.growth(), setup.budget),
@@ -443,11 +476,14 @@ impl PluginCode {
         // counted by wasmtime as it is lifted, before it is allocated: so a
         // payload over `payload_bytes` (each of its bytes at most one `Val`)
         // never gets to take the host's memory.
+        // (At least 1 MiB: WASI's own calls, file writes and the like, pass
+        // through the same bound.)
         store.set_hostcall_fuel(
             setup
                 .limits
                 .payload_bytes
-                .saturating_mul(std::mem::size_of::<Val>()),
+                .saturating_mul(std::mem::size_of::<Val>())
+                .max(1 << 20),
         );
         let fuel_budget = setup.limits.fuel_per_call;
         store.epoch_deadline_callback(move |mut ctx| ctx.data_mut().watch.check(fuel_budget));
@@ -548,7 +584,8 @@ impl PluginInstance {
                 // The store may be inconsistent: the plugin faults, and its
                 // next instance is a fresh one.
                 return Err(Fault::new(format!(
-                    "the host failed while serving its call of `{export}` at {:.3} s: {}                      (a bug of Radar's: please report it)",
+                    "the host failed while serving its call of `{export}` at {:.3} s: {} \
+                     (a bug of Radar's: please report it)",
                     now as f64 / 1e9,
                     crate::panics::message(&*panic).replace('\n', " ")
                 )));

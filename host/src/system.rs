@@ -537,11 +537,13 @@ impl SystemBuilder {
         self
     }
 
-    /// How long a run may make no progress, in wall-clock time, while one
-    /// plugin call computes (a check spinning under a huge fuel budget,
-    /// under the virtual clock) before the run is stopped, naming the
-    /// plugin and its call (default [`crate::DEFAULT_STALL_TIMEOUT`];
-    /// `None`: never).
+    /// Under the virtual clock, how long a run may make no progress, in
+    /// wall-clock time, while one plugin call (or the deliberative
+    /// program) computes, such as a check spinning under a huge fuel
+    /// budget, before the run is stopped, naming the plugin and its call
+    /// (default [`crate::DEFAULT_STALL_TIMEOUT`]; `None`: never). Under the
+    /// real clock time passes while a call computes, and nothing is
+    /// stopped.
     pub fn stall_timeout(mut self, timeout: Option<Duration>) -> Self {
         self.stall_timeout = timeout;
         self
@@ -635,7 +637,12 @@ impl SystemBuilder {
         });
         Ok(System {
             budget,
-            watch: Arc::new(RunWatch::new(self.stall_timeout)),
+            // Under the real clock time passes while a call computes: a long
+            // computation is the plugin's business (and its fuel's).
+            watch: Arc::new(RunWatch::new(
+                self.stall_timeout
+                    .filter(|_| self.clock == ClockKind::Virtual),
+            )),
             loader: Arc::new(Mutex::new(loader)),
             setups: SharedSetups::default(),
             id: NEXT_SYSTEM.fetch_add(1, Ordering::Relaxed),

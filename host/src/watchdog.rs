@@ -14,9 +14,10 @@
 //!   `scheduler`): the call traps with that cause;
 //! - the run is being stopped (a signal, a stall): the call traps, and the
 //!   scheduler ends the run with a `stopped` record saying why;
-//! - the run has made no progress (no scheduler step) for the stall
-//!   timeout while this call computes: the run is stopped as stalled,
-//!   naming the plugin and its call.
+//! - the run has made no progress (no scheduler step, no emission, no
+//!   record) for the stall timeout while this call computes: the run is
+//!   stopped as stalled, naming the plugin and its call (under the virtual
+//!   clock only: under the real clock time passes while a call computes).
 //!
 //! None of this changes a run that is not stopped: the callback only
 //! decides whether to go on, so a virtual-clock run stays deterministic.
@@ -65,7 +66,8 @@ impl RunWatch {
         }
     }
 
-    /// The scheduler took a step.
+    /// The run made progress: the scheduler took a step, a plugin emitted,
+    /// something was recorded.
     pub(crate) fn step(&self) {
         self.progress.fetch_add(1, Ordering::Relaxed);
     }

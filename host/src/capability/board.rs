@@ -122,23 +122,42 @@ pub(crate) fn link(linker: &mut Linker<PluginCtx>, declared: &Declared) -> wasmt
         match port.access {
             Access::Read => {
                 instance.func_new(&port.function, move |store, _ty, _params, results| {
+                    if let Some(cause) = store.data().clock.stop.fault() {
+                        return Err(wasmtime::Error::msg(cause));
+                    }
                     let plugin = store.data().log.name.clone();
                     let value = board_read_from_plugin(&plugin, &entry)?;
                     results[0] = Val::Option(value.map(Box::new));
                     Ok(())
                 })?
             }
-            Access::Write => {
-                instance.func_new(&port.function, move |store, _ty, params, _results| {
-                    let data = store.data();
-                    check_size(&params[0], data.payload_bytes).map_err(|size| {
-                        let what = format!("write of entry `{entry}`");
-                        wasmtime::Error::msg(too_large(&what, "value", size, data.payload_bytes))
-                    })?;
-                    let plugin = data.log.name.clone();
-                    board_write_from_plugin(&plugin, &entry, params[0].clone())
-                })?
-            }
+            Access::Write => instance.func_new_async(
+                &port.function,
+                move |mut store, _ty, params, _results| {
+                    let entry = entry.clone();
+                    Box::new(async move {
+                        let data = store.data();
+                        if let Some(cause) = data.clock.stop.fault() {
+                            return Err(wasmtime::Error::msg(cause));
+                        }
+                        let bytes = check_size(&params[0], data.payload_bytes).map_err(|size| {
+                            let what = format!("write of entry `{entry}`");
+                            wasmtime::Error::msg(too_large(
+                                &what,
+                                "value",
+                                size,
+                                data.payload_bytes,
+                            ))
+                        })?;
+                        let plugin = data.log.name.clone();
+                        board_write_from_plugin(&plugin, &entry, params[0].clone())?;
+                        if store.data_mut().host_work(bytes) {
+                            crate::executor::yield_now().await;
+                        }
+                        Ok(())
+                    })
+                },
+            )?,
         }
     }
     Ok(())

@@ -92,16 +92,23 @@ pub(crate) fn link(
     let mut instance = linker.instance(import)?;
     for (name, _) in signals {
         let signal = SignalName::intern(name);
-        instance.func_new(name, move |store, _type, params, _results| {
-            let data = store.data();
-            if let Some(payload) = params.first() {
-                check_size(payload, data.payload_bytes).map_err(|size| {
-                    let what = format!("signal `{}`", signal.as_str());
-                    wasmtime::Error::msg(too_large(&what, "payload", size, data.payload_bytes))
-                })?;
-            }
-            let plugin = data.log.name.clone();
-            emit_from_plugin(&plugin, signal, params.first().cloned())
+        instance.func_new_async(name, move |mut store, _type, params, _results| {
+            Box::new(async move {
+                let data = store.data();
+                let bytes = match params.first() {
+                    Some(payload) => check_size(payload, data.payload_bytes).map_err(|size| {
+                        let what = format!("signal `{}`", signal.as_str());
+                        wasmtime::Error::msg(too_large(&what, "payload", size, data.payload_bytes))
+                    })?,
+                    None => 0,
+                };
+                let plugin = data.log.name.clone();
+                emit_from_plugin(&plugin, signal, params.first().cloned())?;
+                if store.data_mut().host_work(bytes) {
+                    crate::executor::yield_now().await;
+                }
+                Ok(())
+            })
         })?;
     }
     Ok(())

@@ -28,6 +28,9 @@
 //! - `symlink-at`: a link a plugin makes must point down, into its own
 //!   directory (relative, no `..`): so no link it leaves behind leads out
 //!   of the directories it was granted, wherever it is moved.
+//! - `wasi:io/poll`'s `poll` and `pollable.block`: as `wasmtime_wasi`
+//!   serves them, but a plugin the scheduler has blamed for a burst traps
+//!   there (as at every other wait), at the same point on every run.
 //! - sockets are off (`WasiCtxBuilder::allow_tcp(false)` and `allow_udp`,
 //!   set where the context is built): Radar grants no network.
 
@@ -51,6 +54,7 @@ use crate::clock::{StopFlag, TimeBase};
 /// The interface names `wasmtime_wasi` 48 links WASI 0.2 under; a guest's
 /// import of any 0.2.x version resolves to them.
 const MONOTONIC_CLOCK: &str = "wasi:clocks/monotonic-clock@0.2.12";
+const POLL: &str = "wasi:io/poll@0.2.12";
 const FILESYSTEM_TYPES: &str = "wasi:filesystem/types@0.2.12";
 
 /// Where a store's WASI waits are served.
@@ -99,6 +103,11 @@ pub(crate) trait RadarWasiView: WasiView + Sized + 'static {
     fn pending_compute(_store: &StoreContextMut<'_, Self>) -> u64 {
         0
     }
+
+    /// A fault the scheduler has blamed on the plugin, waiting for it.
+    fn pending_fault(&self) -> Option<String> {
+        None
+    }
 }
 
 /// Links WASI 0.2 for a store of type `T`, with Radar's waits, file
@@ -106,7 +115,9 @@ pub(crate) trait RadarWasiView: WasiView + Sized + 'static {
 pub(crate) fn add_to_linker<T: RadarWasiView>(linker: &mut Linker<T>) -> wasmtime::Result<()> {
     wasmtime_wasi::p2::add_to_linker_async(linker)?;
     linker.allow_shadowing(true);
-    let linked = shadow_clock(linker).and_then(|()| shadow_filesystem(linker));
+    let linked = shadow_clock(linker)
+        .and_then(|()| shadow_poll(linker))
+        .and_then(|()| shadow_filesystem(linker));
     linker.allow_shadowing(false);
     linked
 }
@@ -167,6 +178,45 @@ impl Pollable for Deadline {
 }
 
 type Pinned<'a, R> = Box<dyn Future<Output = wasmtime::Result<R>> + Send + 'a>;
+
+/// Traps with the fault the plugin has been blamed for, if any.
+fn faulting<T: RadarWasiView>(store: &StoreContextMut<'_, T>) -> wasmtime::Result<()> {
+    match store.data().pending_fault() {
+        Some(cause) => Err(wasmtime::Error::msg(cause)),
+        None => Ok(()),
+    }
+}
+
+fn shadow_poll<T: RadarWasiView>(linker: &mut Linker<T>) -> wasmtime::Result<()> {
+    use wasmtime_wasi_io::bindings::wasi::io::poll::{Host, HostPollable};
+    let mut poll = linker.instance(POLL)?;
+    poll.func_wrap_async(
+        "poll",
+        |mut store: StoreContextMut<'_, T>,
+         (pollables,): (Vec<Resource<DynPollable>>,)|
+         -> Pinned<'_, (Vec<u32>,)> {
+            Box::new(async move {
+                faulting(&store)?;
+                let ready = Host::poll(store.data_mut().ctx().table, pollables).await?;
+                faulting(&store)?;
+                Ok((ready,))
+            })
+        },
+    )?;
+    poll.func_wrap_async(
+        "[method]pollable.block",
+        |mut store: StoreContextMut<'_, T>,
+         (pollable,): (Resource<DynPollable>,)|
+         -> Pinned<'_, ()> {
+            Box::new(async move {
+                faulting(&store)?;
+                HostPollable::block(store.data_mut().ctx().table, pollable).await?;
+                faulting(&store)
+            })
+        },
+    )?;
+    Ok(())
+}
 
 fn shadow_filesystem<T: RadarWasiView>(linker: &mut Linker<T>) -> wasmtime::Result<()> {
     let mut types = linker.instance(FILESYSTEM_TYPES)?;

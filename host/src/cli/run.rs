@@ -340,6 +340,13 @@ pub fn run(args: RunArgs) -> Result<()> {
             system.run(run_for)?
         }
     };
+    if let Some(at) = report.livelock {
+        anyhow::bail!(
+            "stopped at {:.3} s: the system kept working without virtual time advancing \
+             (a loop that takes no time, such as connections that restart a response at once)",
+            at.as_secs_f64()
+        );
+    }
     if let Some((reason, message)) = &report.stopped {
         let trace = args
             .trace
@@ -352,13 +359,6 @@ pub fn run(args: RunArgs) -> Result<()> {
         );
         // 130: the shell's code for a run ended by Ctrl-C.
         std::process::exit(if reason == "signal" { 130 } else { 1 });
-    }
-    if let Some(at) = report.livelock {
-        anyhow::bail!(
-            "stopped at {:.3} s: the system kept working without virtual time advancing \
-             (a loop that takes no time, such as connections that restart a response at once)",
-            at.as_secs_f64()
-        );
     }
     if let Some((count, first)) = &report.machine_limit {
         anyhow::bail!("{count} plugin(s) faulted on a limit of the machine; the first, {first}");

@@ -118,7 +118,7 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
                     let plugin = st.plugins[pid].name.clone();
                     st.record(Entry::Discarded {
                         plugin,
-                        payload: Payload(payload.map(Arc::new)).to_json(),
+                        payload: payload.as_ref().map_or(Json::Null, trace_json),
                     });
                 }
                 Ok(None) => {}

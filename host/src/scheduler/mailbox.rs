@@ -52,25 +52,33 @@ impl State {
         }
     }
 
-    /// A delivery to a program's anonymous slot. It waits in the mailbox;
-    /// if the program is waiting, it is woken for it once the emission that
+    /// A delivery to a program's anonymous slot. It waits in the mailbox
+    /// (or is dropped, `queue-full`, if the mailbox is full); if the
+    /// program is waiting, it is woken for it once the emission that
     /// brought it has reached every connection (so a `waitfor` of the same
     /// signal gets it too).
-    pub(super) fn mail(&mut self, mailbox: u64, connection: u64, payload: Payload) {
+    pub(super) fn mail(
+        &mut self,
+        mailbox: u64,
+        connection: u64,
+        payload: Payload,
+    ) -> Result<(), &'static str> {
         let Some(mail) = self.mailboxes.get_mut(&mailbox) else {
-            return;
+            return Ok(());
         };
-        mail.queue.push_back((connection, payload));
+        let bytes = super::routing::queued_bytes(&payload.0);
+        mail.queue.push((connection, payload), bytes)?;
         if mail.waiter.is_none() {
-            return;
+            return Ok(());
         }
         let Some(core) = RUNNING.with(|r| r.borrow().upgrade()) else {
-            return;
+            return Ok(());
         };
         let task_core = core.clone();
         self.spawn(Box::pin(async move {
             task_core.with(|st| st.wake_for_mail(mailbox));
         }));
+        Ok(())
     }
 
     /// Ends the program's wait with the first delivery in its mailbox, if it

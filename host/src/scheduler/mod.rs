@@ -134,7 +134,7 @@ pub(crate) enum Woke {
 /// A deliberative component's anonymous-slot deliveries, and its wait.
 #[derive(Default)]
 pub(crate) struct Mailbox {
-    queue: VecDeque<(u64, Payload)>,
+    queue: Backlog<(u64, Payload)>,
     /// The waiter of the program's current wait, if it waits.
     waiter: Option<u64>,
 }
@@ -344,6 +344,10 @@ pub(crate) fn emit_from_plugin(
         let pid = st
             .plugin(plugin)
             .map_err(|e| wasmtime::format_err!("{e}"))?;
+        if st.stop {
+            // The run is ending (a livelock): the call ends here.
+            return Err(crate::watchdog::RunStopped.into());
+        }
         st.record_logs();
         st.emit(pid, Signal::Named(signal), payload.map(Arc::new));
         // Blamed for a burst by this very emission: it faults here.
@@ -613,8 +617,54 @@ struct Connection {
 
 struct Anonymous {
     closure: Option<AnonymousSlot>,
-    queue: VecDeque<Payload>,
+    queue: Backlog<Payload>,
     closed: bool,
+}
+
+/// Deliveries waiting for deliberative code (an anonymous slot's closure,
+/// a program's mailbox), bounded: a plugin that emits faster than the code
+/// takes its signals would otherwise grow the host without end. A delivery
+/// past the bound is dropped, `queue-full`.
+pub(crate) struct Backlog<T> {
+    items: VecDeque<(T, usize)>,
+    /// What the waiting payloads take, counted as in a plugin's memory.
+    bytes: usize,
+}
+
+impl<T> Default for Backlog<T> {
+    fn default() -> Self {
+        Self {
+            items: VecDeque::new(),
+            bytes: 0,
+        }
+    }
+}
+
+impl<T> Backlog<T> {
+    /// Deliveries that may wait, at most.
+    const LENGTH: usize = 10_000;
+    /// Payload bytes that may wait, at most.
+    const BYTES: usize = 4 << 20;
+
+    /// Queues `item`, whose payload takes `bytes`; the reason it was not.
+    fn push(&mut self, item: T, bytes: usize) -> Result<(), &'static str> {
+        if self.items.len() >= Self::LENGTH || self.bytes.saturating_add(bytes) > Self::BYTES {
+            return Err("queue-full");
+        }
+        self.bytes += bytes;
+        self.items.push_back((item, bytes));
+        Ok(())
+    }
+
+    fn pop_front(&mut self) -> Option<T> {
+        let (item, bytes) = self.items.pop_front()?;
+        self.bytes -= bytes;
+        Some(item)
+    }
+
+    fn is_empty(&self) -> bool {
+        self.items.is_empty()
+    }
 }
 
 struct Waiter {

@@ -5,6 +5,13 @@
 
 use super::*;
 
+/// What a payload waiting in a [`Backlog`] takes.
+pub(super) fn queued_bytes(payload: &Shared) -> usize {
+    payload.as_deref().map_or(0, |v| {
+        crate::payload::check_size(v, usize::MAX).unwrap_or(usize::MAX)
+    })
+}
+
 pub(super) fn split_port(spec: &str) -> (&str, Option<&str>) {
     match spec.rsplit_once('.') {
         Some((plugin, port)) => (plugin, Some(port)),
@@ -22,6 +29,9 @@ impl State {
     }
 
     pub(super) fn record(&mut self, entry: Entry) {
+        // Whatever is recorded is progress (see `crate::watchdog`): a call
+        // that keeps emitting or writing is not stalled.
+        self.watch.step();
         // Lines a guest logged during the step that led here come first.
         self.record_logs();
         if !self.tracing() {
@@ -261,7 +271,7 @@ impl State {
                     slot,
                     Anonymous {
                         closure: Some(closure),
-                        queue: VecDeque::new(),
+                        queue: Backlog::default(),
                         closed: false,
                     },
                 );
@@ -376,6 +386,7 @@ impl State {
     /// Emits `signal` from `pid` and routes it to every connection, in the
     /// order the connections were made.
     pub(super) fn emit(&mut self, pid: usize, signal: Signal, payload: Shared) {
+        self.watch.step();
         if self.tracing() {
             let plugin = self.plugins[pid].name.clone();
             let json = payload.as_deref().map(trace_json).unwrap_or(Json::Null);
@@ -478,12 +489,14 @@ impl State {
                 self.stop = true;
                 let message = format!(
                     "{total} {what} at {at:.3} s without virtual time advancing, no plugin \
-                     making three quarters of them: something loops without taking time (connections \
-                     that form a loop, such as `A.exited → B.start` and `B.exited → \
-                     A.start` with starts that return at once); the run is stopped"
+                     making three quarters of them: something loops without taking time \
+                     (connections that form a loop, such as `A.exited → B.start` and \
+                     `B.exited → A.start` with starts that return at once); the run is stopped"
                 );
-                self.record(Entry::Stopped {
-                    reason: "livelock".into(),
+                // Recorded as the run's last record when it ends (a call
+                // still running may emit more before it does).
+                self.watch.stop(crate::watchdog::Stopping {
+                    reason: "livelock",
                     message,
                 });
             }
@@ -530,20 +543,19 @@ impl State {
                 self.deliver_to_slot(pid, slot, delivery)
             }
             Target::Anonymous(slot) => {
-                if let Some(a) = self.anonymous.get_mut(&slot) {
-                    a.queue.push_back(Payload(payload));
-                }
+                let bytes = queued_bytes(&payload);
+                let queued = match self.anonymous.get_mut(&slot) {
+                    Some(a) => a.queue.push(Payload(payload), bytes),
+                    None => Ok(()),
+                };
                 self.dispatch_anonymous(slot);
-                Ok(())
+                queued
             }
             Target::Waiter(w) => {
                 self.finish_waiter(w, Some(Payload(payload)));
                 Ok(())
             }
-            Target::Mailbox(mailbox) => {
-                self.mail(mailbox, id, Payload(payload));
-                Ok(())
-            }
+            Target::Mailbox(mailbox) => self.mail(mailbox, id, Payload(payload)),
         };
         match accepted {
             Ok(()) => {

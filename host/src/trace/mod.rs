@@ -214,7 +214,7 @@ impl<W: Write + Send> JsonLines<W> {
     pub const BATCH: usize = 4096;
 
     /// The longest a record waits in the sink, in wall-clock time, when
-    /// records keep coming (it is looked at every 256 records).
+    /// records keep coming (looked at as each record comes).
     pub const FLUSH_EVERY: std::time::Duration = std::time::Duration::from_millis(200);
 
     /// Records written to `out`.
@@ -254,9 +254,7 @@ impl<W: Write + Send> TraceSink for JsonLines<W> {
         self.pending.push(record.clone());
         if self.pending.len() >= Self::BATCH {
             self.write_pending();
-        } else if self.pending.len().is_multiple_of(256)
-            && self.flushed.elapsed() >= Self::FLUSH_EVERY
-        {
+        } else if self.flushed.elapsed() >= Self::FLUSH_EVERY {
             self.idle();
         }
     }
@@ -384,14 +382,18 @@ impl Record {
     /// About the bytes the record takes, as JSON and in memory: what a kept
     /// trace's size bound counts.
     fn approx_bytes(&self) -> usize {
+        // A JSON value in memory: its node, and what its strings, arrays
+        // and maps hold besides.
         fn json(value: &Json) -> usize {
-            match value {
-                Json::Null | Json::Bool(_) | Json::Number(_) => 8,
-                Json::String(s) => 8 + s.len(),
-                Json::Array(items) => 8 + items.iter().map(json).sum::<usize>(),
-                Json::Object(fields) => {
-                    8 + fields.iter().map(|(k, v)| k.len() + json(v)).sum::<usize>()
-                }
+            const NODE: usize = std::mem::size_of::<Json>();
+            NODE + match value {
+                Json::Null | Json::Bool(_) | Json::Number(_) => 0,
+                Json::String(s) => s.len(),
+                Json::Array(items) => items.iter().map(json).sum::<usize>(),
+                Json::Object(fields) => fields
+                    .iter()
+                    .map(|(k, v)| NODE + k.len() + json(v))
+                    .sum::<usize>(),
             }
         }
         let variable = match &self.entry {

@@ -6,6 +6,8 @@
 //!   wait), then triggers with the number of checks so far;
 //! - `log`: logs `bytes` bytes in lines of `line` bytes, in one call;
 //! - `burst`: emits its named signal `tick` `count` times in one call;
+//! - `flood`: emits its named signal `chunk` `count` times in one call,
+//!   each with `bytes` bytes;
 //! - `files`: writes `/data/check-N.txt`, appends to `/data/log.txt`,
 //!   reads both back and lists `/data`, and triggers with what it read;
 //! - `symlink`: makes the links `/data/up` → `..`, `/data/root` → `/` and
@@ -21,6 +23,7 @@ radar_guest::plugin!(
 
     interface signals {
         tick: func();
+        chunk: func(bytes: list<u8>);
     }
 
     world hostile-event {
@@ -64,6 +67,13 @@ impl Guest for HostileEvent {
             "burst" => {
                 for _ in 0..config_or("count", 20_000u32) {
                     signals::tick();
+                }
+                Some(vec![])
+            }
+            "flood" => {
+                let chunk = vec![3u8; config_or("bytes", 256usize << 10)];
+                for _ in 0..config_or("count", 1_000u32) {
+                    signals::chunk(&chunk);
                 }
                 Some(vec![])
             }
