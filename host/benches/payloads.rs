@@ -73,21 +73,26 @@ impl Measured {
     }
 }
 
-/// The sleeper's lateness, in µs, beside `bytes`-byte payloads every 10 ms
-/// (none if 0).
-fn lateness(secs: u64, bytes: usize) -> Result<(Vec<f64>, usize), String> {
-    let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
-    let file = File::create(dir.path().join("trace.jsonl")).map_err(|e| e.to_string())?;
-    let mut builder = System::builder()
+/// A real-clock system with the timeline on and the sleeper: a response
+/// that sleeps 10 ms at a time for `secs`, logging each count.
+fn with_sleeper(secs: u64) -> SystemBuilder {
+    System::builder()
         .clock(ClockKind::Real)
-        .trace_to(JsonLines::new(BufWriter::new(file)))
         .trace_to(Timeline::new(std::io::sink()))
         .plugin(
             Plugin::file("Sleeper", plugins::TEST_RESPONSE)
                 .config("interval_s", PERIOD_MS as f64 / 1e3)
                 .config("count_for_s", secs as f64),
         )
-        .inject_at(Duration::ZERO, "Sleeper.start", serde_json::json!(0));
+        .inject_at(Duration::ZERO, "Sleeper.start", serde_json::json!(0))
+}
+
+/// The sleeper's lateness, in µs, beside `bytes`-byte payloads every 10 ms
+/// (none if 0).
+fn lateness(secs: u64, bytes: usize) -> Result<(Vec<f64>, usize), String> {
+    let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
+    let file = File::create(dir.path().join("trace.jsonl")).map_err(|e| e.to_string())?;
+    let mut builder = with_sleeper(secs).trace_to(JsonLines::new(BufWriter::new(file)));
     if bytes > 0 {
         builder = builder
             .plugin(
@@ -119,15 +124,7 @@ fn lateness(secs: u64, bytes: usize) -> Result<(Vec<f64>, usize), String> {
 /// The sleeper's lateness, in µs, beside a plugin that emits `bytes`-byte
 /// payloads back to back in one call, to a response that takes them.
 fn flood_lateness(secs: u64, bytes: usize) -> Result<(Vec<f64>, usize), String> {
-    let builder = System::builder()
-        .clock(ClockKind::Real)
-        .trace_to(Timeline::new(std::io::sink()))
-        .plugin(
-            Plugin::file("Sleeper", plugins::TEST_RESPONSE)
-                .config("interval_s", PERIOD_MS as f64 / 1e3)
-                .config("count_for_s", secs as f64),
-        )
-        .inject_at(Duration::ZERO, "Sleeper.start", serde_json::json!(0))
+    let builder = with_sleeper(secs)
         .plugin(
             Plugin::file("Payloads", plugins::HOSTILE_EVENT)
                 .config("mode", "flood")

@@ -191,9 +191,39 @@ impl StoreLimiter {
     }
 }
 
-/// A refused growth: a trap whose message names the limit.
-fn refused(message: String) -> wasmtime::Error {
-    wasmtime::Error::msg(message)
+impl StoreLimiter {
+    /// One growth of a memory (`bytes_each` 1) or a table (a pointer an
+    /// element), from `current` to `desired`: counted in `held` against
+    /// `limit` (the refusal names it) and drawn from the budget; `Ok(false)`
+    /// past the item's own `maximum`.
+    fn grow(
+        budget: &MemoryBudget,
+        held: &mut usize,
+        limit: usize,
+        (current, desired, maximum): (usize, usize, Option<usize>),
+        bytes_each: usize,
+        (what, items, units, key): (&str, &str, &str, &str),
+    ) -> wasmtime::Result<bool> {
+        if maximum.is_some_and(|max| desired > max) {
+            // Past the item's own maximum: the growth fails (`memory.grow`
+            // gives -1), as the guest expects, and nothing is counted.
+            return Ok(false);
+        }
+        let more = desired.saturating_sub(current);
+        let total = held.saturating_add(more);
+        if total > limit {
+            return Err(wasmtime::Error::msg(format!(
+                "{what} limit: its {items} would hold {total} {units}, over its limit of \
+                 {limit} (`{key}`, all its {items} together)"
+            )));
+        }
+        let bytes = more.saturating_mul(bytes_each);
+        if !budget.take(bytes) {
+            return Err(wasmtime::Error::msg(budget.exhausted(bytes)));
+        }
+        *held = total;
+        Ok(true)
+    }
 }
 
 impl ResourceLimiter for StoreLimiter {
@@ -203,25 +233,14 @@ impl ResourceLimiter for StoreLimiter {
         desired: usize,
         maximum: Option<usize>,
     ) -> wasmtime::Result<bool> {
-        if maximum.is_some_and(|max| desired > max) {
-            // Past the memory's own maximum: `memory.grow` fails (-1) as
-            // the guest expects, and nothing is counted.
-            return Ok(false);
-        }
-        let more = desired.saturating_sub(current);
-        let total = self.memory.saturating_add(more);
-        if total > self.limits.memory_bytes {
-            return Err(refused(format!(
-                "memory limit: its memories would hold {total} bytes, over its limit of {} \
-                 (`memory_bytes`, all its memories together)",
-                self.limits.memory_bytes
-            )));
-        }
-        if !self.budget.take(more) {
-            return Err(refused(self.budget.exhausted(more)));
-        }
-        self.memory = total;
-        Ok(true)
+        Self::grow(
+            &self.budget,
+            &mut self.memory,
+            self.limits.memory_bytes,
+            (current, desired, maximum),
+            1,
+            ("memory", "memories", "bytes", "memory_bytes"),
+        )
     }
 
     fn table_growing(
@@ -230,24 +249,14 @@ impl ResourceLimiter for StoreLimiter {
         desired: usize,
         maximum: Option<usize>,
     ) -> wasmtime::Result<bool> {
-        if maximum.is_some_and(|max| desired > max) {
-            return Ok(false);
-        }
-        let more = desired.saturating_sub(current);
-        let total = self.table_elements.saturating_add(more);
-        if total > self.limits.table_elements {
-            return Err(refused(format!(
-                "table limit: its tables would hold {total} elements, over its limit of {} \
-                 (`table_elements`, all its tables together)",
-                self.limits.table_elements
-            )));
-        }
-        let bytes = more.saturating_mul(TABLE_ELEMENT_BYTES);
-        if !self.budget.take(bytes) {
-            return Err(refused(self.budget.exhausted(bytes)));
-        }
-        self.table_elements = total;
-        Ok(true)
+        Self::grow(
+            &self.budget,
+            &mut self.table_elements,
+            self.limits.table_elements,
+            (current, desired, maximum),
+            TABLE_ELEMENT_BYTES,
+            ("table", "tables", "elements", "table_elements"),
+        )
     }
 
     fn instances(&self) -> usize {

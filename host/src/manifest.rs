@@ -100,17 +100,24 @@ impl TryFrom<toml::Value> for ByteSize {
     }
 }
 
-/// Parses a size such as `8GiB`, `512MiB`, `64KiB`, `2GB` or `4096`.
-pub fn parse_bytes(text: &str) -> Result<usize, String> {
+/// A number with a unit (`1.5s`, `512MiB`): the number and the unit; the
+/// error says the text is not `what` (with `try` as examples).
+fn number_and_unit<'t>(text: &'t str, what: &str, example: &str) -> Result<(f64, &'t str), String> {
     let text = text.trim();
     let split = text
         .find(|c: char| !(c.is_ascii_digit() || c == '.'))
         .unwrap_or(text.len());
     let (number, unit) = text.split_at(split);
-    let value: f64 = number
+    let value = number
         .parse()
-        .map_err(|_| format!("`{text}` is not a size (try 8GiB or 512MiB)"))?;
-    let scale: f64 = match unit.trim() {
+        .map_err(|_| format!("`{text}` is not {what} (try {example})"))?;
+    Ok((value, unit.trim()))
+}
+
+/// Parses a size such as `8GiB`, `512MiB`, `64KiB`, `2GB` or `4096`.
+pub fn parse_bytes(text: &str) -> Result<usize, String> {
+    let (value, unit) = number_and_unit(text, "a size", "8GiB or 512MiB")?;
+    let scale: f64 = match unit {
         "" | "B" => 1.0,
         "KiB" => 1024.0,
         "MiB" => 1024.0 * 1024.0,
@@ -520,14 +527,8 @@ impl Manifest {
 /// Parses a duration such as `30s`, `500ms`, `1.5s`, `2m` or `100us`.
 pub fn parse_duration(text: &str) -> Result<Duration, String> {
     let text = text.trim();
-    let split = text
-        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
-        .unwrap_or(text.len());
-    let (number, unit) = text.split_at(split);
-    let value: f64 = number
-        .parse()
-        .map_err(|_| format!("`{text}` is not a duration (try 30s, 500ms, 2m)"))?;
-    let scale = match unit.trim() {
+    let (value, unit) = number_and_unit(text, "a duration", "30s, 500ms, 2m")?;
+    let scale = match unit {
         "ns" => 1e-9,
         "us" | "µs" => 1e-6,
         "ms" => 1e-3,

@@ -8,7 +8,7 @@ use radar_fixtures::plugins;
 
 mod common;
 
-use common::{radar, text, write_manifest};
+use common::{lawful_trace, radar, text, write_manifest};
 
 #[test]
 fn with_no_arguments_it_prints_the_paper_example_timeline() {
@@ -29,19 +29,6 @@ fn with_no_arguments_it_prints_the_paper_example_timeline() {
             "missing {expected:?} in:\n{stdout}"
         );
     }
-}
-
-/// Reads a trace file and checks it against the laws of DESIGN §1.1.
-fn lawful_trace(path: &Path) -> (String, Vec<radar::trace::Record>) {
-    let text = std::fs::read_to_string(path).expect("trace written");
-    let records = radar::trace::parse_json_lines(&text).expect("every line is a record");
-    let violations = radar::trace::check(&records);
-    assert!(
-        violations.is_empty(),
-        "{}",
-        radar::trace::explain(&records, &violations, 5)
-    );
-    (text, records)
 }
 
 #[test]

@@ -10,7 +10,7 @@ use radar_fixtures::plugins;
 
 mod common;
 
-use common::{radar, text, write_manifest};
+use common::{lawful_trace, radar, text, write_manifest};
 
 /// Starts `radar` with `args`, its output captured.
 fn start(args: &[&str]) -> Child {
@@ -48,15 +48,17 @@ fn wait(mut child: Child, limit: Duration) -> (ExitStatus, String) {
 
 /// The trace file's records, checked against the laws.
 fn trace(path: &Path) -> Vec<serde_json::Value> {
-    let text = std::fs::read_to_string(path).expect("trace written");
-    let records = radar::trace::parse_json_lines(&text).expect("every line is a record");
-    let violations = radar::trace::check(&records);
-    assert!(
-        violations.is_empty(),
-        "{}",
-        radar::trace::explain(&records, &violations, 5)
+    radar::trace::to_values(&lawful_trace(path).1)
+}
+
+/// The trace's last record says the run was stopped, and why.
+fn assert_stopped(records: &[serde_json::Value], reason: &str) {
+    let last = records.last().expect("records");
+    assert_eq!(
+        (last["kind"].as_str(), last["reason"].as_str()),
+        (Some("stopped"), Some(reason)),
+        "{last}"
     );
-    radar::trace::to_values(&records)
 }
 
 fn pair_manifest(dir: &Path, extra: &str) -> String {
@@ -103,11 +105,7 @@ fn ctrl_c_ends_a_real_run_with_its_trace_written_and_saying_so() {
     assert_eq!(stderr.lines().count(), 1, "one line: {stderr}");
     assert!(stderr.contains("stopped by the user"), "{stderr}");
     let records = trace(&trace_path);
-    let last = records.last().expect("records");
-    assert_eq!(
-        (&last["kind"], &last["reason"]),
-        (&"stopped".into(), &"signal".into())
-    );
+    assert_stopped(&records, "signal");
 }
 
 fn spin_manifest(dir: &Path) -> String {
@@ -148,11 +146,7 @@ fn a_virtual_run_stuck_in_a_call_is_stopped_naming_the_plugin_and_its_call() {
         "{stderr}"
     );
     let records = trace(&trace_path);
-    let last = records.last().expect("records");
-    assert_eq!(
-        (&last["kind"], &last["reason"]),
-        (&"stopped".into(), &"stalled".into())
-    );
+    assert_stopped(&records, "stalled");
 }
 
 #[test]
@@ -176,11 +170,7 @@ fn sigterm_ends_a_virtual_run_stuck_in_a_call_when_no_stall_timeout_would() {
     let (status, stderr) = wait(child, Duration::from_secs(20));
     assert_eq!(status.code(), Some(130), "{stderr}");
     let records = trace(&trace_path);
-    let last = records.last().expect("records");
-    assert_eq!(
-        (&last["kind"], &last["reason"]),
-        (&"stopped".into(), &"signal".into())
-    );
+    assert_stopped(&records, "signal");
     assert!(
         records.iter().all(|r| r["kind"] != "fault"),
         "the call that was stopped is not held against its plugin"
