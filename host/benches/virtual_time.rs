@@ -49,13 +49,13 @@ fn hundred_pollers(hours: u64) {
     let mut builder = System::builder()
         .clock(ClockKind::Virtual)
         .keep_trace(false)
-        .plugin(Plugin::bytes("Sink", example::wasm::TEST_RESPONSE));
+        .plugin(Plugin::bytes("Sink", radar::assets::TEST_RESPONSE));
     for i in 0..100 {
         // TestEvent waiting 10 ms a check for a count it never reaches: a
         // poll that finds nothing, 100 times a second.
         builder = builder
             .plugin(
-                Plugin::bytes(format!("Poll{i}"), example::wasm::TEST_EVENT)
+                Plugin::bytes(format!("Poll{i}"), radar::assets::TEST_EVENT)
                     .config("interval_s", 0.01)
                     .config("count_to", u32::MAX),
             )

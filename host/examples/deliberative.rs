@@ -4,7 +4,7 @@
 
 use std::time::Duration;
 
-use radar::example::wasm;
+use radar::assets as wasm;
 use radar::{Busy, ClockKind, Link, Plugin, System};
 
 fn main() -> anyhow::Result<()> {

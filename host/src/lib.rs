@@ -12,6 +12,7 @@
 //! under the virtual clock a run is deterministic, trace and all.
 #![warn(missing_docs)]
 
+pub mod assets;
 mod capability;
 pub mod clock;
 pub mod error;
@@ -22,11 +23,11 @@ mod limits;
 pub mod manifest;
 mod panics;
 pub mod payload;
-pub mod plugin;
+mod plugin;
+mod ports;
 pub mod realtime;
 pub(crate) mod scheduler;
 pub mod script;
-mod stderr;
 pub mod system;
 pub mod testing;
 pub mod timeline;
@@ -38,7 +39,8 @@ pub use clock::ClockKind;
 pub use error::RadarError;
 pub use payload::{Payload, PayloadType};
 pub use plugin::Limits;
-pub use scheduler::{AnonymousSlot, Busy, Mode, ProgramFailure, SwapPolicy};
+pub use ports::{Busy, Mode, SwapPolicy};
+pub use scheduler::{AnonymousSlot, ProgramFailure};
 pub use system::{
     Connection, Deliberative, Interrupter, Link, Plugin, PreparedVersion, Radar, RunReport, System,
     SystemBuilder, Task,

@@ -361,7 +361,7 @@ impl Manifest {
             .as_ref()
             .and_then(|d| builtin_name(&d.wasm))
         {
-            if crate::example::wasm::builtin(builtin).is_none() {
+            if crate::assets::builtin(builtin).is_none() {
                 return Err(bad(format!(
                     "deliberative.wasm: no built-in program `{builtin}`"
                 )));
@@ -372,11 +372,8 @@ impl Manifest {
         }
         for (name, entry) in &manifest.plugins {
             if let Some(builtin) = builtin_name(&entry.wasm) {
-                if crate::example::wasm::builtin(builtin).is_none() {
-                    let known: Vec<&str> = crate::example::wasm::BUILTIN
-                        .iter()
-                        .map(|(n, _)| *n)
-                        .collect();
+                if crate::assets::builtin(builtin).is_none() {
+                    let known: Vec<&str> = crate::assets::BUILTIN.iter().map(|(n, _)| *n).collect();
                     return Err(bad(format!(
                         "plugins.{name}.wasm: no built-in plugin `{builtin}` (there are: {})",
                         known.join(", ")
@@ -410,7 +407,7 @@ impl Manifest {
             builder = builder.memory_budget(bytes);
         }
         if let Some(d) = &self.deliberative {
-            let mut program = match builtin_name(&d.wasm).and_then(crate::example::wasm::builtin) {
+            let mut program = match builtin_name(&d.wasm).and_then(crate::assets::builtin) {
                 Some(wasm) => Deliberative::bytes(wasm),
                 None => Deliberative::file(self.dir.join(&d.wasm)),
             };
@@ -426,7 +423,7 @@ impl Manifest {
             builder = builder.deliberative(program);
         }
         for (name, entry) in &self.plugins {
-            let builtin = builtin_name(&entry.wasm).and_then(crate::example::wasm::builtin);
+            let builtin = builtin_name(&entry.wasm).and_then(crate::assets::builtin);
             let mut plugin = match builtin {
                 Some(wasm) => Plugin::bytes(name, wasm),
                 None => Plugin::file(name, self.dir.join(&entry.wasm)),

@@ -378,7 +378,7 @@ pub(crate) fn check_size(val: &Val, limit: usize) -> Result<usize, usize> {
 }
 
 /// The most bytes of a payload a trace record shows: a larger one is
-/// recorded as `{"$cut": {"bytes": N}}`, N its size (as [`check_size`]
+/// recorded as `{"$cut": {"bytes": N}}`, N its size (as `check_size`
 /// counts it), so that a trace (in memory, in a file, on a terminal) stays
 /// small and quick to write however large the payloads that flow.
 pub const TRACE_PAYLOAD_BYTES: usize = 16 << 10;

@@ -164,7 +164,7 @@ fn a_real_clock_run_recorded_replays_to_the_same_trace() {
     let dir = tempfile::tempdir().expect("temp dir");
     let (inputs, trace) = (dir.path().join("in.jsonl"), dir.path().join("real.jsonl"));
     let component = dir.path().join("timer.wasm");
-    std::fs::write(&component, radar::example::wasm::TIMER_EVENT).expect("write");
+    std::fs::write(&component, radar::assets::TIMER_EVENT).expect("write");
     let swap = format!("1.2s:TestEvent2={}:restart", arg(&component));
     let out = radar(&[
         "run",

@@ -156,11 +156,11 @@ fn the_harness_checks_the_laws_of_every_run() {
     // A system in code, with the harness's own builder methods.
     let run = TestSystem::new(System::builder())
         .plugin(
-            Plugin::bytes("E", radar::example::wasm::TEST_EVENT)
+            Plugin::bytes("E", radar::assets::TEST_EVENT)
                 .config("count_to", 2)
                 .config("interval_s", 1),
         )
-        .plugin(Plugin::bytes("R", radar::example::wasm::TEST_RESPONSE).config("count_for_s", 3))
+        .plugin(Plugin::bytes("R", radar::assets::TEST_RESPONSE).config("count_for_s", 3))
         .connect(Link::whenever("E.triggered", "R.start"))
         .seed(3)
         .run_for(secs(9.0))

@@ -121,7 +121,7 @@ fn the_swap_scenarios_given_in_code_give_their_expected_traces() {
         let name = policy.as_str();
         let run = TestSystem::new(virtual_system())
             .plugin(
-                Plugin::bytes("R", radar::example::wasm::TEST_RESPONSE)
+                Plugin::bytes("R", radar::assets::TEST_RESPONSE)
                     .config("interval_s", 1.0)
                     .config("count_for_s", 4.0),
             )

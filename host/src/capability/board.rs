@@ -15,9 +15,9 @@
 use wasmtime::component::{types, Component, Linker, Val};
 use wasmtime::Engine;
 
-use crate::payload::{check_size, PayloadType};
-use crate::plugin::{too_large, PluginCtx};
-use crate::scheduler::{board_read_from_plugin, board_write_from_plugin};
+use super::emitter::EmitterView;
+use super::running::running;
+use crate::payload::PayloadType;
 
 /// Whether an import is a plugin's blackboard interface.
 pub(crate) fn is_board_interface(name: &str) -> bool {
@@ -114,19 +114,23 @@ pub(crate) fn declared(engine: &Engine, component: &Component) -> Result<Option<
     }))
 }
 
-/// Adds the functions of the component's board interface to `linker`.
-pub(crate) fn link(linker: &mut Linker<PluginCtx>, declared: &Declared) -> wasmtime::Result<()> {
+/// Adds the functions of the component's board interface to `linker`: each
+/// reads or writes its entry through the running system (see
+/// [`super::running`]), which checks the plugin's grants.
+pub(crate) fn link<T: EmitterView>(
+    linker: &mut Linker<T>,
+    declared: &Declared,
+) -> wasmtime::Result<()> {
     let mut instance = linker.instance(&declared.import)?;
     for port in &declared.ports {
         let entry = port.entry.clone();
         match port.access {
             Access::Read => {
-                instance.func_new(&port.function, move |store, _ty, _params, results| {
-                    if let Some(cause) = store.data().clock.stop.fault() {
-                        return Err(wasmtime::Error::msg(cause));
-                    }
-                    let plugin = store.data().log.name.clone();
-                    let value = board_read_from_plugin(&plugin, &entry)?;
+                instance.func_new(&port.function, move |mut store, _ty, _params, results| {
+                    let emitter = store.data_mut().emitter();
+                    emitter.faulting()?;
+                    let plugin = emitter.name.clone();
+                    let value = running("the blackboard read")?.board_read(&plugin, &entry)?;
                     results[0] = Val::Option(value.map(Box::new));
                     Ok(())
                 })?
@@ -136,22 +140,17 @@ pub(crate) fn link(linker: &mut Linker<PluginCtx>, declared: &Declared) -> wasmt
                 move |mut store, _ty, params, _results| {
                     let entry = entry.clone();
                     Box::new(async move {
-                        let data = store.data();
-                        if let Some(cause) = data.clock.stop.fault() {
-                            return Err(wasmtime::Error::msg(cause));
-                        }
-                        let bytes = check_size(&params[0], data.payload_bytes).map_err(|size| {
-                            let what = format!("write of entry `{entry}`");
-                            wasmtime::Error::msg(too_large(
-                                &what,
-                                "value",
-                                size,
-                                data.payload_bytes,
-                            ))
-                        })?;
-                        let plugin = data.log.name.clone();
-                        board_write_from_plugin(&plugin, &entry, params[0].clone())?;
-                        if store.data_mut().host_work(bytes) {
+                        let emitter = store.data_mut().emitter();
+                        emitter.faulting()?;
+                        let what = format!("write of entry `{entry}`");
+                        let bytes = emitter.checked(&what, "value", &params[0])?;
+                        let plugin = emitter.name.clone();
+                        running("the blackboard written")?.board_write(
+                            &plugin,
+                            &entry,
+                            params[0].clone(),
+                        )?;
+                        if store.data_mut().emitter().host_work(bytes) {
                             crate::executor::yield_now().await;
                         }
                         Ok(())

@@ -9,7 +9,6 @@ use wasmtime::StoreContextMut;
 
 use super::Interruption;
 use crate::clock::{StopFlag, StopReason, TimeBase, YieldNow};
-use crate::plugin::PluginCtx;
 
 /// What the clock interface reaches: scheduler time, the plugin's stop
 /// request, and (fuel as time) how much of the running call's compute has
@@ -22,20 +21,28 @@ pub(crate) struct ClockState {
     pub fuel_mark: u64,
 }
 
+/// The clock's view of a store's state.
+pub(crate) trait ClockView: Send + 'static {
+    /// The store's clock state.
+    fn clock(&self) -> &ClockState;
+    /// The same, to change.
+    fn clock_mut(&mut self) -> &mut ClockState;
+}
+
 /// Written by hand rather than generated: under fuel as time, `now`,
 /// `sleep` and `yield` read the store's fuel, which a generated host trait
 /// cannot reach.
-pub(crate) fn add_to_linker(linker: &mut Linker<PluginCtx>) -> wasmtime::Result<()> {
+pub(crate) fn add_to_linker<T: ClockView>(linker: &mut Linker<T>) -> wasmtime::Result<()> {
     let mut clock = linker.instance("radar:reactive/clock@0.1.0")?;
-    clock.func_wrap("now", |store: StoreContextMut<'_, PluginCtx>, (): ()| {
+    clock.func_wrap("now", |store: StoreContextMut<'_, T>, (): ()| {
         let pending = pending_compute(&store).1;
-        Ok((store.data().clock.base.now().saturating_add(pending),))
+        Ok((store.data().clock().base.now().saturating_add(pending),))
     })?;
     clock.func_wrap_async(
         "sleep",
-        |mut store: StoreContextMut<'_, PluginCtx>, (nanos,): (u64,)| {
+        |mut store: StoreContextMut<'_, T>, (nanos,): (u64,)| {
             let compute = charge_compute(&mut store);
-            let state = &store.data().clock;
+            let state = store.data().clock();
             let deadline = state
                 .base
                 .now()
@@ -46,40 +53,34 @@ pub(crate) fn add_to_linker(linker: &mut Linker<PluginCtx>) -> wasmtime::Result<
             Box::new(async move { Ok((woke(sleep.await, &stop)?,)) })
         },
     )?;
-    clock.func_wrap_async(
-        "yield",
-        |mut store: StoreContextMut<'_, PluginCtx>, (): ()| {
-            let compute = charge_compute(&mut store);
-            let state = &store.data().clock;
-            let stop = state.stop.clone();
-            let sleep = (compute > 0).then(|| {
-                let deadline = state.base.now().saturating_add(compute);
-                state.base.sleep_until(deadline, Some(stop.clone()))
-            });
-            Box::new(async move {
-                let result = match sleep {
-                    // Its compute takes time: other tasks run meanwhile.
-                    Some(sleep) => sleep.await,
-                    None => YieldNow::new(stop.clone()).await,
-                };
-                Ok((woke(result, &stop)?,))
-            })
-        },
-    )?;
-    clock.func_wrap(
-        "interrupted",
-        |store: StoreContextMut<'_, PluginCtx>, (): ()| {
-            let stop = &store.data().clock.stop;
-            Ok((woke(stop.get().map_or(Ok(()), Err), stop)?.err(),))
-        },
-    )?;
+    clock.func_wrap_async("yield", |mut store: StoreContextMut<'_, T>, (): ()| {
+        let compute = charge_compute(&mut store);
+        let state = store.data().clock();
+        let stop = state.stop.clone();
+        let sleep = (compute > 0).then(|| {
+            let deadline = state.base.now().saturating_add(compute);
+            state.base.sleep_until(deadline, Some(stop.clone()))
+        });
+        Box::new(async move {
+            let result = match sleep {
+                // Its compute takes time: other tasks run meanwhile.
+                Some(sleep) => sleep.await,
+                None => YieldNow::new(stop.clone()).await,
+            };
+            Ok((woke(result, &stop)?,))
+        })
+    })?;
+    clock.func_wrap("interrupted", |store: StoreContextMut<'_, T>, (): ()| {
+        let stop = &store.data().clock().stop;
+        Ok((woke(stop.get().map_or(Ok(()), Err), stop)?.err(),))
+    })?;
     Ok(())
 }
 
 /// Fuel as time: the running call's fuel level, and the time its compute
 /// since the last charge stands for (0 when fuel is not time).
-pub(crate) fn pending_compute(store: &StoreContextMut<'_, PluginCtx>) -> (u64, u64) {
-    let state = &store.data().clock;
+pub(crate) fn pending_compute<T: ClockView>(store: &StoreContextMut<'_, T>) -> (u64, u64) {
+    let state = store.data().clock();
     if !state.base.fuel_is_time() {
         return (0, 0);
     }
@@ -90,10 +91,10 @@ pub(crate) fn pending_compute(store: &StoreContextMut<'_, PluginCtx>) -> (u64, u
 
 /// Turns the running call's compute since the last charge into time: the
 /// nanoseconds to wait before going on.
-pub(crate) fn charge_compute(store: &mut StoreContextMut<'_, PluginCtx>) -> u64 {
+pub(crate) fn charge_compute<T: ClockView>(store: &mut StoreContextMut<'_, T>) -> u64 {
     let (left, nanos) = pending_compute(store);
     if nanos > 0 {
-        store.data_mut().clock.fuel_mark = left;
+        store.data_mut().clock_mut().fuel_mark = left;
     }
     nanos
 }

@@ -7,7 +7,6 @@ use std::sync::Arc;
 use wasmtime::component::{HasSelf, Linker};
 
 use super::bindings::radar::reactive::config::{self, Host};
-use crate::plugin::PluginCtx;
 use crate::script::SCRIPT_KEY;
 
 /// What config reaches: the plugin's values, shared by its instances, and
@@ -18,8 +17,14 @@ pub(crate) struct ConfigState {
     pub script: Option<Arc<str>>,
 }
 
-pub(crate) fn add_to_linker(linker: &mut Linker<PluginCtx>) -> wasmtime::Result<()> {
-    config::add_to_linker::<PluginCtx, HasSelf<ConfigState>>(linker, |ctx| &mut ctx.config)
+/// Config's view of a store's state.
+pub(crate) trait ConfigView: Send + 'static {
+    /// The store's configuration.
+    fn config(&mut self) -> &mut ConfigState;
+}
+
+pub(crate) fn add_to_linker<T: ConfigView>(linker: &mut Linker<T>) -> wasmtime::Result<()> {
+    config::add_to_linker::<T, HasSelf<ConfigState>>(linker, T::config)
 }
 
 impl Host for ConfigState {

@@ -14,7 +14,6 @@ use wasmtime::component::{HasSelf, Linker};
 use super::bindings::radar::reactive::logging::{self, Host};
 use super::Level;
 use crate::clock::TimeBase;
-use crate::plugin::PluginCtx;
 
 /// What logging reaches: the plugin's name, the scheduler's log queue, and
 /// the running call's budget.
@@ -56,8 +55,14 @@ impl LogState {
     }
 }
 
-pub(crate) fn add_to_linker(linker: &mut Linker<PluginCtx>) -> wasmtime::Result<()> {
-    logging::add_to_linker::<PluginCtx, HasSelf<LogState>>(linker, |ctx| &mut ctx.log)
+/// Logging's view of a store's state.
+pub(crate) trait LogView: Send + 'static {
+    /// The store's log state.
+    fn log(&mut self) -> &mut LogState;
+}
+
+pub(crate) fn add_to_linker<T: LogView>(linker: &mut Linker<T>) -> wasmtime::Result<()> {
+    logging::add_to_linker::<T, HasSelf<LogState>>(linker, T::log)
 }
 
 /// The name a level has in the trace.

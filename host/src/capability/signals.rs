@@ -9,9 +9,10 @@
 use wasmtime::component::{types, Component, Linker};
 use wasmtime::Engine;
 
-use crate::payload::{check_size, PayloadType};
-use crate::plugin::{too_large, PluginCtx};
-use crate::scheduler::{emit_from_plugin, SignalName};
+use super::emitter::EmitterView;
+use super::running::running;
+use crate::payload::PayloadType;
+use crate::ports::SignalName;
 
 /// The signals every plugin has already, which a plugin cannot declare.
 const BUILT_IN: [&str; 5] = ["triggered", "started", "interrupted", "exited", "faulted"];
@@ -83,9 +84,10 @@ pub(crate) fn declared(engine: &Engine, component: &Component) -> Result<Option<
 }
 
 /// Adds the functions of `import` (the component's signals interface) to
-/// `linker`: each emits its signal from the calling plugin.
-pub(crate) fn link(
-    linker: &mut Linker<PluginCtx>,
+/// `linker`: each emits its signal from the calling plugin, routed by the
+/// running system (see [`super::running`]).
+pub(crate) fn link<T: EmitterView>(
+    linker: &mut Linker<T>,
     import: &str,
     signals: &[(String, Option<PayloadType>)],
 ) -> wasmtime::Result<()> {
@@ -94,17 +96,19 @@ pub(crate) fn link(
         let signal = SignalName::intern(name);
         instance.func_new_async(name, move |mut store, _type, params, _results| {
             Box::new(async move {
-                let data = store.data();
+                let emitter = store.data_mut().emitter();
+                emitter.faulting()?;
                 let bytes = match params.first() {
-                    Some(payload) => check_size(payload, data.payload_bytes).map_err(|size| {
-                        let what = format!("signal `{}`", signal.as_str());
-                        wasmtime::Error::msg(too_large(&what, "payload", size, data.payload_bytes))
-                    })?,
+                    Some(payload) => emitter.checked(
+                        &format!("signal `{}`", signal.as_str()),
+                        "payload",
+                        payload,
+                    )?,
                     None => 0,
                 };
-                let plugin = data.log.name.clone();
-                emit_from_plugin(&plugin, signal, params.first().cloned())?;
-                if store.data_mut().host_work(bytes) {
+                let plugin = emitter.name.clone();
+                running("a signal emitted")?.emit(&plugin, signal, params.first().cloned())?;
+                if store.data_mut().emitter().host_work(bytes) {
                     crate::executor::yield_now().await;
                 }
                 Ok(())

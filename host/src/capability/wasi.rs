@@ -31,11 +31,16 @@
 //! - `wasi:io/poll`'s `poll` and `pollable.block`: as `wasmtime_wasi`
 //!   serves them, but a plugin the scheduler has blamed for a burst traps
 //!   there (as at every other wait), at the same point on every run.
-//! - sockets are off (`WasiCtxBuilder::allow_tcp(false)` and `allow_udp`,
-//!   set where the context is built): Radar grants no network.
+//! - sockets are off: Radar grants no network.
+//!
+//! [`context`] builds the WASI context of every store, a plugin's or a
+//! deliberative component's, the same way: nothing granted but what
+//! [`WasiGrants`] says, and under the virtual clock virtual clocks and
+//! seeded random sources.
 
+use std::collections::BTreeMap;
 use std::future::Future;
-use std::path::{Component, Path};
+use std::path::{Component, Path, PathBuf};
 use std::sync::Arc;
 
 use bytes::Bytes;
@@ -47,9 +52,12 @@ use wasmtime_wasi::p2::{
     DynInputStream, DynOutputStream, DynPollable, InputStream, OutputStream, Pollable, StreamError,
     StreamResult,
 };
-use wasmtime_wasi::WasiView;
+use wasmtime_wasi::{WasiCtx, WasiView};
 
-use crate::clock::{StopFlag, TimeBase};
+use super::clock::VirtualWasiClock;
+use super::random::SeededRandom;
+use super::stderr::StderrTail;
+use crate::clock::{ClockKind, StopFlag, TimeBase};
 
 /// The interface names `wasmtime_wasi` 48 links WASI 0.2 under; a guest's
 /// import of any 0.2.x version resolves to them.
@@ -108,6 +116,64 @@ pub(crate) trait RadarWasiView: WasiView + Sized + 'static {
     fn pending_fault(&self) -> Option<String> {
         None
     }
+}
+
+/// What of the host a plugin sees through WASI: environment variables and
+/// directories (read-only unless writable). Nothing by default. File
+/// operations run on the scheduler's thread as the guest makes them (they
+/// block it briefly); what a plugin reads there is input from outside the
+/// run, so a run that depends on it is only as repeatable as those files.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub(crate) struct WasiGrants {
+    /// Environment variables, by name.
+    pub env: BTreeMap<String, String>,
+    /// Directories: the host's path, the path the plugin sees, writable.
+    pub dirs: Vec<(PathBuf, String, bool)>,
+}
+
+/// How a store's WASI context is made.
+pub(crate) struct WasiSetup<'a> {
+    /// Scheduler time: under the virtual clock, WASI's clocks read it.
+    pub base: &'a TimeBase,
+    /// Under the virtual clock, the seed of WASI's random sources.
+    pub seed: u64,
+    /// What of the host it sees.
+    pub grants: &'a WasiGrants,
+    /// Where its stderr goes (discarded if `None`).
+    pub stderr: Option<StderrTail>,
+}
+
+/// The WASI context of a store (see the module docs); the error says which
+/// granted directory could not be opened.
+pub(crate) fn context(setup: WasiSetup<'_>) -> Result<WasiCtx, String> {
+    let mut wasi = WasiCtx::builder();
+    for (key, value) in &setup.grants.env {
+        wasi.env(key, value);
+    }
+    // File operations in place, not on a thread pool the deterministic
+    // executor does not have.
+    wasi.allow_blocking_current_thread(true);
+    for (host, guest, writable) in &setup.grants.dirs {
+        let perms = if *writable {
+            wasmtime_wasi::FsPerms::ReadWrite
+        } else {
+            wasmtime_wasi::FsPerms::ReadOnly
+        };
+        wasi.preopened_dir(host, guest, perms)
+            .map_err(|e| format!("cannot open {} for the plugin: {e:#}", host.display()))?;
+    }
+    wasi.allow_tcp(false).allow_udp(false);
+    if let Some(stderr) = setup.stderr {
+        wasi.stderr(stderr);
+    }
+    if setup.base.kind() == ClockKind::Virtual {
+        wasi.wall_clock(VirtualWasiClock(setup.base.clone()))
+            .monotonic_clock(VirtualWasiClock(setup.base.clone()))
+            .secure_random(SeededRandom::new(setup.seed))
+            .insecure_random(SeededRandom::new(!setup.seed))
+            .insecure_random_seed(u128::from(setup.seed));
+    }
+    Ok(wasi.build())
 }
 
 /// Links WASI 0.2 for a store of type `T`, with Radar's waits, file

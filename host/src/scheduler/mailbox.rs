@@ -71,7 +71,7 @@ impl State {
         if mail.waiter.is_none() {
             return Ok(());
         }
-        let Some(core) = RUNNING.with(|r| r.borrow().upgrade()) else {
+        let Some(core) = self.core.upgrade() else {
             return Ok(());
         };
         let task_core = core.clone();

@@ -35,6 +35,7 @@ use crate::executor::{Executor, LocalTask, TaskId};
 use crate::limiter::MemoryBudget;
 use crate::payload::{json_to_val, trace_json, Payload, PayloadType, Shared};
 use crate::plugin::{Fault, InstanceSetup, Kind, Limits, PluginCode, PluginInstance};
+pub(crate) use crate::ports::{split_port, Busy, Mode, Signal, Slot, SwapPolicy};
 use crate::trace::inputs::{Input, InputRecorder, Origin, TimedInput, TraceDigest};
 use crate::trace::{Entry, Record, TraceSink};
 use crate::watchdog::RunWatch;
@@ -43,12 +44,12 @@ mod actors;
 pub(crate) mod board;
 mod mailbox;
 mod routing;
+mod running;
 mod swap;
 mod turns;
 
-pub(crate) use board::{board_read_from_plugin, board_write_from_plugin, Grants};
+pub(crate) use board::Grants;
 pub(crate) use swap::NewVersion;
-pub use swap::SwapPolicy;
 
 use turns::Turns;
 
@@ -59,47 +60,6 @@ use actors::{event_actor, response_actor};
 
 /// A closure run for each delivery to an anonymous slot.
 pub type AnonymousSlot = Box<dyn FnMut(Payload) + Send + 'static>;
-
-/// How a connection behaves after its first delivery.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Mode {
-    /// Removed after its first delivery.
-    Once,
-    /// Kept until closed or its scope ends.
-    Whenever,
-}
-
-impl Mode {
-    fn as_str(self) -> &'static str {
-        match self {
-            Mode::Once => "once",
-            Mode::Whenever => "whenever",
-        }
-    }
-}
-
-/// What a start signal does when the target response is busy.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum Busy {
-    /// Dropped, and recorded in the trace as dropped (the default).
-    #[default]
-    Drop,
-    /// Run after the current activation; at most this many wait.
-    Queue(usize),
-    /// The current activation is stopped (its interrupt slot skipped, its
-    /// exit slot run) and the response starts again with the new payload.
-    Restart,
-}
-
-impl Busy {
-    fn as_str(self) -> &'static str {
-        match self {
-            Busy::Drop => "drop",
-            Busy::Queue(_) => "queue",
-            Busy::Restart => "restart",
-        }
-    }
-}
 
 /// A connection as deliberative code asks for it.
 pub(crate) struct LinkSpec {
@@ -276,106 +236,6 @@ pub(crate) struct AnonymousJob {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Signal {
-    Triggered,
-    Started,
-    Interrupted,
-    Exited,
-    Faulted,
-    /// One the plugin declares (see `capability::signals`).
-    Named(SignalName),
-}
-
-impl Signal {
-    fn as_str(self) -> &'static str {
-        match self {
-            Signal::Triggered => "triggered",
-            Signal::Started => "started",
-            Signal::Interrupted => "interrupted",
-            Signal::Exited => "exited",
-            Signal::Faulted => "faulted",
-            Signal::Named(name) => name.0,
-        }
-    }
-}
-
-/// The name of a declared signal, interned: copied and compared as cheaply
-/// as the built-in ones, the same for every version of a plugin.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-pub(crate) struct SignalName(&'static str);
-
-impl SignalName {
-    /// The one `SignalName` of `name` (each distinct name is allocated once
-    /// per process).
-    pub fn intern(name: &str) -> Self {
-        static NAMES: std::sync::Mutex<std::collections::BTreeSet<&'static str>> =
-            std::sync::Mutex::new(std::collections::BTreeSet::new());
-        let mut names = NAMES.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(known) = names.get(name) {
-            return Self(known);
-        }
-        let leaked: &'static str = Box::leak(name.to_string().into_boxed_str());
-        names.insert(leaked);
-        Self(leaked)
-    }
-
-    pub fn as_str(self) -> &'static str {
-        self.0
-    }
-}
-
-thread_local! {
-    /// The system running on this thread: plugins' host calls (which run on
-    /// the scheduler's thread, inside their actors) reach it here.
-    static RUNNING: RefCell<std::rc::Weak<Core>> = const { RefCell::new(std::rc::Weak::new()) };
-}
-
-/// A plugin emits one of its declared signals, from inside a call: routed
-/// at once, at the current instant, after the log lines it wrote before.
-pub(crate) fn emit_from_plugin(
-    plugin: &str,
-    signal: SignalName,
-    payload: Option<Val>,
-) -> wasmtime::Result<()> {
-    let core = RUNNING
-        .with(|r| r.borrow().upgrade())
-        .ok_or_else(|| wasmtime::format_err!("signal `{}` emitted outside a run", signal.0))?;
-    core.with(|st| {
-        let pid = st
-            .plugin(plugin)
-            .map_err(|e| wasmtime::format_err!("{e}"))?;
-        if st.stop {
-            // The run is ending (a livelock): the call ends here.
-            return Err(crate::watchdog::RunStopped.into());
-        }
-        st.record_logs();
-        st.emit(pid, Signal::Named(signal), payload.map(Arc::new));
-        // Blamed for a burst by this very emission: it faults here.
-        match st.plugins[pid].stop.fault() {
-            Some(cause) => Err(wasmtime::Error::msg(cause)),
-            None => Ok(()),
-        }
-    })
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Slot {
-    Start,
-    Interrupt,
-    Exit,
-}
-
-impl Slot {
-    fn as_str(self) -> &'static str {
-        match self {
-            Slot::Start => "start",
-            Slot::Interrupt => "interrupt",
-            Slot::Exit => "exit",
-        }
-    }
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Lifecycle {
     Inactive,
     Active,
@@ -444,7 +304,7 @@ pub(crate) struct PluginDef {
     /// What it may do with the blackboard.
     pub grants: Arc<Grants>,
     /// What of the host it sees through WASI.
-    pub wasi: Arc<crate::plugin::WasiGrants>,
+    pub wasi: Arc<crate::capability::wasi::WasiGrants>,
 }
 
 struct PluginEntry {
@@ -753,6 +613,8 @@ pub(crate) struct TraceOut {
 
 pub(crate) struct State {
     base: TimeBase,
+    /// The core this state lives in, for tasks spawned from inside it.
+    core: std::rc::Weak<Core>,
     plugins: Vec<PluginEntry>,
     by_name: BTreeMap<String, usize>,
     connections: BTreeMap<u64, Connection>,
@@ -1024,6 +886,7 @@ impl Scheduler {
             .collect();
         let state = State {
             base: base.clone(),
+            core: std::rc::Weak::new(),
             plugins,
             by_name,
             connections: BTreeMap::new(),
@@ -1053,11 +916,13 @@ impl Scheduler {
             budget,
             watch: watch.clone(),
         };
+        let core = Rc::new(Core {
+            base,
+            st: RefCell::new(state),
+        });
+        core.with(|st| st.core = Rc::downgrade(&core));
         Self {
-            core: Rc::new(Core {
-                base,
-                st: RefCell::new(state),
-            }),
+            core,
             executor: Executor::default(),
             commands,
             limit: limit.map(duration_nanos),
@@ -1084,7 +949,9 @@ impl Scheduler {
     /// blackboard write that does not fit the system fails the run before
     /// anything runs.
     pub fn run(mut self) -> Result<RunEnd, RadarError> {
-        RUNNING.with(|r| *r.borrow_mut() = Rc::downgrade(&self.core));
+        // Plugins' host calls reach the system through it until the run
+        // ends, however it ends.
+        let _running = crate::capability::running::enter(self.core.clone());
         let kind = self.core.base.kind();
         let count = self.core.with(|st| st.plugins.len());
         self.core.with(|st| {
@@ -1251,7 +1118,6 @@ impl Scheduler {
     }
 
     fn finish(self) -> RunEnd {
-        RUNNING.with(|r| *r.borrow_mut() = std::rc::Weak::new());
         let ended_at = self.core.base.now();
         // End every wait so that blocked deliberative threads see the stop.
         let livelock = self.core.with(|st| st.instant.livelock);

@@ -12,13 +12,6 @@ pub(super) fn queued_bytes(payload: &Shared) -> usize {
     })
 }
 
-pub(super) fn split_port(spec: &str) -> (&str, Option<&str>) {
-    match spec.rsplit_once('.') {
-        Some((plugin, port)) => (plugin, Some(port)),
-        None => (spec, None),
-    }
-}
-
 impl State {
     pub(super) fn now(&self) -> u64 {
         self.base.now()

@@ -16,42 +16,6 @@
 
 use super::*;
 
-/// How a swap treats the work in progress.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum SwapPolicy {
-    /// The running activation (or check) finishes on the old version; the
-    /// next one runs on the new (the default).
-    #[default]
-    Drain,
-    /// The running activation is stopped as by an exit signal and starts
-    /// again, with the same payload, on the new version; a check in progress
-    /// is interrupted and its result discarded.
-    Restart,
-}
-
-impl SwapPolicy {
-    /// The policy as the trace and the CLI write it.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            SwapPolicy::Drain => "drain",
-            SwapPolicy::Restart => "restart",
-        }
-    }
-}
-
-impl std::str::FromStr for SwapPolicy {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "drain" => Ok(Self::Drain),
-            "restart" => Ok(Self::Restart),
-            other => Err(format!(
-                "unknown swap policy `{other}` (expected `drain` or `restart`)"
-            )),
-        }
-    }
-}
-
 /// A new version of a plugin on its way to the scheduler: the compiled
 /// code and, when the caller could make it, an instance already made for
 /// this plugin (so the scheduler's thread only switches).

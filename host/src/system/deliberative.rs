@@ -1,5 +1,6 @@
 //! `radar:reactive/system`: the host side of a deliberative component
-//! (the `deliberative` world). The program runs on a thread of its own, a
+//! (the `deliberative` world), on the system's floor (DESIGN §2.0) because
+//! every import is an operation of the [`Radar`] handle. The program runs on a thread of its own, a
 //! native context of the run like a native Rust program, and every import
 //! is one of the scheduler's deliberative operations reached through a
 //! [`Radar`] handle: so a component and native code wire a system the same
@@ -16,17 +17,17 @@ use wasmtime::Engine;
 use wasmtime::Store;
 use wasmtime_wasi::{WasiCtx, WasiCtxView, WasiView};
 
-use super::clock::VirtualWasiClock;
-use super::config::ConfigState;
-use super::logging::LogState;
-use super::wasi::{ProgramClock, RadarWasiView, WaitClock};
-use super::Level;
-use crate::clock::{ClockKind, StopFlag, TimeBase};
+use super::{Connection, Link, Radar};
+use crate::capability::config::{ConfigState, ConfigView};
+use crate::capability::logging::{LogState, LogView};
+use crate::capability::wasi::{ProgramClock, RadarWasiView, WaitClock, WasiGrants, WasiSetup};
+use crate::clock::{StopFlag, TimeBase};
+use crate::error::RadarError;
 use crate::executor::block_on;
 use crate::limiter::{MemoryBudget, StoreLimiter};
-use crate::system::{Connection, Link, Radar};
+use crate::plugin::Limits;
+use crate::ports::Busy;
 use crate::watchdog::{CallWatch, RunWatch};
-use crate::{Busy, Limits, RadarError};
 
 mod bindings {
     wasmtime::component::bindgen!({
@@ -57,7 +58,7 @@ pub(crate) struct ProgramCode {
 /// Checks that a component is a deliberative program: it exports `run`
 /// (checked first: an event or a response given as a program says so) and
 /// imports only what a program gets.
-pub(crate) fn validate(engine: &Engine, component: &Component) -> Result<(), String> {
+fn validate(engine: &Engine, component: &Component) -> Result<(), String> {
     let ty = component.component_type();
     let run = ty.exports(engine).find(|(name, _)| *name == "run");
     if !matches!(run, Some((_, item)) if matches!(item.ty, ComponentItem::ComponentFunc(_))) {
@@ -109,6 +110,18 @@ pub(crate) struct ProgramCtx {
 impl RadarWasiView for ProgramCtx {
     fn wait_clock(&self) -> &WaitClock {
         &self.waits
+    }
+}
+
+impl LogView for ProgramCtx {
+    fn log(&mut self) -> &mut LogState {
+        &mut self.log
+    }
+}
+
+impl ConfigView for ProgramCtx {
+    fn config(&mut self) -> &mut ConfigState {
+        &mut self.config
     }
 }
 
@@ -259,23 +272,20 @@ impl Host for ProgramCtx {
     }
 }
 
-impl super::bindings::radar::reactive::logging::Host for ProgramCtx {
-    fn log(&mut self, level: Level, message: String) {
-        super::bindings::radar::reactive::logging::Host::log(&mut self.log, level, message)
-    }
+/// Compiles (or fetches from the cache) and checks a deliberative
+/// component, named `name` in errors.
+pub(crate) fn load(
+    loader: &mut crate::plugin::Loader,
+    name: &str,
+    bytes: &[u8],
+) -> Result<Component, RadarError> {
+    let component = loader.compile_program(name, bytes)?;
+    validate(component.engine(), &component).map_err(|cause| RadarError::WrongWorld {
+        plugin: name.into(),
+        cause,
+    })?;
+    Ok(component)
 }
-
-impl super::bindings::radar::reactive::config::Host for ProgramCtx {
-    fn get(&mut self, key: String) -> Option<String> {
-        self.config.values.get(&key).cloned()
-    }
-
-    fn keys(&mut self) -> Vec<String> {
-        self.config.values.keys().cloned().collect()
-    }
-}
-
-impl super::bindings::radar::reactive::types::Host for ProgramCtx {}
 
 /// What a program's run shares with the system: its time, seed, memory
 /// budget and watchdog.
@@ -302,22 +312,22 @@ pub(crate) fn run(
     } = setup;
     let engine = code.component.engine().clone();
     let mut linker: Linker<ProgramCtx> = Linker::new(&engine);
-    let linked = super::wasi::add_to_linker(&mut linker).and_then(|()| {
-        bindings::Deliberative::add_to_linker::<ProgramCtx, HasSelf<ProgramCtx>>(
-            &mut linker,
-            |ctx| ctx,
-        )
-    });
+    // The same interfaces, and the same WASI, as a plugin's (see
+    // `crate::capability`), with `system` besides.
+    let linked = crate::capability::wasi::add_to_linker(&mut linker)
+        .and_then(|()| crate::capability::add_types_to_linker(&mut linker))
+        .and_then(|()| crate::capability::logging::add_to_linker(&mut linker))
+        .and_then(|()| crate::capability::config::add_to_linker(&mut linker))
+        .and_then(|()| {
+            system::add_to_linker::<ProgramCtx, HasSelf<ProgramCtx>>(&mut linker, |ctx| ctx)
+        });
     linked.map_err(|e| format!("cannot link the program: {e:#}"))?;
-    let mut wasi = WasiCtx::builder();
-    if base.kind() == ClockKind::Virtual {
-        wasi.wall_clock(VirtualWasiClock(base.clone()))
-            .monotonic_clock(VirtualWasiClock(base.clone()))
-            .secure_random(super::random::SeededRandom::new(seed))
-            .insecure_random(super::random::SeededRandom::new(!seed))
-            .insecure_random_seed(u128::from(seed));
-    }
-    wasi.allow_tcp(false).allow_udp(false);
+    let wasi = crate::capability::wasi::context(WasiSetup {
+        base: &base,
+        seed,
+        grants: &WasiGrants::default(),
+        stderr: None,
+    })?;
     static MAILBOXES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
     let growth = Limits {
         memory_bytes: code.memory_bytes,
@@ -336,7 +346,7 @@ pub(crate) fn run(
             script: None,
         },
         table: ResourceTable::new(),
-        wasi: wasi.build(),
+        wasi,
         limits: StoreLimiter::new(growth, budget),
     };
     let mut store = Store::new(&engine, ctx);

@@ -1,0 +1,443 @@
+//! A live plugin: its own store (memory, fuel, limits, the state of each
+//! host interface), its instance, and the calls Radar makes into it, each
+//! under the plugin's limits. A trap poisons a store for good, so `reset`
+//! and a swap build a new one.
+
+use std::collections::BTreeMap;
+use std::sync::atomic::AtomicU64;
+use std::sync::Arc;
+
+use sha2::{Digest, Sha256};
+use wasmtime::component::{Func, ResourceTable, Val};
+use wasmtime::{Store, Trap, WasmBacktrace};
+
+use super::code::PluginCode;
+use super::store::PluginCtx;
+use super::Limits;
+use crate::capability::clock::{ClockState, ClockView};
+use crate::capability::config::ConfigState;
+use crate::capability::emitter::{Emitter, EmitterView};
+use crate::capability::logging::{LogState, LogView};
+use crate::capability::stderr::StderrTail;
+use crate::capability::wasi::{WaitClock, WasiGrants, WasiSetup};
+use crate::clock::{ClockKind, StopFlag, TimeBase};
+use crate::limiter::{MemoryBudget, StoreLimiter};
+use crate::watchdog::{CallWatch, RunStopped, RunWatch};
+
+/// The fuel an instantiation may use (its data copied into memory, a
+/// component's start function), whatever a plugin's budget per call.
+const INSTANTIATION_FUEL: u64 = 1 << 30;
+
+/// Resources (WASI's pollables, streams, descriptors) one store may hold:
+/// a guest that opens without end faults instead of growing the host.
+const RESOURCES: usize = 65_536;
+
+fn name_seed(name: &str, seed: u64) -> u64 {
+    let digest = Sha256::digest(name.as_bytes());
+    let mut bytes = [0u8; 8];
+    bytes.copy_from_slice(&digest[..8]);
+    u64::from_le_bytes(bytes) ^ seed
+}
+
+/// Everything an instance needs besides its code.
+#[derive(Clone)]
+pub(crate) struct InstanceSetup {
+    pub name: Arc<str>,
+    pub base: TimeBase,
+    pub stop: Arc<StopFlag>,
+    pub config: Arc<BTreeMap<String, String>>,
+    pub limits: Limits,
+    pub seed: u64,
+    /// What of the host WASI shows the plugin (nothing by default).
+    pub wasi: Arc<WasiGrants>,
+    /// Fuel used by the plugin's calls so far, all instances together.
+    pub fuel_used: Arc<AtomicU64>,
+    /// The memory all the system's plugins may take together.
+    pub budget: Arc<MemoryBudget>,
+    /// What stops a call from outside it (see [`crate::watchdog`]).
+    pub watch: Arc<RunWatch>,
+}
+
+/// How a call into a plugin ended badly.
+#[derive(Debug)]
+pub(crate) struct Fault {
+    /// What happened, in one line, for the trace and the `faulted` signal.
+    pub cause: String,
+    /// The wasm backtrace, when the engine captured one.
+    pub backtrace: Option<String>,
+    /// The call used up its fuel (rather than trapping on its own).
+    pub out_of_fuel: bool,
+    /// The call was ended because the run is being stopped (a signal, a
+    /// stall): not the plugin's fault, and not recorded as one.
+    pub run_stopped: bool,
+}
+
+impl Fault {
+    fn from_error(err: &wasmtime::Error) -> Self {
+        Self {
+            cause: describe_fault(err),
+            backtrace: err
+                .downcast_ref::<WasmBacktrace>()
+                .map(|b| b.to_string().trim_end().to_string()),
+            out_of_fuel: matches!(err.downcast_ref::<Trap>(), Some(Trap::OutOfFuel)),
+            run_stopped: err.downcast_ref::<RunStopped>().is_some(),
+        }
+    }
+
+    /// A fault with this cause and nothing else to say.
+    pub(crate) fn new(cause: impl Into<String>) -> Self {
+        Self {
+            cause: cause.into(),
+            backtrace: None,
+            out_of_fuel: false,
+            run_stopped: false,
+        }
+    }
+
+    fn missing(export: &str) -> Self {
+        Self::new(format!("plugin has no `{export}` export"))
+    }
+}
+
+/// One live instance of a plugin, in its own store.
+pub(crate) struct PluginInstance {
+    store: Store<PluginCtx>,
+    _counted: crate::limits::LiveInstance,
+    fuel_per_call: u64,
+    fuel_used: Arc<AtomicU64>,
+    stderr: StderrTail,
+    check: Option<Func>,
+    start: Option<Func>,
+    interrupt: Option<Func>,
+    exit: Option<Func>,
+    snapshot: Option<Func>,
+    restore: Option<Func>,
+}
+
+/// One line: the trap or the error chain, without the wasm backtrace
+/// (which the engine attaches as context and [`Fault`] keeps apart).
+pub(crate) fn describe_fault(err: &wasmtime::Error) -> String {
+    if let Some(Trap::OutOfFuel) = err.downcast_ref::<Trap>() {
+        return "fuel exhausted (the call ran too long without returning)".into();
+    }
+    let chain: Vec<String> = err
+        .chain()
+        .map(|e| e.to_string())
+        .filter(|m| !m.starts_with("error while executing at wasm backtrace"))
+        .filter_map(|m| m.lines().next().map(|l| l.trim().to_string()))
+        .filter(|l| !l.is_empty())
+        .collect();
+    let text = if chain.is_empty() {
+        "the call failed".to_string()
+    } else {
+        chain.join(": ")
+    };
+    let text = match err.downcast_ref::<Trap>() {
+        Some(_) => format!("trapped: {}", text.trim_start_matches("wasm trap: ")),
+        None => text,
+    };
+    // wasmtime's counts of what a store may define (see `crate::limiter`):
+    // which limit, and its manifest key.
+    for (count, key) in [
+        ("memory count", "memories"),
+        ("table count", "tables"),
+        ("instance count", "instances"),
+    ] {
+        if text.contains(&format!("resource limit exceeded: {count} too high")) {
+            return format!("{text}: more than its limit (`{key}` in its manifest table)");
+        }
+    }
+    // wasmtime's own bound on what one value may take in the host as it
+    // is lifted (see `PluginCode::instantiate`).
+    if text.contains("fuel allocated for hostcalls has been exhausted") {
+        return "it handed the host a value (a payload, a result, a log line) larger than \
+                its `payload_bytes` allows"
+            .into();
+    }
+    match crate::limits::explain(&text) {
+        Some(limit) => format!("{text}: {limit}"),
+        None => text,
+    }
+}
+
+impl PluginCode {
+    pub async fn instantiate(&self, setup: InstanceSetup) -> Result<PluginInstance, Fault> {
+        let counted = crate::limits::room_for_instance().map_err(Fault::new)?;
+        let real_clock = setup.base.kind() == ClockKind::Real;
+        let stderr = StderrTail::default();
+        let wasi = crate::capability::wasi::context(WasiSetup {
+            base: &setup.base,
+            seed: name_seed(&setup.name, setup.seed),
+            grants: &setup.wasi,
+            stderr: Some(stderr.clone()),
+        })
+        .map_err(Fault::new)?;
+        let mut table = ResourceTable::new();
+        table.set_max_capacity(RESOURCES);
+        let ctx = PluginCtx {
+            waits: WaitClock::Scheduler {
+                base: setup.base.clone(),
+                stop: setup.stop.clone(),
+            },
+            watch: CallWatch::new(setup.watch, setup.stop.clone(), setup.name.clone()),
+            clock: ClockState {
+                base: setup.base.clone(),
+                stop: setup.stop.clone(),
+                fuel_mark: setup.limits.fuel_per_call,
+            },
+            log: LogState::new(
+                setup.name.clone(),
+                setup.base.clone(),
+                setup.limits.log_bytes,
+            ),
+            config: ConfigState {
+                values: setup.config,
+                script: self.script.clone(),
+            },
+            emitter: Emitter::new(
+                setup.name.clone(),
+                setup.limits.payload_bytes,
+                setup.stop.clone(),
+                real_clock,
+            ),
+            wasi,
+            table,
+            limits: StoreLimiter::new(setup.limits.growth(), setup.budget),
+        };
+        let mut store = Store::new(self.pre.engine(), ctx);
+        store.limiter(|ctx| &mut ctx.limits);
+        // What one value the guest hands the host may take in the host,
+        // counted by wasmtime as it is lifted, before it is allocated: so a
+        // payload over `payload_bytes` (each of its bytes at most one `Val`)
+        // never gets to take the host's memory.
+        // (At least 1 MiB: WASI's own calls, file writes and the like, pass
+        // through the same bound.)
+        store.set_hostcall_fuel(
+            setup
+                .limits
+                .payload_bytes
+                .saturating_mul(std::mem::size_of::<Val>())
+                .max(1 << 20),
+        );
+        let fuel_budget = setup.limits.fuel_per_call;
+        store.epoch_deadline_callback(move |mut ctx| ctx.data_mut().watch.check(fuel_budget));
+        store.set_epoch_deadline(1);
+        let fault = |e: wasmtime::Error| Fault::from_error(&e);
+        store
+            .fuel_async_yield_interval(real_clock.then_some(setup.limits.fuel_yield_interval))
+            .map_err(fault)?;
+        // Instantiation has a budget of its own: filling linear memory by
+        // copying uses fuel (about 16,000 for a small Rust plugin, about the
+        // size of its data; 1 with a copy-on-write image), which is not the
+        // plugin's compute and must not fail a plugin whose calls fit a
+        // tight budget.
+        store
+            .set_fuel(setup.limits.fuel_per_call.max(INSTANTIATION_FUEL))
+            .map_err(fault)?;
+        let instance = self
+            .pre
+            .instantiate_async(&mut store)
+            .await
+            .map_err(fault)?;
+        let mut funcs = self.exports.iter().map(|index| {
+            index
+                .as_ref()
+                .and_then(|i| instance.get_func(&mut store, i))
+        });
+        let mut next = || funcs.next().flatten();
+        let (check, start, interrupt) = (next(), next(), next());
+        let (exit, snapshot, restore) = (next(), next(), next());
+        Ok(PluginInstance {
+            store,
+            _counted: counted,
+            fuel_per_call: setup.limits.fuel_per_call,
+            fuel_used: setup.fuel_used,
+            stderr,
+            check,
+            start,
+            interrupt,
+            exit,
+            snapshot,
+            restore,
+        })
+    }
+}
+
+impl PluginInstance {
+    /// Calls `export` (`func`) under the plugin's limits: fuel, a log
+    /// budget, the watchdog (see [`crate::watchdog`]), and the payload size
+    /// of its result. A panic of the host while serving the call (a bug of
+    /// Radar or of `wasmtime_wasi`, which the guest may have provoked) is
+    /// caught and faults the plugin: no guest behaviour takes the host down.
+    async fn call(
+        &mut self,
+        func: Func,
+        export: &'static str,
+        params: &[Val],
+        has_result: bool,
+    ) -> Result<Option<Val>, Fault> {
+        let fault = |e: wasmtime::Error| Fault::from_error(&e);
+        if let Some(cause) = self.store.data().clock().stop.fault() {
+            // Blamed for a burst while it was not in a call: it faults now,
+            // before it runs again.
+            return Err(Fault::new(cause));
+        }
+        self.store.set_fuel(self.fuel_per_call).map_err(fault)?;
+        let now = {
+            let data = self.store.data_mut();
+            data.clock_mut().fuel_mark = self.fuel_per_call;
+            data.log().begin_call();
+            let now = data.clock().base.now();
+            data.watch.begin(export, now);
+            now
+        };
+        self.store.set_epoch_deadline(1);
+        let mut results = [Val::Bool(false)];
+        let slots = if has_result {
+            &mut results[..]
+        } else {
+            &mut results[..0]
+        };
+        self.stderr.clear();
+        let called = {
+            let mut call = std::pin::pin!(func.call_async(&mut self.store, params, slots));
+            std::future::poll_fn(|cx| {
+                let _quiet = crate::panics::QuietPanics::enter();
+                match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    std::future::Future::poll(call.as_mut(), cx)
+                })) {
+                    Ok(poll) => poll.map(Ok),
+                    Err(panic) => std::task::Poll::Ready(Err(panic)),
+                }
+            })
+            .await
+        };
+        let called = match called {
+            Ok(called) => called,
+            Err(panic) => {
+                // The store may be inconsistent: the plugin faults, and its
+                // next instance is a fresh one.
+                return Err(Fault::new(format!(
+                    "the host failed while serving its call of `{export}` at {:.3} s: {} \
+                     (a bug of Radar's: please report it)",
+                    now as f64 / 1e9,
+                    crate::panics::message(&*panic).replace('\n', " ")
+                )));
+            }
+        };
+        self.store.data_mut().log().end_call();
+        let left = self.store.get_fuel().unwrap_or(0);
+        self.fuel_used.fetch_add(
+            self.fuel_per_call.saturating_sub(left),
+            std::sync::atomic::Ordering::Relaxed,
+        );
+        let stopped = matches!(&called, Err(e) if e.downcast_ref::<RunStopped>().is_some());
+        // Fuel as time: the compute not yet counted takes its time now, so
+        // that what follows the call (its end, its result) comes later.
+        let clock = self.store.data().clock();
+        let compute = clock.base.fuel_nanos(clock.fuel_mark.saturating_sub(left));
+        if compute > 0 && !stopped {
+            let deadline = clock.base.now().saturating_add(compute);
+            let _ = clock.base.sleep_until(deadline, None).await;
+        }
+        called.map_err(|e| {
+            let mut fault = fault(e);
+            // An interpreter's uncaught exception: its message, then the trap.
+            if let Some(line) = self.stderr.last_line() {
+                fault.cause = format!("{line} ({})", fault.cause);
+            }
+            fault
+        })?;
+        let [result] = results;
+        if has_result {
+            self.store
+                .data_mut()
+                .emitter()
+                .checked(export, "result", &result)
+                .map_err(|e| Fault::new(e.to_string()))?;
+        }
+        Ok(has_result.then_some(result))
+    }
+
+    /// Runs `check`: `Some(payload)` when the event triggered (`Val::Tuple`
+    /// of nothing for a payload-less trigger is never produced: `None` inside
+    /// means triggered without payload).
+    pub async fn check(&mut self) -> Result<Option<Option<Val>>, Fault> {
+        let Some(f) = self.check else {
+            return Err(Fault::missing("check"));
+        };
+        match self.call(f, "check", &[], true).await? {
+            Some(Val::Bool(true)) => Ok(Some(None)),
+            Some(Val::Option(Some(v))) => Ok(Some(Some(*v))),
+            _ => Ok(None),
+        }
+    }
+
+    /// Runs `start` with the signal's payload (shared with the signal's
+    /// other deliveries: the call reads it in place).
+    pub async fn start(
+        &mut self,
+        payload: Option<Arc<Val>>,
+        has_result: bool,
+    ) -> Result<Option<Val>, Fault> {
+        let Some(f) = self.start else {
+            return Err(Fault::missing("start"));
+        };
+        let params = payload.as_deref().map_or(&[][..], std::slice::from_ref);
+        self.call(f, "start", params, has_result).await
+    }
+
+    pub async fn interrupt(&mut self, payload: Option<Arc<Val>>) -> Result<(), Fault> {
+        let Some(f) = self.interrupt else {
+            return Ok(());
+        };
+        let params = payload.as_deref().map_or(&[][..], std::slice::from_ref);
+        self.call(f, "interrupt", params, false).await.map(drop)
+    }
+
+    pub async fn exit(&mut self) -> Result<(), Fault> {
+        let Some(f) = self.exit else { return Ok(()) };
+        self.call(f, "exit", &[], false).await.map(drop)
+    }
+
+    /// The plugin's state in its own format, if it exports `snapshot`.
+    pub async fn snapshot(&mut self) -> Result<Option<Vec<u8>>, Fault> {
+        let Some(f) = self.snapshot else {
+            return Ok(None);
+        };
+        let wrong = |what: &str| Fault::new(format!("`snapshot` returned {what}, not list<u8>"));
+        match self.call(f, "snapshot", &[], true).await? {
+            Some(Val::List(items)) => items
+                .into_iter()
+                .map(|b| match b {
+                    Val::U8(b) => Ok(b),
+                    other => Err(wrong(&format!("a list holding {other:?}"))),
+                })
+                .collect::<Result<Vec<u8>, Fault>>()
+                .map(Some),
+            Some(other) => Err(wrong(&format!("{other:?}"))),
+            None => Err(wrong("nothing")),
+        }
+    }
+
+    /// Whether the plugin exports `restore`.
+    pub fn can_restore(&self) -> bool {
+        self.restore.is_some()
+    }
+
+    /// Hands `state` to the plugin's `restore`; `Err` inside is the error
+    /// the plugin returned.
+    pub async fn restore(&mut self, state: Vec<u8>) -> Result<Result<(), String>, Fault> {
+        let Some(f) = self.restore else {
+            return Ok(Ok(()));
+        };
+        let bytes = Val::List(state.into_iter().map(Val::U8).collect());
+        match self.call(f, "restore", &[bytes], true).await? {
+            Some(Val::Result(Err(error))) => Ok(Err(match error.as_deref() {
+                Some(Val::String(text)) => text.clone(),
+                _ => "restore returned an error".into(),
+            })),
+            _ => Ok(Ok(())),
+        }
+    }
+}

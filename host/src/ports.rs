@@ -1,0 +1,167 @@
+//! The ports of plugins and the properties of connections between them:
+//! the vocabulary every floor shares (DESIGN §2.0, floor 1).
+//!
+//! A plugin's *signals* (`triggered`, `started`, `interrupted`, `exited`,
+//! `faulted`, and those it declares) are its outputs; a response's *slots*
+//! (`start`, `interrupt`, `exit`) its inputs. A connection joins a signal to
+//! a slot with a [`Mode`] and, for starts, a [`Busy`] policy; a hot swap
+//! takes over with a [`SwapPolicy`]. `Plugin.port` names a port
+//! ([`split_port`]).
+
+/// How a connection behaves after its first delivery.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// Removed after its first delivery.
+    Once,
+    /// Kept until closed or its scope ends.
+    Whenever,
+}
+
+impl Mode {
+    /// The name the trace and the manifest use.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Mode::Once => "once",
+            Mode::Whenever => "whenever",
+        }
+    }
+}
+
+/// What a start signal does when the target response is busy.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Busy {
+    /// Dropped, and recorded in the trace as dropped (the default).
+    #[default]
+    Drop,
+    /// Run after the current activation; at most this many wait.
+    Queue(usize),
+    /// The current activation is stopped (its interrupt slot skipped, its
+    /// exit slot run) and the response starts again with the new payload.
+    Restart,
+}
+
+impl Busy {
+    /// The name the trace and the manifest use.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Busy::Drop => "drop",
+            Busy::Queue(_) => "queue",
+            Busy::Restart => "restart",
+        }
+    }
+}
+
+/// How a swap treats the work in progress.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum SwapPolicy {
+    /// The running activation (or check) finishes on the old version; the
+    /// next one runs on the new (the default).
+    #[default]
+    Drain,
+    /// The running activation is stopped as by an exit signal and starts
+    /// again, with the same payload, on the new version; a check in progress
+    /// is interrupted and its result discarded.
+    Restart,
+}
+
+impl SwapPolicy {
+    /// The policy as the trace and the CLI write it.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SwapPolicy::Drain => "drain",
+            SwapPolicy::Restart => "restart",
+        }
+    }
+}
+
+impl std::str::FromStr for SwapPolicy {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "drain" => Ok(Self::Drain),
+            "restart" => Ok(Self::Restart),
+            other => Err(format!(
+                "unknown swap policy `{other}` (expected `drain` or `restart`)"
+            )),
+        }
+    }
+}
+
+/// A plugin's signal: a built-in one or one it declares.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Signal {
+    Triggered,
+    Started,
+    Interrupted,
+    Exited,
+    Faulted,
+    /// One the plugin declares (see `capability::signals`).
+    Named(SignalName),
+}
+
+impl Signal {
+    /// The signal's name (`triggered`, ...).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Signal::Triggered => "triggered",
+            Signal::Started => "started",
+            Signal::Interrupted => "interrupted",
+            Signal::Exited => "exited",
+            Signal::Faulted => "faulted",
+            Signal::Named(name) => name.0,
+        }
+    }
+}
+
+/// The name of a declared signal, interned: copied and compared as cheaply
+/// as the built-in ones, the same for every version of a plugin.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub(crate) struct SignalName(&'static str);
+
+impl SignalName {
+    /// The one `SignalName` of `name` (each distinct name is allocated once
+    /// per process).
+    pub fn intern(name: &str) -> Self {
+        static NAMES: std::sync::Mutex<std::collections::BTreeSet<&'static str>> =
+            std::sync::Mutex::new(std::collections::BTreeSet::new());
+        let mut names = NAMES.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(known) = names.get(name) {
+            return Self(known);
+        }
+        let leaked: &'static str = Box::leak(name.to_string().into_boxed_str());
+        names.insert(leaked);
+        Self(leaked)
+    }
+
+    /// The name.
+    pub fn as_str(self) -> &'static str {
+        self.0
+    }
+}
+
+/// A response's slot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Slot {
+    Start,
+    Interrupt,
+    Exit,
+}
+
+impl Slot {
+    /// The slot's name (`start`, ...).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Slot::Start => "start",
+            Slot::Interrupt => "interrupt",
+            Slot::Exit => "exit",
+        }
+    }
+}
+
+/// `Plugin.port` as the plugin's name and the port's, if given.
+pub(crate) fn split_port(spec: &str) -> (&str, Option<&str>) {
+    match spec.rsplit_once('.') {
+        Some((plugin, port)) => (plugin, Some(port)),
+        None => (spec, None),
+    }
+}

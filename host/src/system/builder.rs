@@ -1,0 +1,481 @@
+//! Building a [`System`]: its plugins compiled and checked, its static
+//! connections and timed inputs, its trace sinks and limits.
+
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+use std::sync::atomic::Ordering;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use crossbeam_channel::unbounded;
+use serde_json::Value as Json;
+
+use super::deliberative::ProgramCode;
+use super::parts::Source;
+use super::run::System;
+use super::{Deliberative, Link, Plugin, SharedSetups, NEXT_SYSTEM, PROGRAM_NAME};
+use crate::clock::ClockKind;
+use crate::error::RadarError;
+use crate::limiter::MemoryBudget;
+use crate::plugin::{default_cache_dir, Limits, Loader};
+use crate::ports::SwapPolicy;
+use crate::scheduler::{duration_nanos, NewVersion, Place, PluginDef, StaticInput, StaticWhat};
+use crate::trace::inputs::{Input, InputRecorder, Origin, TimedInput};
+use crate::trace::TraceSink;
+use crate::watchdog::RunWatch;
+
+/// Builds a [`System`]; see the module docs.
+pub struct SystemBuilder {
+    clock: ClockKind,
+    plugins: Vec<Plugin>,
+    links: Vec<Link>,
+    /// Injections, blackboard writes and swaps at given times, in the
+    /// order they were given.
+    inputs: Vec<StaticInput>,
+    deliberative: Option<Deliberative>,
+    sinks: Vec<Box<dyn TraceSink>>,
+    record: Option<PathBuf>,
+    /// Replaying a virtual-clock recording: its trace records in all and
+    /// their digest, which the run checks at its end.
+    replay_end: Option<(u64, String)>,
+    fuel_per_second: Option<u64>,
+    realtime: crate::realtime::RealTime,
+    keep_trace: bool,
+    trace_limit: Option<usize>,
+    trace_bytes: usize,
+    cache_dir: Option<PathBuf>,
+    seed: u64,
+    limits: Limits,
+    period: Duration,
+    memory_budget: Option<usize>,
+    stall_timeout: Option<Duration>,
+}
+
+impl Default for SystemBuilder {
+    fn default() -> Self {
+        Self {
+            clock: ClockKind::Virtual,
+            plugins: Vec::new(),
+            links: Vec::new(),
+            inputs: Vec::new(),
+            deliberative: None,
+            sinks: Vec::new(),
+            record: None,
+            replay_end: None,
+            fuel_per_second: None,
+            realtime: crate::realtime::RealTime::default(),
+            keep_trace: true,
+            trace_limit: Some(DEFAULT_TRACE_LIMIT),
+            trace_bytes: DEFAULT_TRACE_BYTES,
+            cache_dir: default_cache_dir(),
+            seed: 0,
+            limits: Limits::default(),
+            period: Duration::from_millis(10),
+            memory_budget: None,
+            stall_timeout: Some(crate::watchdog::DEFAULT_STALL_TIMEOUT),
+        }
+    }
+}
+
+impl SystemBuilder {
+    /// The clock the system runs on (default: virtual).
+    pub fn clock(mut self, clock: ClockKind) -> Self {
+        self.clock = clock;
+        self
+    }
+
+    /// Adds a plugin.
+    pub fn plugin(mut self, plugin: Plugin) -> Self {
+        self.plugins.push(plugin);
+        self
+    }
+
+    /// A static connection, made when the run begins and kept until it ends
+    /// (a manifest's `[[connect]]`). An error in it fails the run at once.
+    pub fn connect(mut self, link: Link) -> Self {
+        self.links.push(link);
+        self
+    }
+
+    /// Sends `payload` (JSON, parsed by the slot's WIT type) into `slot` at
+    /// `at` of the run's time, like `radar run --inject`. A slot or payload
+    /// that does not fit fails the run at once.
+    pub fn inject_at(self, at: Duration, slot: impl Into<String>, payload: Json) -> Self {
+        let to = slot.into();
+        self.input(at, None, StaticWhat::Inject { to, payload })
+    }
+
+    /// The system's deliberative program, as a component: `System::run`
+    /// runs it (a manifest's `[deliberative]`).
+    pub fn deliberative(mut self, program: Deliberative) -> Self {
+        self.deliberative = Some(program);
+        self
+    }
+
+    /// Writes `value` into blackboard `entry` at `at` of the run's time
+    /// (`radar run --write`), as deliberative code would: a driver's
+    /// reading, a test's input. A value that does not fit the entry's type
+    /// fails the run before anything runs.
+    pub fn write_at(self, at: Duration, entry: impl Into<String>, value: Json) -> Self {
+        let entry = entry.into();
+        self.input(at, None, StaticWhat::Write { entry, value })
+    }
+
+    /// Swaps `plugin` for the component at `path` at `at` of the run's time
+    /// (`radar run --swap`). The component is compiled by `build`; one that
+    /// does not load or fit is refused when its time comes (a
+    /// `swap-refused` record), and the old version goes on serving.
+    pub fn swap_at(
+        self,
+        at: Duration,
+        plugin: impl Into<String>,
+        path: impl Into<PathBuf>,
+        policy: SwapPolicy,
+    ) -> Self {
+        let (plugin, path) = (plugin.into(), path.into());
+        self.input(
+            at,
+            None,
+            StaticWhat::Swap {
+                plugin,
+                path,
+                policy,
+                code: None,
+            },
+        )
+    }
+
+    fn input(mut self, at: Duration, place: Option<Place>, what: StaticWhat) -> Self {
+        self.inputs.push(StaticInput { at, place, what });
+        self
+    }
+
+    /// Sends every trace record to `sink` as it is made.
+    pub fn trace_to(mut self, sink: impl TraceSink + 'static) -> Self {
+        self.sinks.push(Box::new(sink));
+        self
+    }
+
+    /// Records every input that enters the run from outside (static
+    /// injections, writes and swaps, and those of handles used off the
+    /// run's native contexts) into `path`, as `radar run --record` does;
+    /// [`SystemBuilder::inputs`] feeds such a file back.
+    pub fn record_to(mut self, path: impl Into<PathBuf>) -> Self {
+        self.record = Some(path.into());
+        self
+    }
+
+    /// Feeds timed inputs (an inputs file, [`crate::trace::inputs::load`])
+    /// into the run: injections, blackboard writes and swaps at their
+    /// times. A recording's own lines (its clock, plugin versions, end) are
+    /// not inputs and are skipped here.
+    pub fn inputs(mut self, inputs: &[TimedInput]) -> Self {
+        for TimedInput {
+            t,
+            step,
+            records,
+            input,
+        } in inputs
+        {
+            let at = Duration::from_nanos(*t);
+            // A recording's inputs carry their place in their instant: they
+            // are applied there, not where a timer would put them; and the
+            // records made before them, which the replay checks.
+            let place = step.map(|step| Place {
+                step,
+                records: *records,
+            });
+            let what = match input {
+                Input::Inject { to, payload } => StaticWhat::Inject {
+                    to: to.clone(),
+                    payload: payload.clone(),
+                },
+                Input::BoardWrite { entry, value } => StaticWhat::Write {
+                    entry: entry.clone(),
+                    value: value.clone(),
+                },
+                Input::Swap {
+                    plugin,
+                    wasm,
+                    policy,
+                    ..
+                } => StaticWhat::Swap {
+                    plugin: plugin.clone(),
+                    path: PathBuf::from(wasm),
+                    policy: if policy == "restart" {
+                        SwapPolicy::Restart
+                    } else {
+                        SwapPolicy::Drain
+                    },
+                    code: None,
+                },
+                Input::End {
+                    digest: Some(digest),
+                } => {
+                    self.replay_end = records.map(|r| (r, digest.clone()));
+                    continue;
+                }
+                Input::Recording { .. } | Input::Plugin { .. } | Input::End { .. } => continue,
+            };
+            self = self.input(at, place, what);
+        }
+        self
+    }
+
+    /// Fuel as time (virtual clock): a plugin's compute takes virtual time,
+    /// `fuel_per_second` fuel (about one wasm instruction each) a second, so
+    /// that a slow check or slot shows as late as it would be on a robot,
+    /// and still deterministically. A call's compute is counted when it
+    /// sleeps, yields or returns: what it does after (its end, its result,
+    /// a signal it causes) comes that much later. Off by default (compute
+    /// takes no virtual time); ignored under the real clock, where compute
+    /// takes its real time.
+    pub fn fuel_as_time(mut self, fuel_per_second: u64) -> Self {
+        self.fuel_per_second = Some(fuel_per_second);
+        self
+    }
+
+    /// Real-time settings of the scheduler's thread for the run: a
+    /// `SCHED_FIFO` priority and a CPU (see [`crate::realtime`]). A setting
+    /// the process may not make fails the run before anything runs, saying
+    /// what permission it needs.
+    pub fn realtime(mut self, settings: crate::realtime::RealTime) -> Self {
+        self.realtime = settings;
+        self
+    }
+
+    /// Whether [`RunReport::trace`](crate::RunReport::trace) keeps the run's records (default: yes,
+    /// up to [`SystemBuilder::trace_limit`]).
+    pub fn keep_trace(mut self, keep: bool) -> Self {
+        self.keep_trace = keep;
+        self
+    }
+
+    /// How many records [`RunReport::trace`](crate::RunReport::trace) keeps at most: the newest
+    /// ones, also within [`SystemBuilder::trace_bytes`];
+    /// [`RunReport::trace_dropped`](crate::RunReport::trace_dropped) counts the older ones it let go
+    /// (default: [`DEFAULT_TRACE_LIMIT`], so that a long run's kept trace
+    /// stays bounded; `None`: every record, whatever their size, as tests
+    /// that check a whole trace need). Trace files (`trace_to`) get every
+    /// record either way.
+    pub fn trace_limit(mut self, limit: Option<usize>) -> Self {
+        self.trace_limit = limit;
+        self
+    }
+
+    /// How many bytes (about as the records' JSON takes) the kept trace
+    /// holds at most when it has a [`SystemBuilder::trace_limit`]: the
+    /// newest records within both bounds are kept (default
+    /// [`DEFAULT_TRACE_BYTES`]). A payload larger than
+    /// [`crate::payload::TRACE_PAYLOAD_BYTES`] is recorded by its size
+    /// alone, in every sink.
+    pub fn trace_bytes(mut self, bytes: usize) -> Self {
+        self.trace_bytes = bytes;
+        self
+    }
+
+    /// Where compiled components are cached (`None`: no disk cache).
+    pub fn cache_dir(mut self, dir: Option<PathBuf>) -> Self {
+        self.cache_dir = dir;
+        self
+    }
+
+    /// Seed of the random sources plugins see under the virtual clock.
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.seed = seed;
+        self
+    }
+
+    /// Limits for plugins that do not set their own.
+    pub fn default_limits(mut self, limits: Limits) -> Self {
+        self.limits = limits;
+        self
+    }
+
+    /// The memory all plugins may take together, in bytes: their linear
+    /// memories and tables, drawn as they grow (a manifest's `[limits]
+    /// memory`). A growth past it faults the plugin that asked, naming the
+    /// budget. Default: 80 % of the memory the machine has available when
+    /// the system is built.
+    pub fn memory_budget(mut self, bytes: usize) -> Self {
+        self.memory_budget = Some(bytes);
+        self
+    }
+
+    /// Under the virtual clock, how long a run may make no progress, in
+    /// wall-clock time, while one plugin call (or the deliberative
+    /// program) computes, such as a check spinning under a huge fuel
+    /// budget, before the run is stopped, naming the plugin and its call
+    /// (default [`crate::DEFAULT_STALL_TIMEOUT`]; `None`: never). Under the
+    /// real clock time passes while a call computes, and nothing is
+    /// stopped.
+    pub fn stall_timeout(mut self, timeout: Option<Duration>) -> Self {
+        self.stall_timeout = timeout;
+        self
+    }
+
+    /// Compiles and validates every plugin. The first plugin that cannot be
+    /// loaded is named in the error.
+    pub fn build(self) -> Result<System, RadarError> {
+        let mut loader = Loader::new(self.cache_dir)?;
+        let mut defs: Vec<PluginDef> = Vec::new();
+        let mut names = std::collections::HashSet::new();
+        for p in self.plugins {
+            if p.name.is_empty() || p.name.contains(|c: char| c == '.' || c.is_whitespace()) {
+                return Err(RadarError::BadName(p.name));
+            }
+            if !names.insert(p.name.clone()) {
+                return Err(RadarError::DuplicatePlugin(p.name));
+            }
+            if p.period.is_some_and(|d| d.is_zero()) {
+                // Checks back to back with no time between would stop the
+                // virtual clock for good.
+                return Err(RadarError::BadSetting {
+                    plugin: p.name,
+                    cause: "an event's check period must be longer than zero".into(),
+                });
+            }
+            if let Some((host, _, _)) = p.wasi.dirs.iter().find(|(host, _, _)| !host.is_dir()) {
+                return Err(RadarError::BadSetting {
+                    plugin: p.name.clone(),
+                    cause: format!("its WASI directory {} is not a directory", host.display()),
+                });
+            }
+            let mut code = match &p.source {
+                Source::File(path) => loader.load_file(&p.name, path)?,
+                Source::Bytes(bytes) => loader.load_bytes(&p.name, bytes)?,
+            };
+            if let Some(main) = &p.script {
+                code = loader.with_script(&p.name, &code, main)?;
+            }
+            defs.push(PluginDef {
+                code: Rc::new(code),
+                config: Arc::new(p.config),
+                limits: p.limits.unwrap_or_else(|| self.limits.clone()),
+                period: duration_nanos(p.period.unwrap_or(self.period)),
+                grants: Arc::new(p.grants),
+                wasi: Arc::new(p.wasi),
+                name: p.name,
+            });
+        }
+        let board = crate::scheduler::board::plan(&defs)?;
+        let program = match self.deliberative {
+            None => None,
+            Some(d) => {
+                let bytes = match &d.source {
+                    Source::File(path) => {
+                        std::fs::read(path).map_err(|cause| RadarError::Read {
+                            plugin: PROGRAM_NAME.into(),
+                            path: path.clone(),
+                            cause,
+                        })?
+                    }
+                    Source::Bytes(bytes) => bytes.clone(),
+                };
+                Some(ProgramCode {
+                    component: super::deliberative::load(&mut loader, PROGRAM_NAME, &bytes)?,
+                    config: Arc::new(d.config),
+                    fuel: d.fuel,
+                    memory_bytes: d.memory_bytes,
+                })
+            }
+        };
+        let mut inputs = self.inputs;
+        for input in &mut inputs {
+            if let StaticWhat::Swap {
+                plugin, path, code, ..
+            } = &mut input.what
+            {
+                *code = Some(load_version(&mut loader, plugin, path));
+            }
+        }
+        let recorder = match &self.record {
+            None => None,
+            Some(path) => Some(InputRecorder::create(path).map_err(|e| {
+                RadarError::Recording(format!("cannot create {}: {e}", path.display()))
+            })?),
+        };
+        let (tx, rx) = unbounded();
+        let budget = Arc::new(match self.memory_budget {
+            Some(bytes) => MemoryBudget::new(bytes),
+            None => MemoryBudget::from_machine(),
+        });
+        Ok(System {
+            budget,
+            // Under the real clock time passes while a call computes: a long
+            // computation is the plugin's business (and its fuel's).
+            watch: Arc::new(RunWatch::new(
+                self.stall_timeout
+                    .filter(|_| self.clock == ClockKind::Virtual),
+            )),
+            loader: Arc::new(Mutex::new(loader)),
+            setups: SharedSetups::default(),
+            id: NEXT_SYSTEM.fetch_add(1, Ordering::Relaxed),
+            clock: self.clock,
+            plugins: defs,
+            links: self.links.into_iter().map(|l| l.spec).collect(),
+            inputs,
+            board,
+            program,
+            sinks: self.sinks,
+            recorder,
+            replay_end: self.replay_end,
+            fuel_per_second: self.fuel_per_second,
+            realtime: self.realtime,
+            keep_trace: self.keep_trace,
+            trace_limit: self.trace_limit.map(|n| (n, self.trace_bytes)),
+            seed: self.seed,
+            tx,
+            rx,
+        })
+    }
+}
+
+/// How many records [`RunReport::trace`](crate::RunReport::trace) keeps by default (the newest); a
+/// test that checks a whole longer trace sets
+/// [`SystemBuilder::trace_limit`]`(None)`, as `radar::testing` and
+/// `radar test` do.
+pub const DEFAULT_TRACE_LIMIT: usize = 1_000_000;
+
+/// How many bytes of records [`RunReport::trace`](crate::RunReport::trace) keeps by default (see
+/// [`SystemBuilder::trace_bytes`]).
+pub const DEFAULT_TRACE_BYTES: usize = 256 << 20;
+
+/// A new version of a plugin, or its version and why it cannot be loaded.
+pub(super) fn load_version(
+    loader: &mut Loader,
+    plugin: &str,
+    path: &Path,
+) -> Result<Box<NewVersion>, (String, RadarError)> {
+    let builtin = match Origin::of(path) {
+        Origin::Builtin(name) => match crate::assets::builtin(&name) {
+            Some(bytes) => Some(bytes),
+            None => {
+                let cause = format!("no built-in component `{name}`");
+                let error = RadarError::BadSetting {
+                    plugin: plugin.to_string(),
+                    cause,
+                };
+                return Err(("unknown".into(), error));
+            }
+        },
+        Origin::File(_) => None,
+    };
+    loader
+        .load_version(plugin, path, builtin)
+        .map(|code| {
+            Box::new(NewVersion {
+                code,
+                instance: None,
+            })
+        })
+        .map_err(|e| {
+            let version = match builtin {
+                Some(bytes) => crate::plugin::version_of(bytes),
+                None => std::fs::read(path)
+                    .map(|bytes| crate::plugin::version_of(&bytes))
+                    .unwrap_or_else(|_| "unreadable".into()),
+            };
+            (version, e)
+        })
+}

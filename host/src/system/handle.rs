@@ -1,0 +1,417 @@
+//! The handle deliberative code drives a running system with ([`Radar`]),
+//! and what it hands out: tasks, prepared versions, an [`Interrupter`].
+
+use std::fmt::Display;
+use std::path::Path;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use crossbeam_channel::{bounded, Sender};
+use serde_json::Value as Json;
+
+use super::builder::load_version;
+use super::run::native_thread;
+use super::{Connection, Link, SharedSetups, NATIVE_CONTEXT};
+use crate::error::RadarError;
+use crate::executor::block_on;
+use crate::payload::Payload;
+use crate::plugin::Loader;
+use crate::ports::SwapPolicy;
+use crate::scheduler::{Command, NewVersion, ProgramFailure, Woke};
+use crate::trace::inputs::Origin;
+use crate::watchdog::{RunWatch, Stopping};
+
+/// A handle on a running system, for deliberative code: cheap to clone,
+/// usable from any thread. Every call fails with [`RadarError::Stopped`] once
+/// the run has ended.
+#[derive(Clone)]
+pub struct Radar {
+    pub(super) tx: Sender<Command>,
+    /// The system this handle drives (see [`NATIVE_CONTEXT`]).
+    pub(super) system: u64,
+    pub(super) loader: Arc<Mutex<Loader>>,
+    pub(super) setups: SharedSetups,
+    pub(super) watch: Arc<RunWatch>,
+}
+
+impl Radar {
+    /// Whether this call is made on one of the run's native contexts.
+    fn lockstep(&self) -> bool {
+        NATIVE_CONTEXT.with(|c| c.get() == self.system)
+    }
+
+    fn ask<T>(&self, make: impl FnOnce(Sender<T>) -> Command) -> Result<T, RadarError> {
+        let (reply, answer) = bounded(1);
+        self.tx.send(make(reply)).map_err(|_| RadarError::Stopped)?;
+        answer.recv().map_err(|_| RadarError::Stopped)
+    }
+
+    /// Makes a connection described by a [`Link`].
+    pub fn connect(&self, link: Link) -> Result<Connection, RadarError> {
+        let ids = self.ask(|reply| Command::Connect {
+            link: link.spec,
+            reply,
+        })??;
+        Ok(Connection {
+            ids,
+            tx: self.tx.clone(),
+            armed: true,
+        })
+    }
+
+    /// `whenever from to`.
+    pub fn whenever(&self, from: &str, to: &str) -> Result<Connection, RadarError> {
+        self.connect(Link::whenever(from, to))
+    }
+
+    /// `once from to`.
+    pub fn once(&self, from: &str, to: &str) -> Result<Connection, RadarError> {
+        self.connect(Link::once(from, to))
+    }
+
+    /// `once from start to until until_signal`.
+    pub fn once_until(&self, from: &str, to: &str, until: &str) -> Result<Connection, RadarError> {
+        self.connect(Link::once(from, to).until(until))
+    }
+
+    /// `whenever from start to until until_signal`: `until_signal`
+    /// interrupts every activation this connection starts.
+    pub fn whenever_until(
+        &self,
+        from: &str,
+        to: &str,
+        until: &str,
+    ) -> Result<Connection, RadarError> {
+        self.connect(Link::whenever(from, to).until(until))
+    }
+
+    /// `whenever from { slot }`: an anonymous slot.
+    pub fn whenever_do(
+        &self,
+        from: &str,
+        slot: impl FnMut(Payload) + Send + 'static,
+    ) -> Result<Connection, RadarError> {
+        self.connect(Link::whenever_do(from, slot))
+    }
+
+    /// `once from { slot }`.
+    pub fn once_do(
+        &self,
+        from: &str,
+        slot: impl FnMut(Payload) + Send + 'static,
+    ) -> Result<Connection, RadarError> {
+        self.connect(Link::once_do(from, slot))
+    }
+
+    /// `waitfor signal [timeout]`: blocks until `signal` is emitted and
+    /// returns its payload, or `None` when `timeout` passes first. An event
+    /// is active for the wait.
+    pub fn waitfor(
+        &self,
+        signal: &str,
+        timeout: Option<Duration>,
+    ) -> Result<Option<Payload>, RadarError> {
+        self.ask(|reply| Command::WaitFor {
+            event: signal.to_string(),
+            timeout,
+            lockstep: self.lockstep(),
+            reply,
+        })?
+    }
+
+    /// Sends `payload` (JSON, parsed by the slot's WIT type) straight into a
+    /// slot, as OpenRTM's `rtinject` does.
+    pub fn inject(&self, slot: &str, payload: Json) -> Result<(), RadarError> {
+        self.ask(|reply| Command::Inject {
+            to: slot.to_string(),
+            payload,
+            at: None,
+            external: !self.lockstep(),
+            reply,
+        })?
+    }
+
+    /// Schedules an injection at `at` (time since the run began; at once if
+    /// that has passed). The slot and the payload are checked now.
+    pub fn inject_at(&self, at: Duration, slot: &str, payload: Json) -> Result<(), RadarError> {
+        self.ask(|reply| Command::Inject {
+            to: slot.to_string(),
+            payload,
+            at: Some(at),
+            external: !self.lockstep(),
+            reply,
+        })?
+    }
+
+    /// Writes `value` into blackboard `entry` now (checked against the
+    /// entry's type, recorded as a `board-write` by `(native)`): how a driver
+    /// thread publishes a sensor reading.
+    pub fn board_write(&self, entry: &str, value: Json) -> Result<(), RadarError> {
+        self.ask(|reply| Command::BoardWrite {
+            entry: entry.to_string(),
+            value,
+            external: !self.lockstep(),
+            reply,
+        })?
+    }
+
+    /// The value of blackboard `entry`, if anything has written it: how
+    /// deliberative code reads what a response handed back.
+    pub fn board_read(&self, entry: &str) -> Result<Option<Payload>, RadarError> {
+        self.ask(|reply| Command::BoardRead {
+            entry: entry.to_string(),
+            reply,
+        })?
+    }
+
+    /// Sleeps `duration` of the system's time (virtual or real).
+    pub fn sleep(&self, duration: Duration) -> Result<(), RadarError> {
+        self.ask(|reply| Command::Sleep {
+            duration,
+            lockstep: self.lockstep(),
+            reply,
+        })
+    }
+
+    /// A deliberative component's wait: until `deadline` (run time), until
+    /// `signal`, or until a delivery to one of its anonymous slots.
+    pub(crate) fn wait(
+        &self,
+        mailbox: u64,
+        deadline: Option<Duration>,
+        signal: Option<&str>,
+    ) -> Result<Woke, RadarError> {
+        let lockstep = self.lockstep();
+        self.ask(|reply| Command::Wait {
+            mailbox,
+            deadline,
+            signal: signal.map(str::to_string),
+            lockstep,
+            reply,
+        })?
+    }
+
+    /// A plugin's state: `inactive`, `active` (events), `idle`, `running`,
+    /// `interrupting`, `exiting` (responses), or `error`.
+    pub fn plugin_state(&self, plugin: &str) -> Result<&'static str, RadarError> {
+        self.ask(|reply| Command::PluginState {
+            plugin: plugin.to_string(),
+            reply,
+        })?
+    }
+
+    /// The system's time since the run began.
+    pub fn now(&self) -> Result<Duration, RadarError> {
+        self.ask(|reply| Command::Now { reply })
+    }
+
+    /// Re-instantiates a plugin in `error` with a fresh store.
+    pub fn reset(&self, plugin: &str) -> Result<(), RadarError> {
+        self.ask(|reply| Command::Reset {
+            plugin: plugin.to_string(),
+            reply,
+        })?
+    }
+
+    /// Runs `task` on a new thread as a native context of the run: under the
+    /// virtual clock it takes turns with the program and the anonymous
+    /// slots (it first runs when the caller blocks), so deliberative code on
+    /// several threads stays deterministic. [`Task::join`] waits for it the
+    /// way `sleep` waits, letting the run go on meanwhile.
+    pub fn spawn<F, E>(&self, task: F) -> Result<Task, RadarError>
+    where
+        F: FnOnce(Radar) -> Result<(), E> + Send + 'static,
+        E: Display,
+    {
+        let (go, go_rx) = bounded(1);
+        let id = self.ask(|reply| Command::Spawn { go, reply })?;
+        native_thread(
+            "radar-task",
+            self.clone(),
+            Some(go_rx),
+            task,
+            move |outcome| Command::TaskDone { task: id, outcome },
+        )
+        .map_err(|e| RadarError::Program(format!("cannot start a task's thread: {e}")))?;
+        Ok(Task {
+            id,
+            radar: self.clone(),
+        })
+    }
+
+    /// Replaces `plugin` by the component at `path` while the system runs
+    /// (DESIGN §1.4). The component is compiled here, on the caller's thread
+    /// (through the compiled-artifact cache), then checked against every
+    /// live connection of the plugin: a new version that does not fit is
+    /// refused with an error naming the connection and both types, and the
+    /// old version goes on serving. An accepted one takes over at the
+    /// plugin's safe point, as `policy` says, with the old version's state if
+    /// both export `snapshot` / `restore`; a failure there rolls back (a
+    /// `swap-rolled-back` record).
+    pub fn swap(
+        &self,
+        plugin: &str,
+        path: impl AsRef<Path>,
+        policy: SwapPolicy,
+    ) -> Result<(), RadarError> {
+        let code = self.stage(plugin, path.as_ref());
+        let origin = (!self.lockstep()).then(|| Origin::of(path.as_ref()));
+        self.ask(|reply| Command::Swap {
+            plugin: plugin.to_string(),
+            code,
+            policy,
+            origin,
+            reply,
+        })?
+    }
+
+    /// The first half of [`Radar::swap`], done ahead of time, as Erlang
+    /// loads new code before switching to it: compiles the component at
+    /// `path`, checks that it is a plugin, and makes its instance for
+    /// `plugin`, all on the caller's thread. [`Radar::swap_prepared`] then
+    /// only switches. Fails if the component cannot be loaded (nothing is
+    /// recorded: no swap was asked for).
+    pub fn prepare(
+        &self,
+        plugin: &str,
+        path: impl AsRef<Path>,
+    ) -> Result<PreparedVersion, RadarError> {
+        match self.stage(plugin, path.as_ref()) {
+            Ok(new) => Ok(PreparedVersion {
+                system: self.system,
+                plugin: plugin.to_string(),
+                origin: Origin::of(path.as_ref()),
+                new,
+            }),
+            Err((_, error)) => Err(error),
+        }
+    }
+
+    /// Switches to a version made by [`Radar::prepare`], as [`Radar::swap`]
+    /// would: checked against the plugin's live connections, taking over at
+    /// its safe point as `policy` says.
+    pub fn swap_prepared(
+        &self,
+        prepared: PreparedVersion,
+        policy: SwapPolicy,
+    ) -> Result<(), RadarError> {
+        if prepared.system != self.system {
+            return Err(RadarError::SwapRefused {
+                plugin: prepared.plugin,
+                cause: "the version was prepared for another system".into(),
+            });
+        }
+        let origin = (!self.lockstep()).then_some(prepared.origin);
+        self.ask(|reply| Command::Swap {
+            plugin: prepared.plugin,
+            code: Ok(prepared.new),
+            policy,
+            origin,
+            reply,
+        })?
+    }
+
+    /// Loads a new version of `plugin` and, once the run has begun, makes
+    /// its instance here, so that the scheduler's thread only switches.
+    fn stage(&self, plugin: &str, path: &Path) -> Result<Box<NewVersion>, (String, RadarError)> {
+        let mut code = {
+            let mut loader = self.loader.lock().unwrap_or_else(|e| e.into_inner());
+            load_version(&mut loader, plugin, path)
+        };
+        let setup = self
+            .setups
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .get(plugin)
+            .cloned();
+        if let (Ok(new), Some(setup)) = (code.as_mut(), setup) {
+            new.instance = Some(block_on(new.code.instantiate(setup)));
+        }
+        code
+    }
+
+    /// Ends the run.
+    pub fn stop(&self) {
+        let _ = self.tx.send(Command::Stop);
+    }
+
+    /// Stops the run as its user would, with Ctrl-C (see
+    /// [`Interrupter::interrupt`]).
+    pub fn interrupt(&self, why: impl Into<String>) {
+        Interrupter(self.watch.clone()).interrupt(why);
+        let _ = self.tx.send(Command::Stop);
+    }
+}
+
+/// Stops a run as its user would, with Ctrl-C (see
+/// [`System::interrupter`](crate::System::interrupter), [`Radar::interrupt`]): made for signal
+/// handlers, it holds nothing of the run but the flag it sets.
+#[derive(Clone)]
+pub struct Interrupter(Arc<RunWatch>);
+
+impl Interrupter {
+    pub(super) fn new(watch: Arc<RunWatch>) -> Self {
+        Self(watch)
+    }
+
+    /// Stops the run: a call that computes now ends within a few tens of
+    /// milliseconds (not held against its plugin), the scheduler stops
+    /// within as long, the trace sinks write what they hold, and the
+    /// trace's last record is `stopped`, reason `signal`, saying `why`.
+    pub fn interrupt(&self, why: impl Into<String>) {
+        self.0.stop(Stopping {
+            reason: "signal",
+            message: why.into(),
+        });
+    }
+}
+
+/// A new version of a plugin, compiled and instantiated ahead of the swap
+/// by [`Radar::prepare`].
+pub struct PreparedVersion {
+    system: u64,
+    plugin: String,
+    origin: Origin,
+    new: Box<NewVersion>,
+}
+
+impl PreparedVersion {
+    /// The plugin it is for.
+    pub fn plugin(&self) -> &str {
+        &self.plugin
+    }
+
+    /// Its version: the first 12 hex digits of the component's sha256.
+    pub fn version(&self) -> &str {
+        &self.new.code.version
+    }
+}
+
+impl std::fmt::Debug for PreparedVersion {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PreparedVersion")
+            .field("plugin", &self.plugin)
+            .field("version", &self.version())
+            .finish()
+    }
+}
+
+/// Deliberative code started with [`Radar::spawn`]. Dropping it detaches
+/// the task (it runs on until it ends or the run does).
+pub struct Task {
+    id: u64,
+    radar: Radar,
+}
+
+impl Task {
+    /// Waits until the task has ended and returns how it ended; under the
+    /// virtual clock the run goes on while the caller waits.
+    pub fn join(self) -> Result<Result<(), ProgramFailure>, RadarError> {
+        let lockstep = self.radar.lockstep();
+        self.radar.ask(|reply| Command::Join {
+            task: self.id,
+            lockstep,
+            reply,
+        })
+    }
+}
