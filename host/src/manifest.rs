@@ -49,7 +49,7 @@ use serde::Deserialize;
 
 use crate::error::RadarError;
 use crate::plugin::Limits;
-use crate::scheduler::Busy;
+use crate::ports::Busy;
 use crate::system::{Deliberative, Link, Plugin, SystemBuilder};
 
 /// A parsed manifest.

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use wasmtime::component::Linker;
 use wasmtime::StoreContextMut;
 
-use super::Interruption;
+use super::bindings::Interruption;
 use crate::clock::{StopFlag, StopReason, TimeBase, YieldNow};
 
 /// What the clock interface reaches: scheduler time, the plugin's stop

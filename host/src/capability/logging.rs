@@ -12,7 +12,7 @@ use std::sync::Arc;
 use wasmtime::component::{HasSelf, Linker};
 
 use super::bindings::radar::reactive::logging::{self, Host};
-use super::Level;
+use super::bindings::Level;
 use crate::clock::TimeBase;
 
 /// What logging reaches: the plugin's name, the scheduler's log queue, and

@@ -12,8 +12,8 @@ use wasmtime::component::{Func, ResourceTable, Val};
 use wasmtime::{Store, Trap, WasmBacktrace};
 
 use super::code::PluginCode;
+use super::limits::Limits;
 use super::store::PluginCtx;
-use super::Limits;
 use crate::capability::clock::{ClockState, ClockView};
 use crate::capability::config::ConfigState;
 use crate::capability::emitter::{Emitter, EmitterView};

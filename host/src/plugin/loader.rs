@@ -78,7 +78,7 @@ impl EngineFlavour {
         let engine = Engine::new(&config).map_err(|e| RadarError::Engine(format!("{e:#}")))?;
         crate::watchdog::watch_engine(&engine);
         let mut linker = Linker::new(&engine);
-        crate::capability::add_to_linker(&mut linker)
+        crate::capability::linking::add_to_linker(&mut linker)
             .map_err(|e| RadarError::Engine(format!("{e:#}")))?;
         let mut hasher = std::collections::hash_map::DefaultHasher::new();
         engine.precompile_compatibility_hash().hash(&mut hasher);

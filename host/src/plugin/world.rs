@@ -29,7 +29,7 @@ pub(super) fn validate(
     let engine = component.engine();
     for (name, _) in ty.imports(engine) {
         let typed_by_world = signals::is_signals_interface(name) || board::is_board_interface(name);
-        if !crate::capability::provides(name) && !typed_by_world {
+        if !crate::capability::linking::provides(name) && !typed_by_world {
             return Err(wrong(format!(
                 "it imports `{name}`, which Radar does not provide \
                  (plugins import radar:reactive@0.1.0 and WASI only)"

@@ -2,33 +2,20 @@
 //! its slots, an event's checks at their cadence, a response's
 //! start → [interrupt] → exit for each accepted start.
 
-use super::swap::Transition;
-use super::*;
+use std::rc::Rc;
+use std::sync::Arc;
+
+use serde_json::Value as Json;
+
+use super::state::{Activation, Core, Lifecycle, Phase, State};
+use super::versions::Transition;
+use crate::clock::StopReason;
+use crate::payload::trace_json;
+use crate::plugin::{Fault, Kind, PluginInstance};
+use crate::ports::{Signal, Slot};
+use crate::trace::Entry;
 
 impl Core {
-    pub(super) fn with<R>(&self, f: impl FnOnce(&mut State) -> R) -> R {
-        f(&mut self.st.borrow_mut())
-    }
-
-    /// Waits until `ready` holds for plugin `pid` (the actor is woken by
-    /// whatever may have changed it).
-    pub(super) async fn until_ready(&self, pid: usize, ready: fn(&PluginEntry) -> bool) {
-        poll_fn(|cx| {
-            let mut st = self.st.borrow_mut();
-            let entry = &mut st.plugins[pid];
-            if ready(entry) {
-                Poll::Ready(())
-            } else {
-                match &entry.actor {
-                    Some(w) if w.will_wake(cx.waker()) => {}
-                    _ => entry.actor = Some(cx.waker().clone()),
-                }
-                Poll::Pending
-            }
-        })
-        .await
-    }
-
     /// Builds a fresh instance; a failure puts the plugin in `error`.
     pub(super) async fn instantiate(&self, pid: usize) -> Option<PluginInstance> {
         let (code, setup) = self.with(|st| st.setup(pid));
@@ -132,7 +119,7 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
 
 pub(super) fn slot_end(core: &Core, pid: usize, slot: Slot, outcome: &'static str) {
     core.with(|st| {
-        if !st.tracing() {
+        if !st.trace.tracing() {
             return;
         }
         let plugin = st.plugins[pid].name.clone();
@@ -156,7 +143,7 @@ fn trapped(core: &Core, pid: usize, slot: Slot, fault: Fault) {
 
 /// `connection`: for `start`, the connection whose start began it.
 pub(super) fn slot_begin(st: &mut State, pid: usize, slot: Slot, connection: Option<u64>) {
-    if !st.tracing() {
+    if !st.trace.tracing() {
         return;
     }
     let plugin = st.plugins[pid].name.clone();

@@ -5,8 +5,12 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use super::*;
+use serde_json::Value as Json;
+use wasmtime::component::Val;
+
 use crate::capability::board::{Access, BoardPort};
+use crate::error::RadarError;
+use crate::payload::{json_to_val, PayloadType};
 
 /// What a plugin may do with the blackboard (manifest: `board = { read =
 /// [...], write = [...] }`); nothing by default.
@@ -72,13 +76,20 @@ fn check_ports(
     Ok(())
 }
 
+/// A plugin as the blackboard sees it: its name, its ports, its grants.
+pub(crate) struct BoardUser<'a> {
+    pub name: &'a str,
+    pub ports: &'a [BoardPort],
+    pub grants: &'a Grants,
+}
+
 /// The blackboard of a system of `plugins`: each entry with the one type
 /// every plugin using it agrees on. Refuses a port without a grant, two
 /// types for one entry, and a grant of an entry nobody uses.
-pub(crate) fn plan(plugins: &[PluginDef]) -> Result<BTreeMap<String, PayloadType>, RadarError> {
+pub(crate) fn plan(plugins: &[BoardUser<'_>]) -> Result<BTreeMap<String, PayloadType>, RadarError> {
     let mut types: BTreeMap<String, (PayloadType, String)> = BTreeMap::new();
     for def in plugins {
-        for port in def.code.board.iter() {
+        for port in def.ports.iter() {
             match types.get(&port.entry) {
                 Some((ty, first)) if *ty != port.ty => {
                     return Err(RadarError::Blackboard(format!(
@@ -88,7 +99,7 @@ pub(crate) fn plan(plugins: &[PluginDef]) -> Result<BTreeMap<String, PayloadType
                 }
                 Some(_) => {}
                 None => {
-                    types.insert(port.entry.clone(), (port.ty.clone(), def.name.clone()));
+                    types.insert(port.entry.clone(), (port.ty.clone(), def.name.to_string()));
                 }
             }
         }
@@ -96,8 +107,7 @@ pub(crate) fn plan(plugins: &[PluginDef]) -> Result<BTreeMap<String, PayloadType
     let types: BTreeMap<String, PayloadType> =
         types.into_iter().map(|(e, (t, _))| (e, t)).collect();
     for def in plugins {
-        check_ports(&def.name, &def.code.board, &def.grants, &types)
-            .map_err(RadarError::Blackboard)?;
+        check_ports(def.name, def.ports, def.grants, &types).map_err(RadarError::Blackboard)?;
         for (access, entries) in [("read", &def.grants.read), ("write", &def.grants.write)] {
             if let Some(unknown) = entries.iter().find(|e| !types.contains_key(*e)) {
                 return Err(RadarError::Blackboard(format!(
@@ -116,18 +126,21 @@ pub(crate) fn plan(plugins: &[PluginDef]) -> Result<BTreeMap<String, PayloadType
     Ok(types)
 }
 
-impl State {
-    /// Whether a new version of plugin `pid` keeps to its grants and to the
-    /// entries' types.
-    pub(super) fn check_board(&self, pid: usize, ports: &[BoardPort]) -> Result<(), String> {
-        let entry = &self.plugins[pid];
+impl Blackboard {
+    /// Whether a new version of plugin `plugin` (granted `grants`) keeps to
+    /// its grants and to the entries' types.
+    pub(super) fn check_version(
+        &self,
+        plugin: &str,
+        ports: &[BoardPort],
+        grants: &Grants,
+    ) -> Result<(), String> {
         let types: BTreeMap<String, PayloadType> = self
-            .board
             .entries
             .iter()
             .map(|(e, (t, _))| (e.clone(), t.clone()))
             .collect();
-        check_ports(&entry.def.name, ports, &entry.def.grants, &types)?;
+        check_ports(plugin, ports, grants, &types)?;
         match ports.iter().find(|p| !types.contains_key(&p.entry)) {
             Some(port) => Err(format!(
                 "the new version uses entry `{}`, which this system's blackboard does not have",
@@ -137,52 +150,41 @@ impl State {
         }
     }
 
-    /// Writes `value` into `entry` and records it, `by` a plugin or
-    /// `(native)`.
-    pub(super) fn board_write(&mut self, by: &str, entry: &str, value: Val) {
-        if let Some((_, slot)) = self.board.entries.get_mut(entry) {
-            let json = trace_json(&value);
-            *slot = Some(value);
-            self.record(Entry::BoardWrite {
-                entry: entry.to_string(),
-                by: Arc::from(by),
-                value: json,
-            });
+    /// The value of `entry`, if written.
+    pub(super) fn read(&self, entry: &str) -> Option<Val> {
+        self.entries.get(entry).and_then(|(_, value)| value.clone())
+    }
+
+    /// Sets `entry` (one the board has) to `value`; whether it has it.
+    pub(super) fn set(&mut self, entry: &str, value: Val) -> bool {
+        match self.entries.get_mut(entry) {
+            Some((_, slot)) => {
+                *slot = Some(value);
+                true
+            }
+            None => false,
         }
     }
 
-    /// The value of `entry`, if written.
-    pub(super) fn board_read(&self, entry: &str) -> Option<Val> {
-        self.board
-            .entries
-            .get(entry)
-            .and_then(|(_, value)| value.clone())
-    }
-
     /// `json` as a value of `entry`'s type.
-    pub(super) fn board_value(&self, entry: &str, json: &Json) -> Result<Val, RadarError> {
-        let ty = self.board_type(entry)?;
+    pub(super) fn value(&self, entry: &str, json: &Json) -> Result<Val, RadarError> {
+        let ty = self.type_of(entry)?;
         json_to_val(json, &ty)
             .map_err(|cause| RadarError::Blackboard(format!("entry `{entry}` is {ty}: {cause}")))
     }
 
-    pub(super) fn board_type(&self, entry: &str) -> Result<PayloadType, RadarError> {
-        self.board
-            .entries
+    /// `entry`'s type, or the error that lists the entries there are.
+    pub(super) fn type_of(&self, entry: &str) -> Result<PayloadType, RadarError> {
+        self.entries
             .get(entry)
             .map(|(ty, _)| ty.clone())
             .ok_or_else(|| {
                 RadarError::Blackboard(format!(
                     "no plugin reads or writes entry `{entry}` (entries: {})",
-                    if self.board.entries.is_empty() {
+                    if self.entries.is_empty() {
                         "none".to_string()
                     } else {
-                        self.board
-                            .entries
-                            .keys()
-                            .cloned()
-                            .collect::<Vec<_>>()
-                            .join(", ")
+                        self.entries.keys().cloned().collect::<Vec<_>>().join(", ")
                     }
                 ))
             })

@@ -20,9 +20,13 @@ use std::time::Duration;
 use serde_json::Value as Json;
 use wasmtime::component::Val;
 
-use super::{duration_nanos, Command, Core, Injection, NewVersion, State, SwapPolicy};
+use super::commands::Injection;
+use super::state::{Core, State};
+use super::versions::NewVersion;
+use crate::clock::duration_nanos;
 use crate::error::RadarError;
 use crate::executor::{block_on, LocalTask};
+use crate::ports::SwapPolicy;
 use crate::trace::inputs::{Input, Origin, TraceDigest};
 
 /// An input given when the system was built: `--inject`, `--write`,
@@ -91,27 +95,11 @@ pub(crate) struct PlacedInput {
 /// Static inputs with recorded places, in order.
 pub(crate) type Placed = VecDeque<PlacedInput>;
 
-impl Command {
-    /// A command that is itself an input from outside the run: not one of
-    /// the run's own moves.
-    pub(super) fn is_outside_input(&self) -> bool {
-        matches!(
-            self,
-            Command::Inject { external: true, .. }
-                | Command::BoardWrite { external: true, .. }
-                | Command::Swap {
-                    origin: Some(_),
-                    ..
-                }
-        )
-    }
-}
-
 impl State {
     /// Counts one of the scheduler's moves at the current instant.
     pub(super) fn count_move(&mut self) {
         let now = self.now();
-        self.instant.at(now).moves += 1;
+        self.instant.count_move(now);
     }
 
     /// After an executor step: counts it unless it was an input's task.
@@ -124,7 +112,7 @@ impl State {
     /// The scheduler's moves at the current instant so far.
     pub(super) fn moves_now(&mut self) -> u64 {
         let now = self.now();
-        self.instant.at(now).moves
+        self.instant.moves(now)
     }
 
     /// Checks the static inputs against the system and schedules them: at
@@ -144,7 +132,7 @@ impl State {
                     Action::Inject(injection)
                 }
                 StaticWhat::Write { entry, value } => Action::Write {
-                    value: self.board_value(&entry, &value)?,
+                    value: self.board.value(&entry, &value)?,
                     entry,
                     json: value,
                 },

@@ -6,7 +6,16 @@
 //! Under the virtual clock all of it happens in turns, deterministically;
 //! a delivery is recorded as `deliver` when it reaches the mailbox.
 
-use super::*;
+use std::rc::Rc;
+use std::time::Duration;
+
+use crossbeam_channel::Sender;
+
+use super::commands::Woke;
+use super::state::{Core, State, WaiterReply};
+use crate::clock::duration_nanos;
+use crate::error::RadarError;
+use crate::payload::Payload;
 
 impl State {
     /// `Command::Wait`.
@@ -66,7 +75,7 @@ impl State {
         let Some(mail) = self.mailboxes.get_mut(&mailbox) else {
             return Ok(());
         };
-        let bytes = super::routing::queued_bytes(&payload.0);
+        let bytes = super::delivery::queued_bytes(&payload.0);
         mail.queue.push((connection, payload), bytes)?;
         if mail.waiter.is_none() {
             return Ok(());

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use wasmtime::component::Val;
 
-use super::Core;
+use super::state::Core;
 use crate::capability::running::RunningSystem;
 use crate::ports::{Signal, SignalName};
 use crate::watchdog::RunStopped;
@@ -41,7 +41,7 @@ impl RunningSystem for Core {
             if !st.plugins[pid].def.grants.read.contains(entry) {
                 wasmtime::bail!("plugin `{plugin}` may not read entry `{entry}`");
             }
-            Ok(st.board_read(entry))
+            Ok(st.board.read(entry))
         })
     }
 

@@ -14,32 +14,17 @@
 //! [`Core::transition`], the one path by which a plugin gets a new instance
 //! (reset, swap, rollback), shared by events and responses.
 
-use super::*;
+use std::rc::Rc;
 
-/// A new version of a plugin on its way to the scheduler: the compiled
-/// code and, when the caller could make it, an instance already made for
-/// this plugin (so the scheduler's thread only switches).
-pub(crate) struct NewVersion {
-    pub code: PluginCode,
-    pub instance: Option<Result<PluginInstance, Fault>>,
-}
-
-/// An accepted swap waiting for its safe point.
-pub(crate) struct PendingSwap {
-    code: Rc<PluginCode>,
-    instance: Option<Result<PluginInstance, Fault>>,
-    policy: SwapPolicy,
-    /// An event's check was interrupted for it: its result is discarded.
-    pub discard_check: bool,
-}
-
-/// What a plugin's new instance is for.
-pub(super) enum Transition {
-    /// `reset` of a plugin in `error`: a fresh instance of the same code.
-    Reset,
-    /// A swap that reached the plugin's safe point.
-    Swap(PendingSwap),
-}
+use super::state::{Core, Lifecycle, Phase, StartRequest, State, Target};
+use super::typing::{fits, signal_type, slot_type, type_text};
+use super::versions::{NewVersion, PendingSwap, Transition};
+use crate::clock::StopReason;
+use crate::error::RadarError;
+use crate::plugin::{Kind, PluginCode, PluginInstance};
+use crate::ports::{Slot, SwapPolicy};
+use crate::trace::inputs::{Input, Origin};
+use crate::trace::Entry;
 
 impl State {
     /// A swap from outside, into the recording (its component copied
@@ -165,7 +150,9 @@ impl State {
         restart: bool,
     ) -> Result<(), String> {
         let kind = &code.kind;
-        self.check_board(pid, &code.board)?;
+        let entry = &self.plugins[pid];
+        self.board
+            .check_version(&entry.def.name, &code.board, &entry.def.grants)?;
         let entry = &self.plugins[pid];
         let new_is_event = matches!(kind, Kind::Event { .. });
         if new_is_event != entry.is_event() {

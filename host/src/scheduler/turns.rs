@@ -77,9 +77,10 @@ impl Turns {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use std::cell::RefCell;
     use std::rc::Rc;
+
+    use super::*;
 
     fn resume(log: &Rc<RefCell<Vec<&'static str>>>, name: &'static str, alive: bool) -> Resume {
         let log = log.clone();

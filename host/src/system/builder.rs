@@ -1,7 +1,7 @@
-//! Building a [`System`]: its plugins compiled and checked, its static
+//! Building a [`System`](crate::System): its plugins compiled and checked, its static
 //! connections and timed inputs, its trace sinks and limits.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::rc::Rc;
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
@@ -10,21 +10,26 @@ use std::time::Duration;
 use crossbeam_channel::unbounded;
 use serde_json::Value as Json;
 
+use super::context::{SharedSetups, NEXT_SYSTEM, PROGRAM_NAME};
 use super::deliberative::ProgramCode;
+use super::handle::load_version;
+use super::link::Link;
 use super::parts::Source;
+use super::parts::{Deliberative, Plugin};
 use super::run::System;
-use super::{Deliberative, Link, Plugin, SharedSetups, NEXT_SYSTEM, PROGRAM_NAME};
+use crate::clock::duration_nanos;
 use crate::clock::ClockKind;
 use crate::error::RadarError;
 use crate::limiter::MemoryBudget;
 use crate::plugin::{default_cache_dir, Limits, Loader};
 use crate::ports::SwapPolicy;
-use crate::scheduler::{duration_nanos, NewVersion, Place, PluginDef, StaticInput, StaticWhat};
-use crate::trace::inputs::{Input, InputRecorder, Origin, TimedInput};
+use crate::scheduler::board::BoardUser;
+use crate::scheduler::{Place, PluginDef, StaticInput, StaticWhat};
+use crate::trace::inputs::{Input, InputRecorder, TimedInput};
 use crate::trace::TraceSink;
 use crate::watchdog::RunWatch;
 
-/// Builds a [`System`]; see the module docs.
+/// Builds a [`System`](crate::System); see the module docs.
 pub struct SystemBuilder {
     clock: ClockKind,
     plugins: Vec<Plugin>,
@@ -74,6 +79,13 @@ impl Default for SystemBuilder {
             memory_budget: None,
             stall_timeout: Some(crate::watchdog::DEFAULT_STALL_TIMEOUT),
         }
+    }
+}
+
+impl System {
+    /// Starts building a system.
+    pub fn builder() -> SystemBuilder {
+        SystemBuilder::default()
     }
 }
 
@@ -159,7 +171,7 @@ impl SystemBuilder {
     /// Records every input that enters the run from outside (static
     /// injections, writes and swaps, and those of handles used off the
     /// run's native contexts) into `path`, as `radar run --record` does;
-    /// [`SystemBuilder::inputs`] feeds such a file back.
+    /// [`SystemBuilder::inputs`](crate::SystemBuilder::inputs) feeds such a file back.
     pub fn record_to(mut self, path: impl Into<PathBuf>) -> Self {
         self.record = Some(path.into());
         self
@@ -245,14 +257,14 @@ impl SystemBuilder {
     }
 
     /// Whether [`RunReport::trace`](crate::RunReport::trace) keeps the run's records (default: yes,
-    /// up to [`SystemBuilder::trace_limit`]).
+    /// up to [`SystemBuilder::trace_limit`](crate::SystemBuilder::trace_limit)).
     pub fn keep_trace(mut self, keep: bool) -> Self {
         self.keep_trace = keep;
         self
     }
 
     /// How many records [`RunReport::trace`](crate::RunReport::trace) keeps at most: the newest
-    /// ones, also within [`SystemBuilder::trace_bytes`];
+    /// ones, also within [`SystemBuilder::trace_bytes`](crate::SystemBuilder::trace_bytes);
     /// [`RunReport::trace_dropped`](crate::RunReport::trace_dropped) counts the older ones it let go
     /// (default: [`DEFAULT_TRACE_LIMIT`], so that a long run's kept trace
     /// stays bounded; `None`: every record, whatever their size, as tests
@@ -264,7 +276,7 @@ impl SystemBuilder {
     }
 
     /// How many bytes (about as the records' JSON takes) the kept trace
-    /// holds at most when it has a [`SystemBuilder::trace_limit`]: the
+    /// holds at most when it has a [`SystemBuilder::trace_limit`](crate::SystemBuilder::trace_limit): the
     /// newest records within both bounds are kept (default
     /// [`DEFAULT_TRACE_BYTES`]). A payload larger than
     /// [`crate::payload::TRACE_PAYLOAD_BYTES`] is recorded by its size
@@ -358,7 +370,15 @@ impl SystemBuilder {
                 name: p.name,
             });
         }
-        let board = crate::scheduler::board::plan(&defs)?;
+        let users: Vec<BoardUser<'_>> = defs
+            .iter()
+            .map(|d| BoardUser {
+                name: &d.name,
+                ports: &d.code.board,
+                grants: &d.grants,
+            })
+            .collect();
+        let board = crate::scheduler::board::plan(&users)?;
         let program = match self.deliberative {
             None => None,
             Some(d) => {
@@ -433,49 +453,10 @@ impl SystemBuilder {
 
 /// How many records [`RunReport::trace`](crate::RunReport::trace) keeps by default (the newest); a
 /// test that checks a whole longer trace sets
-/// [`SystemBuilder::trace_limit`]`(None)`, as `radar::testing` and
+/// [`SystemBuilder::trace_limit`](crate::SystemBuilder::trace_limit)`(None)`, as `radar::testing` and
 /// `radar test` do.
 pub const DEFAULT_TRACE_LIMIT: usize = 1_000_000;
 
 /// How many bytes of records [`RunReport::trace`](crate::RunReport::trace) keeps by default (see
-/// [`SystemBuilder::trace_bytes`]).
+/// [`SystemBuilder::trace_bytes`](crate::SystemBuilder::trace_bytes)).
 pub const DEFAULT_TRACE_BYTES: usize = 256 << 20;
-
-/// A new version of a plugin, or its version and why it cannot be loaded.
-pub(super) fn load_version(
-    loader: &mut Loader,
-    plugin: &str,
-    path: &Path,
-) -> Result<Box<NewVersion>, (String, RadarError)> {
-    let builtin = match Origin::of(path) {
-        Origin::Builtin(name) => match crate::assets::builtin(&name) {
-            Some(bytes) => Some(bytes),
-            None => {
-                let cause = format!("no built-in component `{name}`");
-                let error = RadarError::BadSetting {
-                    plugin: plugin.to_string(),
-                    cause,
-                };
-                return Err(("unknown".into(), error));
-            }
-        },
-        Origin::File(_) => None,
-    };
-    loader
-        .load_version(plugin, path, builtin)
-        .map(|code| {
-            Box::new(NewVersion {
-                code,
-                instance: None,
-            })
-        })
-        .map_err(|e| {
-            let version = match builtin {
-                Some(bytes) => crate::plugin::version_of(bytes),
-                None => std::fs::read(path)
-                    .map(|bytes| crate::plugin::version_of(&bytes))
-                    .unwrap_or_else(|_| "unreadable".into()),
-            };
-            (version, e)
-        })
-}

@@ -1,9 +1,9 @@
 //! `radar:reactive/system`: the host side of a deliberative component
 //! (the `deliberative` world), on the system's floor (DESIGN §2.0) because
-//! every import is an operation of the [`Radar`] handle. The program runs on a thread of its own, a
+//! every import is an operation of the [`Radar`](crate::Radar) handle. The program runs on a thread of its own, a
 //! native context of the run like a native Rust program, and every import
 //! is one of the scheduler's deliberative operations reached through a
-//! [`Radar`] handle: so a component and native code wire a system the same
+//! [`Radar`](crate::Radar) handle: so a component and native code wire a system the same
 //! way, with the same trace, and under the virtual clock the program takes
 //! turns deterministically. Payloads cross as JSON text.
 
@@ -17,7 +17,8 @@ use wasmtime::Engine;
 use wasmtime::Store;
 use wasmtime_wasi::{WasiCtx, WasiCtxView, WasiView};
 
-use super::{Connection, Link, Radar};
+use super::handle::Radar;
+use super::link::{Connection, Link};
 use crate::capability::config::{ConfigState, ConfigView};
 use crate::capability::logging::{LogState, LogView};
 use crate::capability::wasi::{ProgramClock, RadarWasiView, WaitClock, WasiGrants, WasiSetup};
@@ -35,7 +36,7 @@ mod bindings {
         path: "../wit",
         exports: { default: async },
         with: {
-            "radar:reactive/system.connection": crate::system::Connection,
+            "radar:reactive/system.connection": crate::system::link::Connection,
             "radar:reactive/types": crate::capability::bindings::radar::reactive::types,
             "radar:reactive/logging": crate::capability::bindings::radar::reactive::logging,
             "radar:reactive/config": crate::capability::bindings::radar::reactive::config,
@@ -315,7 +316,7 @@ pub(crate) fn run(
     // The same interfaces, and the same WASI, as a plugin's (see
     // `crate::capability`), with `system` besides.
     let linked = crate::capability::wasi::add_to_linker(&mut linker)
-        .and_then(|()| crate::capability::add_types_to_linker(&mut linker))
+        .and_then(|()| crate::capability::bindings::add_types_to_linker(&mut linker))
         .and_then(|()| crate::capability::logging::add_to_linker(&mut linker))
         .and_then(|()| crate::capability::config::add_to_linker(&mut linker))
         .and_then(|()| {

@@ -1,17 +1,16 @@
-//! The handle deliberative code drives a running system with ([`Radar`]),
-//! and what it hands out: tasks, prepared versions, an [`Interrupter`].
+//! The handle deliberative code drives a running system with ([`Radar`](crate::Radar)),
+//! and what it hands out: tasks, prepared versions, an [`Interrupter`](crate::Interrupter).
 
 use std::fmt::Display;
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use crossbeam_channel::{bounded, Sender};
+use crossbeam_channel::{bounded, Receiver, Sender};
 use serde_json::Value as Json;
 
-use super::builder::load_version;
-use super::run::native_thread;
-use super::{Connection, Link, SharedSetups, NATIVE_CONTEXT};
+use super::context::{SharedSetups, NATIVE_CONTEXT};
+use super::link::{Connection, Link};
 use crate::error::RadarError;
 use crate::executor::block_on;
 use crate::payload::Payload;
@@ -46,7 +45,7 @@ impl Radar {
         answer.recv().map_err(|_| RadarError::Stopped)
     }
 
-    /// Makes a connection described by a [`Link`].
+    /// Makes a connection described by a [`Link`](crate::Link).
     pub fn connect(&self, link: Link) -> Result<Connection, RadarError> {
         let ids = self.ask(|reply| Command::Connect {
             link: link.spec,
@@ -216,7 +215,7 @@ impl Radar {
     /// Runs `task` on a new thread as a native context of the run: under the
     /// virtual clock it takes turns with the program and the anonymous
     /// slots (it first runs when the caller blocks), so deliberative code on
-    /// several threads stays deterministic. [`Task::join`] waits for it the
+    /// several threads stays deterministic. [`Task::join`](crate::Task::join) waits for it the
     /// way `sleep` waits, letting the run go on meanwhile.
     pub fn spawn<F, E>(&self, task: F) -> Result<Task, RadarError>
     where
@@ -265,10 +264,10 @@ impl Radar {
         })?
     }
 
-    /// The first half of [`Radar::swap`], done ahead of time, as Erlang
+    /// The first half of [`Radar::swap`](crate::Radar::swap), done ahead of time, as Erlang
     /// loads new code before switching to it: compiles the component at
     /// `path`, checks that it is a plugin, and makes its instance for
-    /// `plugin`, all on the caller's thread. [`Radar::swap_prepared`] then
+    /// `plugin`, all on the caller's thread. [`Radar::swap_prepared`](crate::Radar::swap_prepared) then
     /// only switches. Fails if the component cannot be loaded (nothing is
     /// recorded: no swap was asked for).
     pub fn prepare(
@@ -287,7 +286,7 @@ impl Radar {
         }
     }
 
-    /// Switches to a version made by [`Radar::prepare`], as [`Radar::swap`]
+    /// Switches to a version made by [`Radar::prepare`](crate::Radar::prepare), as [`Radar::swap`](crate::Radar::swap)
     /// would: checked against the plugin's live connections, taking over at
     /// its safe point as `policy` says.
     pub fn swap_prepared(
@@ -336,7 +335,7 @@ impl Radar {
     }
 
     /// Stops the run as its user would, with Ctrl-C (see
-    /// [`Interrupter::interrupt`]).
+    /// [`Interrupter::interrupt`](crate::Interrupter::interrupt)).
     pub fn interrupt(&self, why: impl Into<String>) {
         Interrupter(self.watch.clone()).interrupt(why);
         let _ = self.tx.send(Command::Stop);
@@ -344,7 +343,7 @@ impl Radar {
 }
 
 /// Stops a run as its user would, with Ctrl-C (see
-/// [`System::interrupter`](crate::System::interrupter), [`Radar::interrupt`]): made for signal
+/// [`System::interrupter`](crate::System::interrupter), [`Radar::interrupt`](crate::Radar::interrupt)): made for signal
 /// handlers, it holds nothing of the run but the flag it sets.
 #[derive(Clone)]
 pub struct Interrupter(Arc<RunWatch>);
@@ -367,7 +366,7 @@ impl Interrupter {
 }
 
 /// A new version of a plugin, compiled and instantiated ahead of the swap
-/// by [`Radar::prepare`].
+/// by [`Radar::prepare`](crate::Radar::prepare).
 pub struct PreparedVersion {
     system: u64,
     plugin: String,
@@ -396,7 +395,7 @@ impl std::fmt::Debug for PreparedVersion {
     }
 }
 
-/// Deliberative code started with [`Radar::spawn`]. Dropping it detaches
+/// Deliberative code started with [`Radar::spawn`](crate::Radar::spawn). Dropping it detaches
 /// the task (it runs on until it ends or the run does).
 pub struct Task {
     id: u64,
@@ -414,4 +413,78 @@ impl Task {
             reply,
         })
     }
+}
+
+/// Runs `body` on a new thread that is a native context of `handle`'s
+/// system; it waits for `go` (its first turn) if given, and reports how it
+/// ended with the command `done` makes.
+pub(super) fn native_thread<F, E>(
+    name: &str,
+    handle: Radar,
+    go: Option<Receiver<()>>,
+    body: F,
+    done: impl FnOnce(Result<(), ProgramFailure>) -> Command + Send + 'static,
+) -> std::io::Result<()>
+where
+    F: FnOnce(Radar) -> Result<(), E> + Send + 'static,
+    E: Display,
+{
+    std::thread::Builder::new()
+        .name(name.into())
+        .spawn(move || {
+            NATIVE_CONTEXT.with(|c| c.set(handle.system));
+            if let Some(go) = go {
+                if go.recv().is_err() {
+                    return; // the run ended before its first turn
+                }
+            }
+            let tx = handle.tx.clone();
+            let outcome =
+                match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| body(handle))) {
+                    Ok(Ok(())) => Ok(()),
+                    Ok(Err(e)) => Err(ProgramFailure::Error(e.to_string())),
+                    Err(panic) => Err(ProgramFailure::Panicked(crate::panics::message(&*panic))),
+                };
+            let _ = tx.send(done(outcome));
+        })
+        .map(drop)
+}
+
+/// A new version of a plugin, or its version and why it cannot be loaded.
+pub(super) fn load_version(
+    loader: &mut Loader,
+    plugin: &str,
+    path: &Path,
+) -> Result<Box<NewVersion>, (String, RadarError)> {
+    let builtin = match Origin::of(path) {
+        Origin::Builtin(name) => match crate::assets::builtin(&name) {
+            Some(bytes) => Some(bytes),
+            None => {
+                let cause = format!("no built-in component `{name}`");
+                let error = RadarError::BadSetting {
+                    plugin: plugin.to_string(),
+                    cause,
+                };
+                return Err(("unknown".into(), error));
+            }
+        },
+        Origin::File(_) => None,
+    };
+    loader
+        .load_version(plugin, path, builtin)
+        .map(|code| {
+            Box::new(NewVersion {
+                code,
+                instance: None,
+            })
+        })
+        .map_err(|e| {
+            let version = match builtin {
+                Some(bytes) => crate::plugin::version_of(bytes),
+                None => std::fs::read(path)
+                    .map(|bytes| crate::plugin::version_of(&bytes))
+                    .unwrap_or_else(|_| "unreadable".into()),
+            };
+            (version, e)
+        })
 }

@@ -1,5 +1,5 @@
-//! Connections as deliberative code describes them ([`Link`]) and holds
-//! them ([`Connection`], a scope guard).
+//! Connections as deliberative code describes them ([`Link`](crate::Link)) and holds
+//! them ([`Connection`](crate::Connection), a scope guard).
 
 use std::time::Duration;
 
@@ -96,7 +96,7 @@ impl Link {
 }
 
 /// A live connection. Dropping it disconnects (the scope it was made in has
-/// ended); [`Connection::close`] says so explicitly, [`Connection::keep`]
+/// ended); [`Connection::close`](crate::Connection::close) says so explicitly, [`Connection::keep`](crate::Connection::keep)
 /// leaves it for the rest of the run.
 #[must_use = "a connection ends when its guard is dropped"]
 #[derive(Debug)]

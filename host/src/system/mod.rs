@@ -27,7 +27,7 @@
 //!
 //! ## Lockstep under the virtual clock
 //! The run's *native contexts* are the program's thread (the closure given
-//! to [`System::run_with`](crate::System::run_with)), the tasks it starts with [`Radar::spawn`], and
+//! to [`System::run_with`]), the tasks it starts with [`Radar::spawn`], and
 //! the anonymous slots (closures given to [`Radar::whenever_do`] and friends,
 //! run one at a time on a thread of Radar's, never on the scheduler's: a slow
 //! one delays only the other anonymous slots). Under the virtual clock they run in lockstep: one at a
@@ -36,7 +36,7 @@
 //! with native code is as deterministic as one without.
 //!
 //! What counts is the thread a call is made on, not the handle: any handle
-//! of the system (a clone of the program's, or one from [`System::handle`](crate::System::handle))
+//! of the system (a clone of the program's, or one from [`System::handle`])
 //! takes part in lockstep when it is used on a native context's thread. On
 //! any other thread (one you spawn, with a clone moved into it) a handle is
 //! *external*: its commands are applied when they arrive, like a user typing
@@ -48,37 +48,15 @@
 //! stands still while it runs. [`Task::join`] is the way to wait for a task.)
 
 mod builder;
+mod context;
 mod deliberative;
 mod handle;
 mod link;
 mod parts;
 mod run;
 
-use std::cell::Cell;
-use std::collections::HashMap;
-use std::sync::atomic::AtomicU64;
-use std::sync::{Arc, Mutex};
-
-use crate::plugin::InstanceSetup;
-
 pub use builder::{SystemBuilder, DEFAULT_TRACE_BYTES, DEFAULT_TRACE_LIMIT};
 pub use handle::{Interrupter, PreparedVersion, Radar, Task};
 pub use link::{Connection, Link};
 pub use parts::{Deliberative, Plugin};
 pub use run::{RunReport, System};
-
-/// What a new instance of each plugin needs, published when the run
-/// begins: `Radar::swap` makes the new version's instance on the caller's
-/// thread with it.
-type SharedSetups = Arc<Mutex<HashMap<String, InstanceSetup>>>;
-
-/// Distinguishes the systems of one process, for [`NATIVE_CONTEXT`].
-static NEXT_SYSTEM: AtomicU64 = AtomicU64::new(1);
-
-thread_local! {
-    /// The system whose native context this thread is (0: none): calls made
-    /// here take part in that system's lockstep (see the module docs).
-    static NATIVE_CONTEXT: Cell<u64> = const { Cell::new(0) };
-}
-/// The name a deliberative component has in the trace (its log lines).
-pub(crate) const PROGRAM_NAME: &str = "(deliberative)";

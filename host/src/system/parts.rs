@@ -1,5 +1,5 @@
-//! The parts of a system as its builder takes them: [`Plugin`]s (a name, a
-//! component, configuration, limits and grants) and the [`Deliberative`]
+//! The parts of a system as its builder takes them: [`Plugin`](crate::Plugin)s (a name, a
+//! component, configuration, limits and grants) and the [`Deliberative`](crate::Deliberative)
 //! program.
 
 use std::collections::BTreeMap;

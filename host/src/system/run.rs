@@ -1,4 +1,4 @@
-//! Running a [`System`]: the scheduler's thread, the deliberative
+//! Running a [`System`](crate::System): the scheduler's thread, the deliberative
 //! program's, the anonymous slots', and what the run produced.
 
 use std::collections::BTreeMap;
@@ -8,8 +8,9 @@ use std::time::Duration;
 
 use crossbeam_channel::{unbounded, Receiver, Sender};
 
+use super::context::{SharedSetups, NATIVE_CONTEXT, PROGRAM_NAME};
 use super::deliberative::{self, ProgramCode};
-use super::{Interrupter, Radar, SharedSetups, SystemBuilder, NATIVE_CONTEXT, PROGRAM_NAME};
+use super::handle::{native_thread, Interrupter, Radar};
 use crate::clock::{ClockKind, TimeBase};
 use crate::error::RadarError;
 use crate::limiter::MemoryBudget;
@@ -55,7 +56,7 @@ pub struct System {
 #[derive(Debug)]
 pub struct RunReport {
     /// The run's trace records, in order: all of them, or the newest
-    /// [`SystemBuilder::trace_limit`] (empty if `keep_trace(false)`).
+    /// [`SystemBuilder::trace_limit`](crate::SystemBuilder::trace_limit) (empty if `keep_trace(false)`).
     pub trace: Vec<Record>,
     /// How many older records [`RunReport::trace`](crate::RunReport::trace) let go to stay within
     /// its limit (0: it holds the whole run).
@@ -77,7 +78,7 @@ pub struct RunReport {
     /// used in the run, all its instances together, instantiation aside.
     /// Deterministic for a given compiler: the same run uses the same fuel.
     pub fuel: BTreeMap<String, u64>,
-    /// A replay ([`SystemBuilder::inputs`] from a virtual-clock recording)
+    /// A replay ([`SystemBuilder::inputs`](crate::SystemBuilder::inputs) from a virtual-clock recording)
     /// that parted from its recording: where it first did.
     pub replay_divergence: Option<String>,
     /// Plugins that faulted on a limit of the machine (memory, the
@@ -85,7 +86,7 @@ pub struct RunReport {
     /// which names the limit and how to raise it.
     pub machine_limit: Option<(usize, String)>,
     /// The run was stopped from outside its course: the reason (`signal`:
-    /// [`Radar::interrupt`]; `stalled`: no progress for the stall timeout)
+    /// [`Radar::interrupt`](crate::Radar::interrupt); `stalled`: no progress for the stall timeout)
     /// and what happened, as the trace's last record says.
     pub stopped: Option<(String, String)>,
 }
@@ -98,11 +99,6 @@ impl RunReport {
 }
 
 impl System {
-    /// Starts building a system.
-    pub fn builder() -> SystemBuilder {
-        SystemBuilder::default()
-    }
-
     /// The clock this system runs on.
     pub fn clock(&self) -> ClockKind {
         self.clock
@@ -129,7 +125,7 @@ impl System {
     }
 
     /// What stops this system's run from any thread, as its user would
-    /// (see [`Interrupter`]); unlike a [`Radar`] handle, it does not keep
+    /// (see [`Interrupter`](crate::Interrupter)); unlike a [`Radar`](crate::Radar) handle, it does not keep
     /// the run's command channel open.
     pub fn interrupter(&self) -> Interrupter {
         Interrupter::new(self.watch.clone())
@@ -137,7 +133,7 @@ impl System {
 
     /// Runs the system alone (connections come from external handles) until
     /// `limit` of scheduler time has passed, a handle calls
-    /// [`Radar::stop`], or, under the virtual clock, nothing is left to run.
+    /// [`Radar::stop`](crate::Radar::stop), or, under the virtual clock, nothing is left to run.
     pub fn run(self, limit: Option<Duration>) -> Result<RunReport, RadarError> {
         self.run_inner(limit, 0)
     }
@@ -261,41 +257,6 @@ impl System {
             stopped: end.stopped.map(|s| (s.reason.to_string(), s.message)),
         })
     }
-}
-
-/// Runs `body` on a new thread that is a native context of `handle`'s
-/// system; it waits for `go` (its first turn) if given, and reports how it
-/// ended with the command `done` makes.
-pub(super) fn native_thread<F, E>(
-    name: &str,
-    handle: Radar,
-    go: Option<Receiver<()>>,
-    body: F,
-    done: impl FnOnce(Result<(), ProgramFailure>) -> Command + Send + 'static,
-) -> std::io::Result<()>
-where
-    F: FnOnce(Radar) -> Result<(), E> + Send + 'static,
-    E: Display,
-{
-    std::thread::Builder::new()
-        .name(name.into())
-        .spawn(move || {
-            NATIVE_CONTEXT.with(|c| c.set(handle.system));
-            if let Some(go) = go {
-                if go.recv().is_err() {
-                    return; // the run ended before its first turn
-                }
-            }
-            let tx = handle.tx.clone();
-            let outcome =
-                match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| body(handle))) {
-                    Ok(Ok(())) => Ok(()),
-                    Ok(Err(e)) => Err(ProgramFailure::Error(e.to_string())),
-                    Err(panic) => Err(ProgramFailure::Panicked(crate::panics::message(&*panic))),
-                };
-            let _ = tx.send(done(outcome));
-        })
-        .map(drop)
 }
 
 fn run_anonymous_slots(jobs: Receiver<AnonymousJob>, tx: Sender<Command>) {

@@ -25,7 +25,7 @@ use super::{build, check_script, watched, BuildFailure};
 use crate::error::RadarError;
 use crate::manifest::Build;
 use crate::plugin::version_of;
-use crate::scheduler::SwapPolicy;
+use crate::ports::SwapPolicy;
 use crate::system::Radar;
 
 /// How long the files must be quiet before a change is acted on.

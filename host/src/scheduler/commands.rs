@@ -1,0 +1,201 @@
+//! What deliberative code (or the CLI) asks of a running system, and how
+//! the scheduler answers: the [`Command`]s of the crossbeam channel.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use crossbeam_channel::Sender;
+use serde_json::Value as Json;
+
+use super::versions::NewVersion;
+use crate::error::RadarError;
+use crate::payload::Payload;
+use crate::ports::Slot;
+use crate::ports::{Busy, Mode, SwapPolicy};
+use crate::trace::inputs::Origin;
+use wasmtime::component::Val;
+
+/// A connection as deliberative code asks for it.
+pub(crate) struct LinkSpec {
+    pub from: String,
+    pub to: LinkTarget,
+    pub mode: Mode,
+    pub busy: Busy,
+    pub min_interval: Option<Duration>,
+    pub until: Option<String>,
+}
+
+pub(crate) enum LinkTarget {
+    Slot(String),
+    Closure(AnonymousSlot),
+    /// A deliberative component's anonymous slot: deliveries wait in its
+    /// mailbox until the program next waits (see [`Woke`]).
+    Mailbox(u64),
+}
+
+/// What ended a deliberative component's wait.
+#[derive(Debug)]
+pub(crate) enum Woke {
+    /// The deadline passed.
+    Deadline,
+    /// The awaited signal, with its payload.
+    Signal(Payload),
+    /// A delivery to one of the program's anonymous slots: the connection
+    /// and the payload.
+    Delivery(u64, Payload),
+}
+
+/// What deliberative code (or the CLI) asks of a running system.
+pub(crate) enum Command {
+    Connect {
+        link: LinkSpec,
+        reply: Sender<Result<Vec<u64>, RadarError>>,
+    },
+    Disconnect {
+        ids: Vec<u64>,
+        reason: &'static str,
+    },
+    Inject {
+        to: String,
+        payload: Json,
+        /// When to inject (time since the run began); now if `None`.
+        at: Option<Duration>,
+        /// From outside the run (not its own deliberative code): recorded.
+        external: bool,
+        reply: Sender<Result<(), RadarError>>,
+    },
+    WaitFor {
+        event: String,
+        timeout: Option<Duration>,
+        lockstep: bool,
+        reply: Sender<Result<Option<Payload>, RadarError>>,
+    },
+    Sleep {
+        duration: Duration,
+        lockstep: bool,
+        reply: Sender<()>,
+    },
+    Reset {
+        plugin: String,
+        reply: Sender<Result<(), RadarError>>,
+    },
+    Now {
+        reply: Sender<Duration>,
+    },
+    ProgramDone {
+        outcome: Result<(), ProgramFailure>,
+    },
+    AnonymousDone {
+        slot: u64,
+        closure: AnonymousSlot,
+        panicked: bool,
+    },
+    /// Deliberative code writes a blackboard entry.
+    BoardWrite {
+        entry: String,
+        value: Json,
+        /// From outside the run: recorded.
+        external: bool,
+        reply: Sender<Result<(), RadarError>>,
+    },
+    /// A plugin's state, as deliberative code sees it.
+    PluginState {
+        plugin: String,
+        reply: Sender<Result<&'static str, RadarError>>,
+    },
+    /// Deliberative code reads a blackboard entry.
+    BoardRead {
+        entry: String,
+        reply: Sender<Result<Option<Payload>, RadarError>>,
+    },
+    /// A new version of a plugin (compiled by the caller, off the
+    /// scheduler's thread), or why it could not be loaded.
+    Swap {
+        plugin: String,
+        code: Result<Box<NewVersion>, (String, RadarError)>,
+        policy: SwapPolicy,
+        /// Where the new version came from, when the swap came from outside
+        /// the run (recorded); `None` from its own deliberative code.
+        origin: Option<Origin>,
+        reply: Sender<Result<(), RadarError>>,
+    },
+    /// A deliberative component waits for a deadline, a signal, or a
+    /// delivery to its anonymous slots, whichever comes first.
+    Wait {
+        mailbox: u64,
+        deadline: Option<Duration>,
+        signal: Option<String>,
+        lockstep: bool,
+        reply: Sender<Result<Woke, RadarError>>,
+    },
+    /// A new native context (`Radar::spawn`): `go` lets its thread run.
+    Spawn {
+        go: Sender<()>,
+        reply: Sender<u64>,
+    },
+    TaskDone {
+        task: u64,
+        outcome: Result<(), ProgramFailure>,
+    },
+    Join {
+        task: u64,
+        lockstep: bool,
+        reply: Sender<Result<(), ProgramFailure>>,
+    },
+    Stop,
+}
+
+/// How a deliberative program ended badly.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum ProgramFailure {
+    /// It returned an error (the error's text).
+    Error(String),
+    /// It panicked (the panic's message).
+    Panicked(String),
+}
+
+impl std::fmt::Display for ProgramFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Error(e) => f.write_str(e),
+            Self::Panicked(m) => write!(f, "panicked: {m}"),
+        }
+    }
+}
+
+/// A delivery to an anonymous slot, run on the slot-runner thread.
+pub(crate) struct AnonymousJob {
+    pub slot: u64,
+    pub closure: AnonymousSlot,
+    pub payload: Payload,
+}
+
+/// A closure run for each delivery to an anonymous slot.
+pub type AnonymousSlot = Box<dyn FnMut(Payload) + Send + 'static>;
+
+/// A payload for a slot, checked against the slot's type.
+pub(crate) struct Injection {
+    pub(super) pid: usize,
+    pub(super) slot: Slot,
+    pub(super) label: Arc<str>,
+    pub(super) json: Json,
+    pub(super) value: Option<Val>,
+    /// From outside the run: recorded when it is sent.
+    pub(super) external: bool,
+}
+
+impl Command {
+    /// A command that is itself an input from outside the run: not one of
+    /// the run's own moves.
+    pub(super) fn is_outside_input(&self) -> bool {
+        matches!(
+            self,
+            Command::Inject { external: true, .. }
+                | Command::BoardWrite { external: true, .. }
+                | Command::Swap {
+                    origin: Some(_),
+                    ..
+                }
+        )
+    }
+}

@@ -1,0 +1,399 @@
+//! What happens, synchronously, when a plugin emits a signal or a payload
+//! is injected: each connection's delivery under its target's busy policy,
+//! and the conservation law's records (DESIGN §1.1). Nothing here calls
+//! into wasm: a delivery only changes state and wakes the target's actor.
+
+use std::rc::Rc;
+use std::sync::Arc;
+use std::time::Duration;
+
+use serde_json::Value as Json;
+use wasmtime::component::Val;
+
+use super::commands::Injection;
+use super::state::{Core, Delivery, Lifecycle, Phase, StartRequest, State, Target};
+use crate::clock::{duration_nanos, ClockKind, StopReason};
+use crate::error::RadarError;
+use crate::payload::{json_to_val, trace_json, Payload, Shared};
+use crate::plugin::Fault;
+use crate::ports::{Busy, Mode, Signal, Slot};
+use crate::trace::Entry;
+
+/// What a payload waiting in a [`Backlog`] takes.
+pub(super) fn queued_bytes(payload: &Shared) -> usize {
+    payload.as_deref().map_or(0, |v| {
+        crate::payload::check_size(v, usize::MAX).unwrap_or(usize::MAX)
+    })
+}
+
+impl State {
+    /// Emits `signal` from `pid` and routes it to every connection, in the
+    /// order the connections were made.
+    pub(super) fn emit(&mut self, pid: usize, signal: Signal, payload: Shared) {
+        self.watch.step();
+        if self.trace.tracing() {
+            let plugin = self.plugins[pid].name.clone();
+            let json = payload.as_deref().map(trace_json).unwrap_or(Json::Null);
+            self.record(Entry::Signal {
+                plugin,
+                signal: signal.as_str().into(),
+                payload: json,
+            });
+        }
+        // Deliveries may remove connections, so the matching ids are taken
+        // first, into a buffer kept between signals (no allocation here).
+        let mut ids = std::mem::take(&mut self.route_buffer);
+        if let Some((_, live)) = self.routes[pid].iter().find(|(s, _)| *s == signal) {
+            ids.extend_from_slice(live);
+        }
+        for &id in &ids {
+            self.deliver(id, &payload);
+        }
+        ids.clear();
+        self.route_buffer = ids;
+        // Counted once the emission is recorded and delivered: a burst's
+        // record comes after the signal that crossed the limit.
+        if self.base.kind() == ClockKind::Virtual {
+            self.count_signal(pid);
+        }
+    }
+
+    pub(super) fn deliver(&mut self, id: u64, payload: &Shared) {
+        let now = self.now();
+        let Some(conn) = self.connections.get_mut(&id) else {
+            return; // removed by an earlier delivery of this same signal
+        };
+        if let (Some(min), Some(last)) = (conn.min_interval, conn.last_delivery) {
+            if now < last.saturating_add(min) {
+                let to = conn.to_label.clone();
+                self.record(Entry::Dropped {
+                    id,
+                    to,
+                    reason: "min-interval".into(),
+                });
+                return;
+            }
+        }
+        conn.last_delivery = Some(now);
+        let (target, busy, mode, to) = (conn.target, conn.busy, conn.mode, conn.to_label.clone());
+        let (serves, until) = (conn.serves, conn.until);
+        // A `once`'s until connection lives as long as the activation it
+        // starts; a `whenever`'s lives as long as the whenever itself.
+        let until = until.filter(|_| mode == Mode::Once);
+        let payload = if conn.pass_payload {
+            payload.clone()
+        } else {
+            None
+        };
+        let accepted = match target {
+            Target::Slot(pid, slot) => {
+                let delivery = Delivery {
+                    via: id,
+                    payload,
+                    busy,
+                    until,
+                    serves,
+                };
+                self.deliver_to_slot(pid, slot, delivery)
+            }
+            Target::Anonymous(slot) => {
+                let bytes = queued_bytes(&payload);
+                let queued = match self.anonymous.get_mut(&slot) {
+                    Some(a) => a.queue.push(Payload(payload), bytes),
+                    None => Ok(()),
+                };
+                self.dispatch_anonymous(slot);
+                queued
+            }
+            Target::Waiter(w) => {
+                self.finish_waiter(w, Some(Payload(payload)));
+                Ok(())
+            }
+            Target::Mailbox(mailbox) => self.mail(mailbox, id, Payload(payload)),
+        };
+        match accepted {
+            Ok(()) => {
+                if self.trace.tracing() {
+                    self.record(Entry::Deliver { id, to });
+                }
+            }
+            Err(reason) => {
+                self.record(Entry::Dropped {
+                    id,
+                    to,
+                    reason: reason.into(),
+                });
+                if let Some(u) = until {
+                    self.disconnect(u, "until");
+                }
+            }
+        }
+        if mode == Mode::Once {
+            self.disconnect(id, "fired");
+        }
+    }
+
+    /// Hands a payload to a response's slot under the busy policy; the
+    /// error is the reason it was not taken.
+    pub(super) fn deliver_to_slot(
+        &mut self,
+        pid: usize,
+        slot: Slot,
+        delivery: Delivery,
+    ) -> Result<(), &'static str> {
+        let entry = &mut self.plugins[pid];
+        if entry.lifecycle == Lifecycle::Error {
+            return Err("error");
+        }
+        let Delivery {
+            via,
+            payload,
+            busy,
+            until,
+            serves,
+        } = delivery;
+        match slot {
+            Slot::Start => {
+                let request = StartRequest {
+                    payload,
+                    via,
+                    until,
+                };
+                if entry.phase == Phase::Idle {
+                    entry.next = Some(request);
+                    entry.wake();
+                    self.set_phase(pid, Phase::Running);
+                    return Ok(());
+                }
+                match busy {
+                    Busy::Drop => Err("busy"),
+                    Busy::Queue(limit) => {
+                        if entry.queue.len() >= limit {
+                            return Err("queue-full");
+                        }
+                        entry.queue.push_back(request);
+                        Ok(())
+                    }
+                    Busy::Restart => {
+                        // The running activation stops as by an exit signal;
+                        // this start runs next, ahead of the queue, replacing
+                        // one accepted before it that has not begun.
+                        let replaced = entry.next.replace(request);
+                        let running = entry.activation.is_some() && entry.phase == Phase::Running;
+                        if running && entry.stop_request.is_none() {
+                            entry.stop_request = Some((StopReason::Exit, None));
+                            entry.stop.request(StopReason::Exit);
+                        }
+                        if let Some(old) = replaced {
+                            self.withdraw_start(pid, old, "restarted");
+                        }
+                        Ok(())
+                    }
+                }
+            }
+            Slot::Interrupt | Slot::Exit => {
+                let reason = if slot == Slot::Interrupt {
+                    StopReason::Interrupt
+                } else {
+                    StopReason::Exit
+                };
+                if let Some(serves) = serves {
+                    // `until`: only the activations its own connection started.
+                    match entry.activation_via() {
+                        None => return Err("idle"),
+                        Some(via) if via != serves => return Err("other-activation"),
+                        Some(_) => {}
+                    }
+                }
+                match (entry.phase, &entry.stop_request) {
+                    (Phase::Running, None) => {
+                        entry.stop_request = Some((reason, payload));
+                        entry.stop.request(reason);
+                        Ok(())
+                    }
+                    (Phase::Running, Some(_)) => Err("stopping"),
+                    (Phase::Idle, _) => Err("idle"),
+                    (Phase::Interrupting, _) => Err("interrupting"),
+                    (Phase::Exiting, _) => Err("exiting"),
+                }
+            }
+        }
+    }
+
+    /// An accepted start leaves without beginning: recorded as dropped with
+    /// `reason` (the conservation law, DESIGN §1.1), and a `once ... until`
+    /// connection that would have lived with its activation ends.
+    pub(super) fn withdraw_start(
+        &mut self,
+        pid: usize,
+        request: StartRequest,
+        reason: &'static str,
+    ) {
+        let to = self.plugins[pid].start_label.clone();
+        self.record(Entry::Dropped {
+            id: request.via,
+            to,
+            reason: reason.into(),
+        });
+        if let Some(u) = request.until {
+            self.disconnect(u, "until");
+        }
+    }
+
+    pub(super) fn set_phase(&mut self, pid: usize, phase: Phase) {
+        let entry = &mut self.plugins[pid];
+        if entry.phase == phase {
+            return;
+        }
+        entry.phase = phase;
+        if self.trace.tracing() {
+            let plugin = self.plugins[pid].name.clone();
+            self.record(Entry::State {
+                plugin,
+                state: phase.as_str().into(),
+            });
+        }
+    }
+
+    pub(super) fn fault(&mut self, pid: usize, fault: Fault) {
+        if fault.run_stopped {
+            // Not the plugin's doing: the run ends, and says why.
+            self.stop = true;
+            return;
+        }
+        let entry = &mut self.plugins[pid];
+        entry.lifecycle = Lifecycle::Error;
+        entry.stop.clear();
+        entry.stop.clear_fault();
+        entry.stop_request = None;
+        let withdrawn: Vec<StartRequest> = entry
+            .next
+            .take()
+            .into_iter()
+            .chain(entry.queue.drain(..))
+            .collect();
+        let activation = entry.activation.take();
+        let plugin = entry.name.clone();
+        if !entry.is_event() {
+            entry.phase = Phase::Idle;
+        }
+        if crate::limits::is_machine_limit(&fault.cause) {
+            let (count, _) = self
+                .machine_limit
+                .get_or_insert_with(|| (0, format!("{plugin}: {}", fault.cause)));
+            *count += 1;
+        }
+        self.record(Entry::Fault {
+            plugin: plugin.clone(),
+            error: fault.cause.clone(),
+            backtrace: fault.backtrace,
+        });
+        self.record(Entry::State {
+            plugin,
+            state: "error".into(),
+        });
+        if let Some(u) = activation.and_then(|a| a.until) {
+            self.disconnect(u, "until");
+        }
+        for request in withdrawn {
+            self.withdraw_start(pid, request, "fault");
+        }
+        self.emit(
+            pid,
+            Signal::Faulted,
+            Some(Arc::new(Val::String(fault.cause))),
+        );
+    }
+
+    /// Resolves and parses an injection: the slot and the payload as the
+    /// slot's type.
+    pub(super) fn prepare_inject(&self, to: &str, payload: Json) -> Result<Injection, RadarError> {
+        let (pid, slot) = self.resolve_slot(to)?;
+        let label = self.slot_label(pid, slot);
+        let value = match self.plugins[pid].slot_type(slot).flatten() {
+            Some(ty) => {
+                Some(
+                    json_to_val(&payload, &ty).map_err(|cause| RadarError::BadPayload {
+                        to: label.clone(),
+                        cause,
+                    })?,
+                )
+            }
+            None => None,
+        };
+        Ok(Injection {
+            pid,
+            slot,
+            label: label.into(),
+            json: payload,
+            value,
+            external: false,
+        })
+    }
+
+    /// Sends a prepared payload into its slot at `at` (now if `None` or
+    /// past).
+    pub(super) fn inject_at(
+        &mut self,
+        core: &Rc<Core>,
+        injection: Injection,
+        at: Option<Duration>,
+    ) {
+        match at.map(duration_nanos) {
+            Some(at) if at > self.now() => {
+                let waiting = core.clone();
+                let external = injection.external;
+                let task = async move {
+                    let _ = waiting.base.sleep_until(at, None).await;
+                    waiting.with(|st| st.inject(injection));
+                };
+                // An input's own task is not one of the run's moves.
+                self.spawn(if external {
+                    super::inputs::input_task(core.clone(), task)
+                } else {
+                    Box::pin(task)
+                });
+            }
+            _ => self.inject(injection),
+        }
+    }
+
+    /// Sends a prepared payload straight into its slot.
+    pub(super) fn inject(&mut self, injection: Injection) {
+        let Injection {
+            pid,
+            slot,
+            label,
+            json,
+            value,
+            external,
+        } = injection;
+        if external {
+            self.record_input(crate::trace::inputs::Input::Inject {
+                to: label.to_string(),
+                payload: json.clone(),
+            });
+        }
+        self.record(Entry::Inject {
+            to: label.clone(),
+            payload: json,
+        });
+        let delivery = Delivery {
+            via: 0,
+            payload: value.map(Arc::new),
+            busy: Busy::Drop,
+            until: None,
+            serves: None,
+        };
+        // Like a connection's delivery, an injection is recorded as
+        // delivered or dropped, with id 0.
+        match self.deliver_to_slot(pid, slot, delivery) {
+            Ok(()) => self.record(Entry::Deliver { id: 0, to: label }),
+            Err(reason) => self.record(Entry::Dropped {
+                id: 0,
+                to: label,
+                reason: reason.into(),
+            }),
+        }
+    }
+}

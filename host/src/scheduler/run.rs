@@ -1,0 +1,489 @@
+//! The scheduler's thread: the run loop under either clock, and the end
+//! of a run.
+
+use std::cell::RefCell;
+use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::rc::Rc;
+use std::sync::Arc;
+use std::time::Duration;
+
+use crossbeam_channel::{Receiver, RecvTimeoutError, Sender};
+
+use super::actors::{event_actor, response_actor};
+use super::commands::{AnonymousJob, Command, LinkSpec, ProgramFailure};
+use super::inputs::StaticInput;
+use super::livelock::InstantCounts;
+use super::recording::TraceOut;
+use super::state::{Core, Lifecycle, Phase, PluginDef, PluginEntry, State};
+use super::turns::Turns;
+use super::{board, inputs};
+use crate::clock::{duration_nanos, ClockKind, StopFlag, TimeBase};
+use crate::error::RadarError;
+use crate::executor::{Executor, LocalTask, TaskId};
+use crate::limiter::MemoryBudget;
+use crate::payload::PayloadType;
+use crate::plugin::{InstanceSetup, Kind};
+use crate::trace::inputs::{Input, InputRecorder};
+use crate::trace::{Entry, Record};
+use crate::watchdog::RunWatch;
+
+/// How a run ended.
+pub(crate) struct RunEnd {
+    /// The records kept, and how many older ones were not.
+    pub trace: (Vec<Record>, u64),
+    pub ended_at: u64,
+    /// How the deliberative program ended, if it did during the run.
+    pub program_outcome: Option<Result<(), ProgramFailure>>,
+    /// Trace sinks that lost records (a full disk, a closed pipe).
+    pub trace_errors: Vec<String>,
+    /// The run was ended at this virtual time: signals kept flowing without
+    /// time advancing.
+    pub livelock: Option<u64>,
+    /// Fuel each plugin's calls used, by plugin name.
+    pub fuel: BTreeMap<String, u64>,
+    /// A replay that parted from its recording: where.
+    pub divergence: Option<String>,
+    /// Plugins that faulted on a limit of the machine.
+    pub machine_limit: Option<(usize, String)>,
+    /// The run was stopped from outside its course (a signal, a stall).
+    pub stopped: Option<crate::watchdog::Stopping>,
+}
+
+/// What a run is made of.
+pub(crate) struct RunSetup {
+    pub base: TimeBase,
+    pub plugins: Vec<PluginDef>,
+    pub trace: TraceOut,
+    pub commands: Receiver<Command>,
+    pub anonymous_jobs: Sender<AnonymousJob>,
+    pub limit: Option<Duration>,
+    pub seed: u64,
+    /// Native deliberative programs running when the run begins.
+    pub programs: u32,
+    /// Static connections, made when the run begins.
+    pub links: Vec<LinkSpec>,
+    /// Injections, blackboard writes and swaps at given times.
+    pub inputs: Vec<StaticInput>,
+    /// The blackboard's entries and their types (see [`board::plan`]).
+    pub board: BTreeMap<String, PayloadType>,
+    /// The memory all plugins may take together.
+    pub budget: Arc<MemoryBudget>,
+    /// What stops a call from outside it (see [`crate::watchdog`]).
+    pub watch: Arc<RunWatch>,
+}
+
+/// Under the real clock, how long before a deadline the scheduler stops
+/// sleeping and spins: a thread put to sleep wakes late (tens of µs on a
+/// quiet machine, hundreds on a loaded or virtual one), so the last stretch
+/// is spun. The stretch follows what the machine does: it grows to the
+/// latest wake seen (plus a margin) and shrinks slowly when wakes are
+/// prompt, within these bounds (`benches/realtime.rs` measures the
+/// effect). A scheduler with nothing due sleeps.
+#[derive(Clone, Copy)]
+pub(super) struct SpinWindow {
+    pub(super) now: Duration,
+}
+
+impl SpinWindow {
+    const MIN: Duration = Duration::from_micros(50);
+    const MAX: Duration = Duration::from_micros(500);
+    const MARGIN: Duration = Duration::from_micros(20);
+
+    fn new() -> Self {
+        Self {
+            now: Duration::from_micros(100),
+        }
+    }
+
+    /// A sleep meant to last `asked` lasted `took`.
+    fn woke(&mut self, asked: Duration, took: Duration) {
+        let late = took.saturating_sub(asked) + Self::MARGIN;
+        self.now = if late > self.now {
+            late
+        } else {
+            // Shrinks by 1/64 of the difference per wake.
+            self.now - (self.now - late) / 64
+        }
+        .clamp(Self::MIN, Self::MAX);
+    }
+}
+
+/// Owns the executor and the command channel; [`Scheduler::run`] is the
+/// scheduler's thread.
+pub(crate) struct Scheduler {
+    pub(super) core: Rc<Core>,
+    pub(super) executor: Executor,
+    pub(super) commands: Receiver<Command>,
+    pub(super) limit: Option<u64>,
+    pub(super) links: Vec<LinkSpec>,
+    pub(super) inputs: Vec<StaticInput>,
+    /// Static inputs applied at their recorded places (see `inputs`).
+    pub(super) placed: inputs::Placed,
+    /// Each plugin's actor task, by task: whose steps a step is.
+    pub(super) actors: HashMap<TaskId, usize>,
+    /// What stops a call from outside it (a signal, a stall).
+    pub(super) watch: Arc<RunWatch>,
+}
+
+impl Scheduler {
+    pub fn new(setup: RunSetup) -> Self {
+        let RunSetup {
+            base,
+            plugins,
+            trace,
+            commands,
+            anonymous_jobs,
+            limit,
+            seed,
+            programs,
+            links,
+            inputs,
+            board,
+            budget,
+            watch,
+        } = setup;
+        let mut by_name = BTreeMap::new();
+        let plugin_count = plugins.len();
+        let plugins: Vec<PluginEntry> = plugins
+            .into_iter()
+            .enumerate()
+            .map(|(i, def)| {
+                by_name.insert(def.name.clone(), i);
+                let lifecycle = match def.code.kind {
+                    Kind::Event { .. } => Lifecycle::Inactive,
+                    Kind::Response { .. } => Lifecycle::Active,
+                };
+                PluginEntry {
+                    start_label: Arc::from(format!("{}.start", def.name)),
+                    name: Arc::from(def.name.as_str()),
+                    def,
+                    stop: Arc::new(StopFlag::default()),
+                    fuel_used: Arc::default(),
+                    lifecycle,
+                    actor: None,
+                    reset_requested: false,
+                    listeners: 0,
+                    next_check: 0,
+                    phase: Phase::Idle,
+                    next: None,
+                    queue: VecDeque::new(),
+                    activation: None,
+                    stop_request: None,
+                    swap: None,
+                }
+            })
+            .collect();
+        let state = State {
+            base: base.clone(),
+            core: std::rc::Weak::new(),
+            plugins,
+            by_name,
+            connections: BTreeMap::new(),
+            routes: vec![Vec::new(); plugin_count],
+            next_connection: 0,
+            anonymous: HashMap::new(),
+            waiters: HashMap::new(),
+            next_waiter: 0,
+            trace,
+            turns: Turns::new(base.kind() == ClockKind::Virtual, programs > 0),
+            runner_busy: false,
+            runner_waiting: VecDeque::new(),
+            spawned: Vec::new(),
+            cancelled: Vec::new(),
+            next_task: 0,
+            anonymous_jobs,
+            seed,
+            stop: false,
+            instant: InstantCounts::new(plugin_count),
+            program_outcome: None,
+            native_tasks: HashMap::new(),
+            next_native_task: 0,
+            route_buffer: Vec::new(),
+            board: board::Blackboard::new(board),
+            mailboxes: HashMap::new(),
+            machine_limit: None,
+            budget,
+            watch: watch.clone(),
+        };
+        let core = Rc::new(Core {
+            base,
+            st: RefCell::new(state),
+        });
+        core.with(|st| st.core = Rc::downgrade(&core));
+        Self {
+            core,
+            executor: Executor::default(),
+            commands,
+            limit: limit.map(duration_nanos),
+            links,
+            inputs,
+            placed: inputs::Placed::new(),
+            actors: HashMap::new(),
+            watch,
+        }
+    }
+
+    /// What a new instance of each plugin needs besides its code, by name:
+    /// lets `Radar::swap` make the new version's instance on its own thread.
+    pub fn instance_setups(&self) -> HashMap<String, InstanceSetup> {
+        self.core.with(|st| {
+            (0..st.plugins.len())
+                .map(|pid| (st.plugins[pid].name.to_string(), st.setup(pid).1))
+                .collect()
+        })
+    }
+
+    /// Runs until the time limit, a `Stop` command, or (virtual clock) until
+    /// nothing can ever happen again. A static connection, injection or
+    /// blackboard write that does not fit the system fails the run before
+    /// anything runs.
+    pub fn run(mut self) -> Result<RunEnd, RadarError> {
+        // Plugins' host calls reach the system through it until the run
+        // ends, however it ends.
+        let _running = crate::capability::running::enter(self.core.clone());
+        let kind = self.core.base.kind();
+        let count = self.core.with(|st| st.plugins.len());
+        self.core.with(|st| {
+            st.record_input(Input::Recording {
+                clock: kind.as_str().into(),
+            });
+            for pid in 0..count {
+                let entry = &st.plugins[pid];
+                let (plugin, version) = (entry.name.to_string(), entry.def.code.version.clone());
+                st.record_input(Input::Plugin { plugin, version });
+            }
+            for pid in 0..count {
+                let entry = &st.plugins[pid];
+                let state = if entry.is_event() { "inactive" } else { "idle" };
+                let plugin = entry.name.clone();
+                st.record(Entry::State {
+                    plugin,
+                    state: state.into(),
+                });
+            }
+        });
+        for pid in 0..count {
+            let core = self.core.clone();
+            let task: LocalTask = if self.core.with(|st| st.plugins[pid].is_event()) {
+                Box::pin(event_actor(core, pid))
+            } else {
+                Box::pin(response_actor(core, pid))
+            };
+            let id = self.core.with(|st| st.spawn(task));
+            self.actors.insert(id, pid);
+        }
+        let core = self.core.clone();
+        core.with(|st| -> Result<(), RadarError> {
+            for link in std::mem::take(&mut self.links) {
+                st.connect(link)?;
+            }
+            let placeable = kind == ClockKind::Virtual;
+            let inputs = std::mem::take(&mut self.inputs);
+            self.placed = st.schedule_static_inputs(&core, inputs, placeable)?;
+            Ok(())
+        })?;
+        self.absorb();
+        let mut spin = SpinWindow::new();
+        loop {
+            let (stop, lockstep) = self.core.with(|st| (st.stop, st.turns.running()));
+            if stop || self.watch.stopping().is_some() {
+                break;
+            }
+            if !self.placed.is_empty() {
+                let placed = &mut self.placed;
+                if self.core.with(|st| st.apply_placed(placed, false)) {
+                    self.absorb();
+                    continue;
+                }
+            }
+            if kind == ClockKind::Virtual && lockstep {
+                // Native code is running: nothing else may happen until it
+                // blocks or finishes (the loop's top looks whether the run
+                // is being stopped meanwhile).
+                match self.commands.recv_timeout(crate::watchdog::TICK) {
+                    Ok(cmd) => self.handle(cmd),
+                    Err(RecvTimeoutError::Timeout) => {}
+                    Err(RecvTimeoutError::Disconnected) => self.core.with(|st| st.turns.abandon()),
+                }
+                continue;
+            }
+            if let Ok(cmd) = self.commands.try_recv() {
+                self.handle(cmd);
+                continue;
+            }
+            if kind == ClockKind::Real {
+                let now = self.core.base.now();
+                if self.limit.is_some_and(|l| now >= l) {
+                    break;
+                }
+                self.core.base.fire_due(now);
+            }
+            if let Some(task) = self.executor.run_one() {
+                self.watch.step();
+                if kind == ClockKind::Virtual {
+                    let pid = self.actors.get(&task).copied();
+                    self.core.with(|st| {
+                        st.count_task_step(pid);
+                        st.count_step();
+                    });
+                }
+                self.absorb();
+                continue;
+            }
+            let mut next = self.core.base.next_deadline();
+            if kind == ClockKind::Virtual {
+                if let Some(input) = self.placed.front() {
+                    let now = self.core.base.now();
+                    if input.at <= now {
+                        // Nothing else can happen now: the replay has
+                        // parted from the recording; the input goes in.
+                        let placed = &mut self.placed;
+                        self.core.with(|st| st.apply_placed(placed, true));
+                        self.absorb();
+                        continue;
+                    }
+                    next = Some(next.map_or(input.at, |d| d.min(input.at)));
+                }
+            }
+            match kind {
+                ClockKind::Virtual => match next {
+                    Some(d) if self.limit.is_none_or(|l| d <= l) => {
+                        self.core.base.advance_to(d);
+                        self.core.base.fire_due(d);
+                    }
+                    _ => {
+                        if let Some(l) = self.limit {
+                            self.core.base.advance_to(l);
+                        }
+                        break;
+                    }
+                },
+                ClockKind::Real => {
+                    let now = self.core.base.now();
+                    let until = match (next, self.limit) {
+                        (Some(d), Some(l)) => Some(d.min(l)),
+                        (d, l) => d.or(l),
+                    };
+                    let wait = until.map(|u| Duration::from_nanos(u.saturating_sub(now)));
+                    if wait.is_some_and(|w| w <= spin.now) {
+                        // The last stretch before a deadline is spun (the
+                        // loop's top still takes commands as they come).
+                        std::hint::spin_loop();
+                        continue;
+                    }
+                    // Nothing to do before the spinning stretch: the trace
+                    // sinks write what they hold, then the wait is measured
+                    // again.
+                    if self.core.with(|st| st.trace.idle()) {
+                        continue;
+                    }
+                    // Sleep until the spinning stretch before the deadline,
+                    // a tick at most: the loop's top looks whether the run
+                    // is being stopped.
+                    let wait = wait.map(|w| (w - spin.now).min(crate::watchdog::TICK));
+                    let received = match wait {
+                        Some(w) => {
+                            let asleep = std::time::Instant::now();
+                            let received = self.commands.recv_timeout(w);
+                            if received.is_err() {
+                                spin.woke(w, asleep.elapsed());
+                            }
+                            received
+                        }
+                        None => self.commands.recv_timeout(crate::watchdog::TICK),
+                    };
+                    match received {
+                        Ok(cmd) => self.handle(cmd),
+                        Err(RecvTimeoutError::Timeout) => {}
+                        Err(RecvTimeoutError::Disconnected) => match wait {
+                            Some(w) => std::thread::sleep(w),
+                            None => break,
+                        },
+                    }
+                }
+            }
+        }
+        Ok(self.finish())
+    }
+
+    pub(super) fn finish(self) -> RunEnd {
+        let ended_at = self.core.base.now();
+        // End every wait so that blocked deliberative threads see the stop.
+        let livelock = self.core.with(|st| st.instant.livelock);
+        let fuel = self.core.with(|st| {
+            st.plugins
+                .iter()
+                .map(|p| {
+                    let used = p.fuel_used.load(std::sync::atomic::Ordering::Relaxed);
+                    (p.name.to_string(), used)
+                })
+                .collect()
+        });
+        let stopped = self.watch.stopping();
+        let (trace, program_outcome, trace_errors, divergence, machine_limit) =
+            self.core.with(|st| {
+                st.record_logs();
+                if let Some(stopped) = &stopped {
+                    // The last record of the run says who stopped it, and why.
+                    st.record(Entry::Stopped {
+                        reason: stopped.reason.into(),
+                        message: stopped.message.clone(),
+                    });
+                }
+                st.waiters.clear();
+                st.turns.abandon();
+                st.record_input(Input::End { digest: None });
+                st.check_replay_end();
+                let mut errors: Vec<String> = st
+                    .trace
+                    .sinks
+                    .iter_mut()
+                    .filter_map(|sink| sink.finish().err())
+                    .collect();
+                if let Some(Err(e)) = st.trace.inputs.as_mut().map(InputRecorder::finish) {
+                    errors.push(format!("recording {e}"));
+                }
+                (
+                    st.trace
+                        .kept
+                        .take()
+                        .map(crate::trace::KeptTrace::finish)
+                        .unwrap_or_default(),
+                    st.program_outcome.take(),
+                    errors,
+                    st.trace.divergence.take(),
+                    st.machine_limit.take(),
+                )
+            });
+        drop(self.executor);
+        RunEnd {
+            trace,
+            ended_at,
+            program_outcome,
+            trace_errors,
+            livelock,
+            fuel,
+            divergence,
+            machine_limit,
+            stopped,
+        }
+    }
+
+    /// Moves tasks spawned or cancelled during the last step into the
+    /// executor, and plugin log lines into the trace.
+    pub(super) fn absorb(&mut self) {
+        let (spawned, cancelled) = self.core.with(|st| {
+            st.record_logs();
+            (
+                std::mem::take(&mut st.spawned),
+                std::mem::take(&mut st.cancelled),
+            )
+        });
+        for id in cancelled {
+            self.executor.cancel(id);
+        }
+        for (id, task) in spawned {
+            self.executor.insert(id, task);
+        }
+    }
+}

@@ -1,0 +1,480 @@
+//! The scheduler's state: every plugin as the scheduler sees it, the
+//! connection table, the native contexts and their waits, shared by every
+//! actor task through [`Core`].
+
+use super::board;
+use std::cell::RefCell;
+use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::future::poll_fn;
+use std::rc::Rc;
+use std::sync::Arc;
+use std::task::{Poll, Waker};
+
+use crossbeam_channel::Sender;
+
+use super::backlog::Backlog;
+use super::board::Grants;
+use super::commands::AnonymousSlot;
+use super::commands::{AnonymousJob, ProgramFailure, Woke};
+use super::livelock::Burst;
+use super::livelock::InstantCounts;
+use super::recording::TraceOut;
+use super::turns::Turns;
+use super::typing::{signal_type, slot_type};
+use super::versions::PendingSwap;
+use crate::clock::ClockKind;
+use crate::clock::{StopFlag, StopReason, TimeBase};
+use crate::error::RadarError;
+use crate::executor::{LocalTask, TaskId};
+use crate::limiter::MemoryBudget;
+use crate::payload::trace_json;
+use crate::payload::{Payload, PayloadType, Shared};
+use crate::plugin::{InstanceSetup, Kind, Limits, PluginCode};
+use crate::ports::{Busy, Mode, Signal, Slot};
+use crate::trace::inputs::{Input, TimedInput, TraceDigest};
+use crate::trace::{Entry, Record};
+use crate::watchdog::RunWatch;
+use crate::watchdog::Stopping;
+use wasmtime::component::Val;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Lifecycle {
+    Inactive,
+    Active,
+    Error,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Phase {
+    Idle,
+    Running,
+    Interrupting,
+    Exiting,
+}
+
+impl Phase {
+    pub(super) fn as_str(self) -> &'static str {
+        match self {
+            Phase::Idle => "idle",
+            Phase::Running => "running",
+            Phase::Interrupting => "interrupting",
+            Phase::Exiting => "exiting",
+        }
+    }
+}
+
+/// A start signal a response has accepted but not begun.
+pub(super) struct StartRequest {
+    pub(super) payload: Shared,
+    /// The connection that delivered it (0: an injection).
+    pub(super) via: u64,
+    /// The `F → R.interrupt` connection of `once E start R until F`, which
+    /// lives as long as the activation this start begins.
+    pub(super) until: Option<u64>,
+}
+
+/// A payload on its way into a response's slot.
+pub(super) struct Delivery {
+    /// The connection it came through (0: an injection).
+    pub(super) via: u64,
+    pub(super) payload: Shared,
+    pub(super) busy: Busy,
+    /// See [`StartRequest::until`].
+    pub(super) until: Option<u64>,
+    /// For an `until` connection: the start connection it serves.
+    pub(super) serves: Option<u64>,
+}
+
+/// The activation a response is running: its start slot has begun.
+pub(super) struct Activation {
+    /// The connection whose start began it (0: an injection).
+    pub(super) via: u64,
+    /// Its start payload, for a `restart` swap that starts it again.
+    pub(super) payload: Shared,
+    /// See [`StartRequest::until`].
+    pub(super) until: Option<u64>,
+}
+
+/// A plugin as the scheduler sees it.
+pub(crate) struct PluginDef {
+    pub name: String,
+    pub code: Rc<PluginCode>,
+    pub config: Arc<BTreeMap<String, String>>,
+    pub limits: Limits,
+    /// An event's check period (DESIGN §1.1), in nanoseconds.
+    pub period: u64,
+    /// What it may do with the blackboard.
+    pub grants: Arc<Grants>,
+    /// What of the host it sees through WASI.
+    pub wasi: Arc<crate::capability::wasi::WasiGrants>,
+}
+
+pub(super) struct PluginEntry {
+    pub(super) def: PluginDef,
+    pub(super) name: Arc<str>,
+    pub(super) stop: Arc<StopFlag>,
+    /// Fuel its calls have used (see [`InstanceSetup::fuel_used`]).
+    pub(super) fuel_used: Arc<std::sync::atomic::AtomicU64>,
+    pub(super) lifecycle: Lifecycle,
+    pub(super) actor: Option<Waker>,
+    pub(super) reset_requested: bool,
+    /// Events: connections listening to `triggered`.
+    pub(super) listeners: usize,
+    /// Events: when the next check may start.
+    pub(super) next_check: u64,
+    /// Responses.
+    pub(super) phase: Phase,
+    /// The start that begins next: accepted while the response was idle, or
+    /// put ahead of the queue by a `restart` connection.
+    pub(super) next: Option<StartRequest>,
+    /// Starts waiting behind the running activation (`busy = queue`).
+    pub(super) queue: VecDeque<StartRequest>,
+    pub(super) activation: Option<Activation>,
+    pub(super) stop_request: Option<(StopReason, Shared)>,
+    /// A new version waiting for the plugin's safe point.
+    pub(super) swap: Option<PendingSwap>,
+    /// `Plugin.start`, the label of dropped records for accepted starts.
+    pub(super) start_label: Arc<str>,
+}
+
+impl PluginEntry {
+    pub(super) fn is_event(&self) -> bool {
+        matches!(self.def.code.kind, Kind::Event { .. })
+    }
+
+    pub(super) fn has_start_waiting(&self) -> bool {
+        self.next.is_some() || !self.queue.is_empty()
+    }
+
+    /// The connection whose start the running (or about to begin)
+    /// activation came through.
+    pub(super) fn activation_via(&self) -> Option<u64> {
+        match (&self.activation, &self.next) {
+            (Some(a), _) => Some(a.via),
+            (None, Some(n)) if self.phase == Phase::Running => Some(n.via),
+            _ => None,
+        }
+    }
+
+    pub(super) fn wake(&mut self) {
+        if let Some(w) = self.actor.take() {
+            w.wake();
+        }
+    }
+
+    pub(super) fn signal_type(&self, signal: Signal) -> Option<Option<PayloadType>> {
+        signal_type(&self.def.code.kind, signal)
+    }
+
+    pub(super) fn slot_type(&self, slot: Slot) -> Option<Option<PayloadType>> {
+        slot_type(&self.def.code.kind, slot)
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Target {
+    Slot(usize, Slot),
+    Anonymous(u64),
+    Waiter(u64),
+    Mailbox(u64),
+}
+
+pub(super) struct Connection {
+    pub(super) from: (usize, Signal),
+    pub(super) target: Target,
+    pub(super) mode: Mode,
+    pub(super) busy: Busy,
+    pub(super) min_interval: Option<u64>,
+    pub(super) last_delivery: Option<u64>,
+    /// For `E start R until F`: the `F → R.interrupt` connection. It lives
+    /// as long as a `whenever` connection, or as long as the activation a
+    /// `once` connection starts.
+    pub(super) until: Option<u64>,
+    /// For that `F → R.interrupt` connection: the start connection whose
+    /// activations it interrupts (and no others).
+    pub(super) serves: Option<u64>,
+    pub(super) to_label: Arc<str>,
+    /// Whether the target takes the payload (a slot without parameter drops it).
+    pub(super) pass_payload: bool,
+}
+
+pub(super) struct Anonymous {
+    pub(super) closure: Option<AnonymousSlot>,
+    pub(super) queue: Backlog<Payload>,
+    pub(super) closed: bool,
+}
+
+pub(super) struct Waiter {
+    pub(super) reply: WaiterReply,
+    pub(super) lockstep: bool,
+    pub(super) timeout_task: Option<TaskId>,
+    pub(super) connection: u64,
+}
+
+/// Who a wait answers: native `waitfor`, or a deliberative component's
+/// wait (which its mailbox may also end).
+pub(super) enum WaiterReply {
+    WaitFor(Sender<Result<Option<Payload>, RadarError>>),
+    Wait {
+        mailbox: u64,
+        reply: Sender<Result<Woke, RadarError>>,
+    },
+}
+
+pub(crate) struct State {
+    pub(super) base: TimeBase,
+    /// The core this state lives in, for tasks spawned from inside it.
+    pub(super) core: std::rc::Weak<Core>,
+    pub(super) plugins: Vec<PluginEntry>,
+    pub(super) by_name: BTreeMap<String, usize>,
+    pub(super) connections: BTreeMap<u64, Connection>,
+    /// The live connections of each plugin's signals, by plugin, in the
+    /// order they were made: what an emission reaches, found without
+    /// looking at any other connection.
+    pub(super) routes: Vec<Vec<(Signal, Vec<u64>)>>,
+    pub(super) next_connection: u64,
+    pub(super) anonymous: HashMap<u64, Anonymous>,
+    pub(super) waiters: HashMap<u64, Waiter>,
+    pub(super) next_waiter: u64,
+    pub(super) trace: TraceOut,
+    /// Native contexts (deliberative threads, anonymous slots) in lockstep.
+    pub(super) turns: Turns,
+    /// The anonymous-slot thread is running (or about to run) a slot.
+    pub(super) runner_busy: bool,
+    /// Anonymous slots with deliveries waiting for the thread, in order.
+    pub(super) runner_waiting: VecDeque<u64>,
+    pub(super) spawned: Vec<(TaskId, LocalTask)>,
+    pub(super) cancelled: Vec<TaskId>,
+    pub(super) next_task: TaskId,
+    pub(super) anonymous_jobs: Sender<AnonymousJob>,
+    pub(super) seed: u64,
+    pub(super) stop: bool,
+    /// Virtual clock: signals emitted in the current instant, to catch a
+    /// system that loops without time ever advancing.
+    pub(super) instant: InstantCounts,
+    pub(super) program_outcome: Option<Result<(), ProgramFailure>>,
+    /// Tasks started with `Radar::spawn`, by id.
+    pub(super) native_tasks: HashMap<u64, NativeTask>,
+    pub(super) next_native_task: u64,
+    pub(super) route_buffer: Vec<u64>,
+    pub(super) board: board::Blackboard,
+    pub(super) mailboxes: HashMap<u64, Mailbox>,
+    /// Plugins that faulted on a limit of the machine: how many, and the
+    /// first one's fault.
+    pub(super) machine_limit: Option<(usize, String)>,
+    /// The memory all plugins may take together.
+    pub(super) budget: Arc<MemoryBudget>,
+    pub(super) watch: Arc<RunWatch>,
+}
+
+/// A spawned native context, running or ended.
+pub(super) enum NativeTask {
+    Running {
+        joiners: Vec<(bool, Sender<Result<(), ProgramFailure>>)>,
+    },
+    Ended(Result<(), ProgramFailure>),
+}
+
+/// The scheduler's shared state, reached by every actor task.
+pub(crate) struct Core {
+    pub base: TimeBase,
+    pub(super) st: RefCell<State>,
+}
+
+pub(super) struct ConnectionParts {
+    pub(super) mode: Mode,
+    pub(super) busy: Busy,
+    pub(super) min_interval: Option<u64>,
+    pub(super) to_label: String,
+    pub(super) pass_payload: bool,
+    /// For an `until` connection: the start connection it serves.
+    pub(super) serves: Option<u64>,
+}
+
+/// A deliberative component's anonymous-slot deliveries, and its wait.
+#[derive(Default)]
+pub(crate) struct Mailbox {
+    pub(super) queue: Backlog<(u64, Payload)>,
+    /// The waiter of the program's current wait, if it waits.
+    pub(super) waiter: Option<u64>,
+}
+
+impl Core {
+    pub(super) fn with<R>(&self, f: impl FnOnce(&mut State) -> R) -> R {
+        f(&mut self.st.borrow_mut())
+    }
+
+    /// Waits until `ready` holds for plugin `pid` (the actor is woken by
+    /// whatever may have changed it).
+    pub(super) async fn until_ready(&self, pid: usize, ready: fn(&PluginEntry) -> bool) {
+        poll_fn(|cx| {
+            let mut st = self.st.borrow_mut();
+            let entry = &mut st.plugins[pid];
+            if ready(entry) {
+                Poll::Ready(())
+            } else {
+                match &entry.actor {
+                    Some(w) if w.will_wake(cx.waker()) => {}
+                    _ => entry.actor = Some(cx.waker().clone()),
+                }
+                Poll::Pending
+            }
+        })
+        .await
+    }
+}
+
+impl State {
+    pub(super) fn now(&self) -> u64 {
+        self.base.now()
+    }
+
+    pub(super) fn spawn(&mut self, task: LocalTask) -> TaskId {
+        self.next_task += 1;
+        self.spawned.push((self.next_task, task));
+        self.next_task
+    }
+
+    pub(super) fn plugin(&self, name: &str) -> Result<usize, RadarError> {
+        self.by_name
+            .get(name)
+            .copied()
+            .ok_or_else(|| RadarError::UnknownPlugin(name.to_string()))
+    }
+
+    pub(super) fn setup(&self, pid: usize) -> (Rc<PluginCode>, InstanceSetup) {
+        let entry = &self.plugins[pid];
+        (
+            entry.def.code.clone(),
+            InstanceSetup {
+                name: entry.name.clone(),
+                base: self.base.clone(),
+                stop: entry.stop.clone(),
+                config: entry.def.config.clone(),
+                limits: entry.def.limits.clone(),
+                wasi: entry.def.wasi.clone(),
+                seed: self.seed,
+                fuel_used: entry.fuel_used.clone(),
+                budget: self.budget.clone(),
+                watch: self.watch.clone(),
+            },
+        )
+    }
+}
+
+/// Recording: what every part of the scheduler records through.
+impl State {
+    pub(super) fn record(&mut self, entry: Entry) {
+        // Whatever is recorded is progress (see `crate::watchdog`): a call
+        // that keeps emitting or writing is not stalled.
+        self.watch.step();
+        // Lines a guest logged during the step that led here come first.
+        self.record_logs();
+        if !self.trace.tracing() {
+            return;
+        }
+        let t = self.now();
+        self.trace.write(Record { t, entry });
+    }
+
+    pub(super) fn record_logs(&mut self) {
+        let lines = self.base.take_logs();
+        if !self.trace.tracing() {
+            return;
+        }
+        for line in lines {
+            self.trace.write(Record {
+                t: line.t,
+                entry: Entry::Log {
+                    plugin: line.plugin,
+                    level: line.level.into(),
+                    message: line.message,
+                },
+            });
+        }
+    }
+
+    /// Writes an input from outside into the recording, if there is one.
+    pub(super) fn record_input(&mut self, input: Input) {
+        let t = self.now();
+        // Under the virtual clock an input's place in its instant is part
+        // of what happened (see `inputs`).
+        let placed = matches!(
+            input,
+            Input::Inject { .. } | Input::BoardWrite { .. } | Input::Swap { .. }
+        );
+        let virtual_clock = self.base.kind() == ClockKind::Virtual;
+        let step = (placed && virtual_clock).then(|| self.moves_now());
+        let end = matches!(input, Input::End { .. });
+        let records = self
+            .trace
+            .digest
+            .as_ref()
+            .filter(|_| (placed || end) && virtual_clock)
+            .map(|d| d.records);
+        let input = match input {
+            Input::End { .. } => Input::End {
+                digest: self.trace.digest.as_ref().map(TraceDigest::hex),
+            },
+            other => other,
+        };
+        if let Some(recorder) = &mut self.trace.inputs {
+            recorder.write(&TimedInput {
+                t,
+                step,
+                records,
+                input,
+            });
+        }
+    }
+
+    /// Writes `value` into `entry` and records it, `by` a plugin or
+    /// `(native)`.
+    pub(super) fn board_write(&mut self, by: &str, entry: &str, value: Val) {
+        let json = trace_json(&value);
+        if self.board.set(entry, value) {
+            self.record(Entry::BoardWrite {
+                entry: entry.to_string(),
+                by: Arc::from(by),
+                value: json,
+            });
+        }
+    }
+}
+
+/// The livelock guard's counts, applied (see `livelock`).
+impl State {
+    /// Counts a signal `pid` emits at the current virtual instant.
+    pub(super) fn count_signal(&mut self, pid: usize) {
+        let now = self.now();
+        if let Some(burst) = self.instant.signal(now, pid) {
+            self.burst(burst);
+        }
+    }
+
+    /// Counts a task step at the current virtual instant, `pid`'s if the
+    /// task is a plugin's actor.
+    pub(super) fn count_task_step(&mut self, pid: Option<usize>) {
+        let now = self.now();
+        if let Some(burst) = self.instant.step(now, pid) {
+            self.burst(burst);
+        }
+    }
+
+    /// A burst found: the plugin to blame faults at its next host call (or
+    /// before its next call); a livelock stops the run, and its `stopped`
+    /// record is written when the run ends (a call still running may emit
+    /// more before it does).
+    fn burst(&mut self, burst: Burst) {
+        match burst {
+            Burst::Blame { pid, cause } => self.plugins[pid].stop.request_fault(cause),
+            Burst::Livelock { message } => {
+                self.stop = true;
+                self.watch.stop(Stopping {
+                    reason: "livelock",
+                    message,
+                });
+            }
+        }
+    }
+}
