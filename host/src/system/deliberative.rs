@@ -210,8 +210,8 @@ impl Host for ProgramCtx {
 
     fn listen(&mut self, signal: String, mode: Mode) -> Result<Resource<Connection>, String> {
         let mode = match mode {
-            Mode::Once => crate::Mode::Once,
-            Mode::Whenever => crate::Mode::Whenever,
+            Mode::Once => crate::ports::Mode::Once,
+            Mode::Whenever => crate::ports::Mode::Whenever,
         };
         let connection = self
             .radar

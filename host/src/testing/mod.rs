@@ -26,11 +26,14 @@ use std::time::Duration;
 
 use serde_json::Value as Json;
 
+use crate::clock::ClockKind;
+use crate::error::RadarError;
 use crate::manifest::Manifest;
+use crate::ports::SwapPolicy;
+use crate::scheduler::ProgramFailure;
+use crate::system::{Link, Plugin, Radar, RunReport, System, SystemBuilder};
 use crate::trace::compare::{compare, load_values, Comparison};
 use crate::trace::{inputs, to_values, Entry, Record};
-use crate::{ClockKind, Link, Plugin, Radar, RadarError, RunReport, SwapPolicy, System};
-use crate::{ProgramFailure, SystemBuilder};
 
 pub mod scenario;
 

@@ -32,11 +32,12 @@ use std::time::{Duration, Instant};
 
 use serde::Deserialize;
 
+use crate::clock::ClockKind;
 use crate::manifest::{parse_duration, Manifest};
 use crate::plugin::Limits;
+use crate::system::{RunReport, System};
 use crate::trace::compare::{compare, parse_values, Comparison};
 use crate::trace::inputs::{self, Input, TimedInput};
-use crate::{ClockKind, RunReport, System};
 
 /// The files of a scenario folder.
 pub const MANIFEST: &str = "radar.toml";

@@ -40,7 +40,7 @@
 use std::collections::{BTreeMap, HashMap, HashSet, VecDeque};
 use std::fmt;
 
-use super::{Entry, Record};
+use super::record::{Entry, Record};
 
 /// Reasons of a `dropped` record for a start that had been accepted (it was
 /// delivered, then left the queue without beginning).

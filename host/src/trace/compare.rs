@@ -23,7 +23,7 @@ use std::fmt;
 
 use serde_json::{Map, Value as Json};
 
-use super::ParseError;
+use super::lines::{parse_lines, ParseError};
 
 /// What counts as a difference.
 #[derive(Clone, Debug)]
@@ -244,10 +244,7 @@ impl fmt::Display for Divergence {
 
 /// Parses JSON Lines into JSON values (blank lines are skipped).
 pub fn parse_values(text: &str) -> Result<Vec<Json>, ParseError> {
-    Ok(super::parse_lines(text)?
-        .into_iter()
-        .map(|(_, v)| v)
-        .collect())
+    Ok(parse_lines(text)?.into_iter().map(|(_, v)| v).collect())
 }
 
 /// Reads an expected trace file.

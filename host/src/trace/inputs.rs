@@ -26,7 +26,8 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use serde_json::Value as Json;
 
-use super::ParseError;
+use super::lines::{parse_lines, ParseError};
+use super::record::Record;
 
 /// One line of an inputs file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -115,7 +116,7 @@ fn drain() -> String {
 /// Parses an inputs file; relative swap paths are made relative to `dir`
 /// (the file's folder).
 pub fn parse(text: &str, dir: &Path) -> Result<Vec<TimedInput>, ParseError> {
-    let mut inputs = super::parse_lines::<TimedInput>(text)?;
+    let mut inputs = parse_lines::<TimedInput>(text)?;
     for (line, input) in &mut inputs {
         if let Input::Swap { wasm, policy, .. } = &mut input.input {
             if policy != "drain" && policy != "restart" {
@@ -149,7 +150,7 @@ pub(crate) struct TraceDigest {
 }
 
 impl TraceDigest {
-    pub fn observe(&mut self, record: &super::Record) {
+    pub fn observe(&mut self, record: &Record) {
         use sha2::Digest;
         self.records += 1;
         self.hasher.update(record.to_json_line().as_bytes());

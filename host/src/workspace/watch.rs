@@ -11,7 +11,7 @@
 //!
 //! A plugin that runs a script on a development runtime (`source` in the
 //! manifest, [`crate::script`]) has its script's folder watched too: an
-//! edit is checked ([`super::check_script`]) and swapped in as it is, with
+//! edit is checked ([`super::build::check_script`]) and swapped in as it is, with
 //! no build and no compile.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
@@ -21,7 +21,7 @@ use std::time::{Duration, Instant};
 
 use notify::{RecursiveMode, Watcher};
 
-use super::{build, check_script, watched, BuildFailure};
+use super::build::{build, check_script, watched, BuildFailure};
 use crate::error::RadarError;
 use crate::manifest::Build;
 use crate::plugin::version_of;

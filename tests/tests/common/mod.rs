@@ -2,6 +2,8 @@
 //! virtual clock and finding records in its trace.
 #![allow(dead_code)]
 
+pub mod hostile;
+
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -152,4 +154,29 @@ pub fn scenario_expect(name: &str) -> PathBuf {
 /// scenario `name`'s expected trace (what `radar test` checks).
 pub fn assert_matches_scenario(name: &str, report: &RunReport) {
     radar::testing::assert_trace_matches(&report.trace, scenario_expect(name));
+}
+
+/// Runs `body` on a thread and fails (instead of hanging the suite) if it
+/// does not finish within a minute of wall time.
+pub fn within_a_minute<T: Send + 'static>(body: impl FnOnce() -> T + Send + 'static) -> T {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(body());
+    });
+    rx.recv_timeout(Duration::from_secs(60))
+        .expect("the run finished instead of hanging")
+}
+
+/// `slot-begin` records of `plugin`'s start slot as (time, connection).
+pub fn activations(trace: &[serde_json::Value], plugin: &str) -> Vec<(f64, u64)> {
+    find(
+        trace,
+        serde_json::json!({"kind": "slot-begin", "plugin": plugin, "slot": "start"}),
+    )
+    .iter()
+    .map(|r| {
+        let t = r["t"].as_u64().expect("t") as f64 / 1e9;
+        (t, r["connection"].as_u64().expect("connection"))
+    })
+    .collect()
 }

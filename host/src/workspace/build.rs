@@ -1,0 +1,180 @@
+//! Running a plugin's build command (`radar build`, `--watch`) and
+//! checking a development runtime's script before it is swapped in.
+
+use std::path::Path;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+use crate::manifest::Build;
+
+/// A build command that did not succeed.
+#[derive(Debug, thiserror::Error)]
+#[error("build of `{plugin}` failed: {line}")]
+pub struct BuildFailure {
+    /// The plugin.
+    pub plugin: String,
+    /// The first line of the output that names an error (else the last).
+    pub line: String,
+}
+
+/// Runs a plugin's build command; its duration on success. A plugin without
+/// a command has nothing to build.
+pub fn build(build: &Build) -> Result<Duration, BuildFailure> {
+    let began = Instant::now();
+    let Some(command) = &build.command else {
+        return Ok(Duration::ZERO);
+    };
+    let failure = |line: String| BuildFailure {
+        plugin: build.plugin.clone(),
+        line,
+    };
+    let output = Command::new("sh")
+        .arg("-c")
+        .arg(command)
+        .current_dir(&build.workdir)
+        .output()
+        .map_err(|e| {
+            failure(format!(
+                "cannot run `{command}` in {}: {e}",
+                build.workdir.display()
+            ))
+        })?;
+    if output.status.success() {
+        return Ok(began.elapsed());
+    }
+    let text = format!(
+        "{}\n{}",
+        String::from_utf8_lossy(&output.stderr),
+        String::from_utf8_lossy(&output.stdout)
+    );
+    Err(failure(first_error(&text).unwrap_or_else(|| {
+        format!("`{command}` exited with {}", output.status)
+    })))
+}
+
+/// Checks a script before it is swapped in (a Python script must parse, a
+/// JavaScript one pass `node --check` as a module), so that an edit with a
+/// syntax error leaves the running version in place like a failed build.
+/// Needs `python3` or `node` on the path; without it the check is skipped
+/// (the runtime reports the error on its first call).
+pub fn check_script(plugin: &str, main: &Path) -> Result<(), BuildFailure> {
+    let failure = |line: String| BuildFailure {
+        plugin: plugin.to_string(),
+        line,
+    };
+    let files = crate::script::files(main)
+        .map_err(|e| failure(format!("cannot read {}: {e}", main.display())))?;
+    const PARSE_PYTHON: &str = "import ast, sys\n\
+        for f in sys.argv[1:]:\n\
+        \x20   try:\n\
+        \x20       ast.parse(open(f, encoding='utf-8').read(), f)\n\
+        \x20   except SyntaxError as e:\n\
+        \x20       sys.exit(f'{e.filename}:{e.lineno}: SyntaxError: {e.msg}')\n";
+    // `node --check` decides a file's module system by its package.json;
+    // a copy named .mjs is checked as the ES module it is.
+    const CHECK_JS: &str = "const fs = require('fs'), os = require('os'), path = require('path');\n\
+        const { execFileSync } = require('child_process');\n\
+        for (const f of process.argv.slice(1)) {\n\
+        \x20 const copy = path.join(fs.mkdtempSync(path.join(os.tmpdir(), 'radar-')), path.basename(f) + '.mjs');\n\
+        \x20 fs.copyFileSync(f, copy);\n\
+        \x20 try { execFileSync(process.execPath, ['--check', copy], { stdio: 'pipe' }); }\n\
+        \x20 catch (e) {\n\
+        \x20   const lines = e.stderr.toString().split('\\n');\n\
+        \x20   const at = (lines[0] || '').replace(copy, f);\n\
+        \x20   console.error(`${at}: ${lines.find((l) => /Error/.test(l)) || 'does not parse'}`);\n\
+        \x20   process.exit(1);\n\
+        \x20 } finally { fs.rmSync(path.dirname(copy), { recursive: true, force: true }); }\n\
+        }\n";
+    let mut command = match main.extension().and_then(|e| e.to_str()) {
+        Some("js") => {
+            let mut node = Command::new("node");
+            node.arg("-e").arg(CHECK_JS).arg("--");
+            node
+        }
+        _ => {
+            let mut python = Command::new("python3");
+            python.arg("-c").arg(PARSE_PYTHON);
+            python
+        }
+    };
+    let Ok(output) = command.args(&files).output() else {
+        return Ok(());
+    };
+    if output.status.success() {
+        return Ok(());
+    }
+    let text = String::from_utf8_lossy(&output.stderr);
+    Err(failure(
+        first_error(&text).unwrap_or_else(|| "the script does not parse".into()),
+    ))
+}
+
+/// The line a user wants first: one that names an error, else the last
+/// non-empty one.
+fn first_error(text: &str) -> Option<String> {
+    let lines: Vec<&str> = text
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect();
+    lines
+        .iter()
+        .find(|l| l.to_lowercase().contains("error"))
+        .or_else(|| lines.last())
+        .map(|l| l.to_string())
+}
+
+/// Whether `path` is one of `build`'s watched sources.
+pub(super) fn watched(build: &Build, path: &Path) -> bool {
+    let Ok(relative) = path.strip_prefix(&build.workdir) else {
+        return false;
+    };
+    build.watch.iter().any(|pattern| {
+        glob::Pattern::new(pattern).is_ok_and(|p| {
+            p.matches_path_with(
+                relative,
+                glob::MatchOptions {
+                    require_literal_separator: false,
+                    ..glob::MatchOptions::new()
+                },
+            )
+        })
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::PathBuf;
+
+    fn build(command: &str, watch: &[&str]) -> Build {
+        Build {
+            plugin: "P".into(),
+            wasm: PathBuf::from("/p/out.wasm"),
+            command: Some(command.into()),
+            workdir: PathBuf::from("/p"),
+            watch: watch.iter().map(|w| w.to_string()).collect(),
+            script: None,
+        }
+    }
+
+    #[test]
+    fn a_failed_build_reports_the_compilers_first_error_line() {
+        let text = "   Compiling p v0.1.0\nerror[E0425]: cannot find value `x`\n  --> src/lib.rs:3:5\nerror: aborting";
+        assert_eq!(
+            first_error(text).as_deref(),
+            Some("error[E0425]: cannot find value `x`")
+        );
+        assert_eq!(first_error("one\ntwo\n").as_deref(), Some("two"));
+    }
+
+    #[test]
+    fn watched_sources_match_their_globs_below_the_workdir() {
+        let b = build("true", &["src/**/*.rs", "wit/*.wit"]);
+        assert!(watched(&b, Path::new("/p/src/lib.rs")));
+        assert!(watched(&b, Path::new("/p/src/deep/mod.rs")));
+        assert!(watched(&b, Path::new("/p/wit/world.wit")));
+        assert!(!watched(&b, Path::new("/p/target/debug/x.rs")));
+        assert!(!watched(&b, Path::new("/elsewhere/src/lib.rs")));
+    }
+}
