@@ -1,7 +1,16 @@
 //! The errors of the host library. Every variant that concerns a plugin
 //! names it, so that a robot programmer sees at once which file to fix.
+//!
+//! An error's `Display` is the whole one-line message, cause included, as
+//! the trace and the command line show it. Where the cause is an error of
+//! its own (the operating system's, wasmtime's, a payload's), it is also
+//! the [`std::error::Error::source`], for code that wants to look at it;
+//! [`one_line`] prints such a chain without saying the cause twice.
 
+use std::error::Error;
 use std::path::PathBuf;
+
+use crate::payload::PayloadError;
 
 /// Everything that can go wrong when building or driving a system.
 #[derive(Debug, thiserror::Error)]
@@ -15,6 +24,7 @@ pub enum RadarError {
         /// The file that was asked for.
         path: PathBuf,
         /// What the operating system said.
+        #[source]
         cause: std::io::Error,
     },
     /// The plugin's bytes are not a WebAssembly component wasmtime can compile.
@@ -92,7 +102,8 @@ pub enum RadarError {
         /// The slot, as `Plugin.slot`.
         to: String,
         /// Why it does not fit.
-        cause: String,
+        #[source]
+        cause: PayloadError,
     },
     /// A blackboard entry used without a grant, with two types, or unknown.
     #[error("blackboard: {0}")]
@@ -115,8 +126,12 @@ pub enum RadarError {
     #[error("recording: {0}")]
     Recording(String),
     /// The engine or linker could not be set up.
-    #[error("wasm engine: {0}")]
-    Engine(String),
+    #[error("wasm engine: {cause}")]
+    Engine {
+        /// What wasmtime said.
+        #[source]
+        cause: Box<dyn std::error::Error + Send + Sync>,
+    },
     /// The system is not running (the run ended, or was never started).
     #[error("the system is not running")]
     Stopped,
@@ -131,4 +146,54 @@ pub enum RadarError {
         /// What is wrong with it.
         cause: String,
     },
+}
+
+/// An error and its sources on one line, `: `-separated, leaving out a
+/// source whose text the line already holds (a [`RadarError`] says its
+/// cause in its own message).
+pub fn one_line<'e>(chain: impl IntoIterator<Item = &'e (dyn Error + 'static)>) -> String {
+    let mut line = String::new();
+    for error in chain {
+        let text = error.to_string();
+        if line.contains(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
+}
+
+/// The chain of `error` and its sources, for [`one_line`].
+pub fn chain<'e>(
+    error: &'e (dyn Error + 'static),
+) -> impl Iterator<Item = &'e (dyn Error + 'static)> {
+    std::iter::successors(Some(error), |&e| e.source())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_line_says_a_cause_the_message_holds_once() {
+        let cause = std::io::Error::new(std::io::ErrorKind::NotFound, "no such file");
+        let error = RadarError::Read {
+            plugin: "E".into(),
+            path: "/x.wasm".into(),
+            cause,
+        };
+        assert!(error.source().is_some());
+        assert_eq!(
+            one_line(chain(&error)),
+            "plugin `E`: cannot read /x.wasm: no such file"
+        );
+        let outer = anyhow::Error::new(error).context("loading the manifest");
+        assert_eq!(
+            one_line(outer.chain()),
+            "loading the manifest: plugin `E`: cannot read /x.wasm: no such file"
+        );
+    }
 }

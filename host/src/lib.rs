@@ -39,7 +39,7 @@ pub use clock::ClockKind;
 pub use error::RadarError;
 pub use payload::{Payload, PayloadType};
 pub use plugin::Limits;
-pub use ports::{Busy, Mode, SwapPolicy};
+pub use ports::{Busy, Mode, PluginState, SwapPolicy};
 pub use scheduler::{AnonymousSlot, ProgramFailure};
 pub use system::{
     Connection, Deliberative, Interrupter, Link, Plugin, PreparedVersion, Radar, RunReport, System,

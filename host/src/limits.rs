@@ -58,7 +58,7 @@ struct Budget {
     /// Instantiations allowed before the next count.
     left: u64,
     /// The last refusal, and how many instances were alive then.
-    refused: Option<(String, u64)>,
+    refused: Option<(NoRoomForInstance, u64)>,
 }
 
 static BUDGET: Mutex<Option<Budget>> = Mutex::new(None);
@@ -66,7 +66,7 @@ static BUDGET: Mutex<Option<Budget>> = Mutex::new(None);
 /// Before a new instance: whether the process has room for its mappings
 /// with the reserve left; if not, the fault to report. The instance counts as alive while
 /// the [`LiveInstance`] returned lives.
-pub(crate) fn room_for_instance() -> Result<LiveInstance, String> {
+pub(crate) fn room_for_instance() -> Result<LiveInstance, NoRoomForInstance> {
     let mut budget = BUDGET.lock().unwrap_or_else(|e| e.into_inner());
     let budget = budget.get_or_insert_with(|| Budget {
         limit: map_count_limit().unwrap_or(u64::MAX),
@@ -84,11 +84,11 @@ pub(crate) fn room_for_instance() -> Result<LiveInstance, String> {
         let mappings = count_mappings().unwrap_or(limit);
         let free = limit.saturating_sub(mappings + RESERVE);
         if free < PER_INSTANCE {
-            let refusal = format!(
-                "not instantiated: the process has {mappings} memory mappings with {live} \
-                 plugin instances alive, near the kernel's limit {MAP_COUNT} {limit} \
-                 ({PER_PLUGIN}; {RESERVE} are kept for the host): {RAISE}"
-            );
+            let refusal = NoRoomForInstance {
+                mappings,
+                live,
+                limit,
+            };
             budget.refused = Some((refusal.clone(), live));
             return Err(refusal);
         }
@@ -99,6 +99,33 @@ pub(crate) fn room_for_instance() -> Result<LiveInstance, String> {
     LIVE.fetch_add(1, Ordering::Relaxed);
     Ok(LiveInstance(()))
 }
+
+/// Why [`room_for_instance`] refused: the process is near the kernel's
+/// limit of memory mappings.
+#[derive(Debug, Clone)]
+pub(crate) struct NoRoomForInstance {
+    mappings: u64,
+    live: u64,
+    limit: u64,
+}
+
+impl std::fmt::Display for NoRoomForInstance {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let Self {
+            mappings,
+            live,
+            limit,
+        } = self;
+        write!(
+            f,
+            "not instantiated: the process has {mappings} memory mappings with {live} \
+             plugin instances alive, near the kernel's limit {MAP_COUNT} {limit} \
+             ({PER_PLUGIN}; {RESERVE} are kept for the host): {RAISE}"
+        )
+    }
+}
+
+impl std::error::Error for NoRoomForInstance {}
 
 /// One instance counted by [`room_for_instance`], until dropped.
 pub(crate) struct LiveInstance(());

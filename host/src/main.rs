@@ -65,7 +65,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("radar: {e:#}");
+            eprintln!("radar: {}", radar::error::one_line(e.chain()));
             ExitCode::FAILURE
         }
     }

@@ -392,18 +392,58 @@ pub(crate) fn trace_json(val: &Val) -> Json {
     }
 }
 
+/// Why a JSON value is not a value of a payload type.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum PayloadError {
+    /// The JSON has another shape than the type (a string for a `u32`, a
+    /// case the variant does not have, ...).
+    #[error("expected {expected}, found {found}")]
+    Mismatch {
+        /// The type, in WIT syntax.
+        expected: String,
+        /// The JSON that was given.
+        found: String,
+    },
+    /// A whole number the integer type cannot hold.
+    #[error("{value} is out of range for {ty}")]
+    OutOfRange {
+        /// The number given.
+        value: i128,
+        /// The integer type, in WIT syntax.
+        ty: String,
+    },
+    /// A type a payload cannot have (a resource, ...).
+    #[error("cannot build a value of type {0}")]
+    Unsupported(String),
+    /// A record without one of its fields.
+    #[error("missing field `{field}` of {ty}")]
+    MissingField {
+        /// The field's name.
+        field: String,
+        /// The record type, in WIT syntax.
+        ty: String,
+    },
+}
+
 /// Parses JSON into a value of type `ty`: the inverse of [`val_to_json`].
-pub fn json_to_val(json: &Json, ty: &PayloadType) -> Result<Val, String> {
+pub fn json_to_val(json: &Json, ty: &PayloadType) -> Result<Val, PayloadError> {
     use PayloadType as P;
-    let mismatch = || format!("expected {ty}, found {json}");
-    let int = |lo: i128, hi: i128| -> Result<i128, String> {
+    let mismatch = || PayloadError::Mismatch {
+        expected: ty.to_string(),
+        found: json.to_string(),
+    };
+    let int = |lo: i128, hi: i128| -> Result<i128, PayloadError> {
         let n = json
             .as_i64()
             .map(i128::from)
             .or_else(|| json.as_u64().map(i128::from))
             .ok_or_else(mismatch)?;
         if n < lo || n > hi {
-            return Err(format!("{n} is out of range for {ty}"));
+            return Err(PayloadError::OutOfRange {
+                value: n,
+                ty: ty.to_string(),
+            });
         }
         Ok(n)
     };
@@ -455,12 +495,13 @@ pub fn json_to_val(json: &Json, ty: &PayloadType) -> Result<Val, String> {
                 fields
                     .iter()
                     .map(|(name, t)| {
-                        let j = obj
-                            .get(name)
-                            .ok_or_else(|| format!("missing field `{name}` of {ty}"))?;
+                        let j = obj.get(name).ok_or_else(|| PayloadError::MissingField {
+                            field: name.clone(),
+                            ty: ty.to_string(),
+                        })?;
                         Ok((name.clone(), json_to_val(j, t)?))
                     })
-                    .collect::<Result<_, String>>()?,
+                    .collect::<Result<_, PayloadError>>()?,
             )
         }
         P::Enum(names) => {
@@ -496,7 +537,7 @@ pub fn json_to_val(json: &Json, ty: &PayloadType) -> Result<Val, String> {
                 .as_object()
                 .filter(|o| o.len() == 1)
                 .ok_or_else(mismatch)?;
-            let side = |t: &Option<Box<PayloadType>>, j: &Json| -> Result<_, String> {
+            let side = |t: &Option<Box<PayloadType>>, j: &Json| -> Result<_, PayloadError> {
                 match t {
                     Some(t) => Ok(Some(Box::new(json_to_val(j, t)?))),
                     None => Ok(None),
@@ -522,7 +563,7 @@ pub fn json_to_val(json: &Json, ty: &PayloadType) -> Result<Val, String> {
             }
             Val::Flags(out)
         }
-        P::Unsupported(what) => return Err(format!("cannot build a value of type {what}")),
+        P::Unsupported(what) => return Err(PayloadError::Unsupported(what.clone())),
     })
 }
 

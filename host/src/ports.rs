@@ -8,6 +8,48 @@
 //! takes over with a [`SwapPolicy`]. `Plugin.port` names a port
 //! ([`split_port`]).
 
+/// Where a plugin is in its life, as deliberative code and the trace's
+/// `state` records see it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum PluginState {
+    /// An event nothing listens to, so it does not check.
+    Inactive,
+    /// An event that checks, as something listens to its signals.
+    Active,
+    /// A response with no activation.
+    Idle,
+    /// A response running its `start` slot.
+    Running,
+    /// A response running its `interrupt` slot.
+    Interrupting,
+    /// A response running its `exit` slot.
+    Exiting,
+    /// A plugin that faulted: it runs no more until reset or swapped.
+    Error,
+}
+
+impl PluginState {
+    /// The state's name in the trace: `inactive`, `active`, `idle`,
+    /// `running`, `interrupting`, `exiting` or `error`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Inactive => "inactive",
+            Self::Active => "active",
+            Self::Idle => "idle",
+            Self::Running => "running",
+            Self::Interrupting => "interrupting",
+            Self::Exiting => "exiting",
+            Self::Error => "error",
+        }
+    }
+}
+
+impl std::fmt::Display for PluginState {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
 /// How a connection behaves after its first delivery.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mode {

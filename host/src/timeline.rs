@@ -228,7 +228,7 @@ impl<W: Write + Send> TraceSink for Timeline<W> {
         }
     }
 
-    fn finish(&mut self) -> Result<(), String> {
+    fn finish(&mut self) -> std::io::Result<()> {
         // A closed stdout (`radar run | head`) is not the run's failure.
         self.end_instant();
         Ok(())

@@ -143,9 +143,20 @@ pub(crate) struct WasiSetup<'a> {
     pub stderr: Option<StderrTail>,
 }
 
+/// A granted directory that could not be opened for a plugin.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot open {} for the plugin: {message}", dir.display())]
+pub(crate) struct GrantError {
+    dir: std::path::PathBuf,
+    /// What the operating system said, with its context.
+    message: String,
+    #[source]
+    cause: Box<dyn std::error::Error + Send + Sync>,
+}
+
 /// The WASI context of a store (see the module docs); the error says which
 /// granted directory could not be opened.
-pub(crate) fn context(setup: WasiSetup<'_>) -> Result<WasiCtx, String> {
+pub(crate) fn context(setup: WasiSetup<'_>) -> Result<WasiCtx, GrantError> {
     let mut wasi = WasiCtx::builder();
     for (key, value) in &setup.grants.env {
         wasi.env(key, value);
@@ -160,7 +171,11 @@ pub(crate) fn context(setup: WasiSetup<'_>) -> Result<WasiCtx, String> {
             wasmtime_wasi::FsPerms::ReadOnly
         };
         wasi.preopened_dir(host, guest, perms)
-            .map_err(|e| format!("cannot open {} for the plugin: {e:#}", host.display()))?;
+            .map_err(|e| GrantError {
+                message: format!("{e:#}"),
+                dir: host.clone(),
+                cause: e.into(),
+            })?;
     }
     wasi.allow_tcp(false).allow_udp(false);
     if let Some(stderr) = setup.stderr {

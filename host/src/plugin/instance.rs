@@ -162,7 +162,7 @@ pub(crate) fn describe_fault(err: &wasmtime::Error) -> String {
 
 impl PluginCode {
     pub async fn instantiate(&self, setup: InstanceSetup) -> Result<PluginInstance, Fault> {
-        let counted = crate::limits::room_for_instance().map_err(Fault::new)?;
+        let counted = crate::limits::room_for_instance().map_err(|e| Fault::new(e.to_string()))?;
         let real_clock = setup.base.kind() == ClockKind::Real;
         let stderr = StderrTail::default();
         let wasi = crate::capability::wasi::context(WasiSetup {
@@ -171,7 +171,7 @@ impl PluginCode {
             grants: &setup.wasi,
             stderr: Some(stderr.clone()),
         })
-        .map_err(Fault::new)?;
+        .map_err(|e| Fault::new(e.to_string()))?;
         let mut table = ResourceTable::new();
         table.set_max_capacity(RESOURCES);
         let ctx = PluginCtx {

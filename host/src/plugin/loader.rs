@@ -75,11 +75,11 @@ impl EngineFlavour {
         // So that a call that computes can be stopped from outside it
         // (a signal, a stall: see `crate::watchdog`).
         config.epoch_interruption(true);
-        let engine = Engine::new(&config).map_err(|e| RadarError::Engine(format!("{e:#}")))?;
+        let engine = Engine::new(&config).map_err(|e| RadarError::Engine { cause: e.into() })?;
         crate::watchdog::watch_engine(&engine);
         let mut linker = Linker::new(&engine);
         crate::capability::linking::add_to_linker(&mut linker)
-            .map_err(|e| RadarError::Engine(format!("{e:#}")))?;
+            .map_err(|e| RadarError::Engine { cause: e.into() })?;
         let mut hasher = std::collections::hash_map::DefaultHasher::new();
         engine.precompile_compatibility_hash().hash(&mut hasher);
         copy_on_write.hash(&mut hasher);

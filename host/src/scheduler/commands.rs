@@ -11,7 +11,7 @@ use super::versions::NewVersion;
 use crate::error::RadarError;
 use crate::payload::Payload;
 use crate::ports::Slot;
-use crate::ports::{Busy, Mode, SwapPolicy};
+use crate::ports::{Busy, Mode, PluginState, SwapPolicy};
 use crate::trace::inputs::Origin;
 use wasmtime::component::Val;
 
@@ -101,7 +101,7 @@ pub(crate) enum Command {
     /// A plugin's state, as deliberative code sees it.
     PluginState {
         plugin: String,
-        reply: Sender<Result<&'static str, RadarError>>,
+        reply: Sender<Result<PluginState, RadarError>>,
     },
     /// Deliberative code reads a blackboard entry.
     BoardRead {

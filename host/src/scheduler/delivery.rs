@@ -250,7 +250,7 @@ impl State {
             let plugin = self.plugins[pid].name.clone();
             self.record(Entry::State {
                 plugin,
-                state: phase.as_str().into(),
+                state: phase.state().as_str().into(),
             });
         }
     }

@@ -10,6 +10,7 @@ use super::state::{Lifecycle, NativeTask, State, WaiterReply};
 use crate::clock::duration_nanos;
 use crate::error::RadarError;
 use crate::payload::Payload;
+use crate::ports::PluginState;
 use crate::trace::inputs::Input;
 use crate::trace::Entry;
 
@@ -105,10 +106,10 @@ impl Scheduler {
                 let _ = reply.send(core.with(|st| {
                     let entry = &st.plugins[st.plugin(&plugin)?];
                     Ok(match (entry.lifecycle, entry.is_event()) {
-                        (Lifecycle::Error, _) => "error",
-                        (Lifecycle::Inactive, _) => "inactive",
-                        (Lifecycle::Active, true) => "active",
-                        (Lifecycle::Active, false) => entry.phase.as_str(),
+                        (Lifecycle::Error, _) => PluginState::Error,
+                        (Lifecycle::Inactive, _) => PluginState::Inactive,
+                        (Lifecycle::Active, true) => PluginState::Active,
+                        (Lifecycle::Active, false) => entry.phase.state(),
                     })
                 }));
             }

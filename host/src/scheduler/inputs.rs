@@ -144,7 +144,10 @@ impl State {
                 } => {
                     let pid = self.plugin(&plugin)?;
                     let mut code = code.unwrap_or_else(|| {
-                        let error = RadarError::Engine("the new version was never loaded".into());
+                        let error = RadarError::SwapRefused {
+                            plugin: plugin.clone(),
+                            cause: "the new version was never loaded".into(),
+                        };
                         Err(("unknown".into(), error))
                     });
                     // Instantiated now, before anything runs, so that the

@@ -438,7 +438,7 @@ impl Scheduler {
                     .trace
                     .sinks
                     .iter_mut()
-                    .filter_map(|sink| sink.finish().err())
+                    .filter_map(|sink| sink.finish().err().map(|e| e.to_string()))
                     .collect();
                 if let Some(Err(e)) = st.trace.inputs.as_mut().map(InputRecorder::finish) {
                     errors.push(format!("recording {e}"));

@@ -30,7 +30,7 @@ use crate::limiter::MemoryBudget;
 use crate::payload::trace_json;
 use crate::payload::{Payload, PayloadType, Shared};
 use crate::plugin::{InstanceSetup, Kind, Limits, PluginCode};
-use crate::ports::{Busy, Mode, Signal, Slot};
+use crate::ports::{Busy, Mode, PluginState, Signal, Slot};
 use crate::trace::inputs::{Input, TimedInput, TraceDigest};
 use crate::trace::{Entry, Record};
 use crate::watchdog::RunWatch;
@@ -53,12 +53,13 @@ pub(super) enum Phase {
 }
 
 impl Phase {
-    pub(super) fn as_str(self) -> &'static str {
+    /// The plugin state of a response in this phase.
+    pub(super) fn state(self) -> PluginState {
         match self {
-            Phase::Idle => "idle",
-            Phase::Running => "running",
-            Phase::Interrupting => "interrupting",
-            Phase::Exiting => "exiting",
+            Phase::Idle => PluginState::Idle,
+            Phase::Running => PluginState::Running,
+            Phase::Interrupting => PluginState::Interrupting,
+            Phase::Exiting => PluginState::Exiting,
         }
     }
 }

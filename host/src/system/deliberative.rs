@@ -258,7 +258,7 @@ impl Host for ProgramCtx {
     fn plugin_state(&mut self, plugin: String) -> Result<String, String> {
         self.radar
             .plugin_state(&plugin)
-            .map(str::to_string)
+            .map(|state| state.as_str().to_string())
             .map_err(text)
     }
 
@@ -328,7 +328,8 @@ pub(crate) fn run(
         seed,
         grants: &WasiGrants::default(),
         stderr: None,
-    })?;
+    })
+    .map_err(|e| e.to_string())?;
     static MAILBOXES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
     let growth = Limits {
         memory_bytes: code.memory_bytes,

@@ -15,7 +15,7 @@ use crate::error::RadarError;
 use crate::executor::block_on;
 use crate::payload::Payload;
 use crate::plugin::Loader;
-use crate::ports::SwapPolicy;
+use crate::ports::{PluginState, SwapPolicy};
 use crate::scheduler::{Command, NewVersion, ProgramFailure, Woke};
 use crate::trace::inputs::Origin;
 use crate::watchdog::{RunWatch, Stopping};
@@ -190,9 +190,9 @@ impl Radar {
         })?
     }
 
-    /// A plugin's state: `inactive`, `active` (events), `idle`, `running`,
-    /// `interrupting`, `exiting` (responses), or `error`.
-    pub fn plugin_state(&self, plugin: &str) -> Result<&'static str, RadarError> {
+    /// A plugin's state: inactive or active (events), idle, running,
+    /// interrupting or exiting (responses), or error.
+    pub fn plugin_state(&self, plugin: &str) -> Result<PluginState, RadarError> {
         self.ask(|reply| Command::PluginState {
             plugin: plugin.to_string(),
             reply,

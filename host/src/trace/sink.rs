@@ -15,7 +15,7 @@ pub trait TraceSink: Send {
     fn idle(&mut self) {}
     /// Called once when the run ends; an error says the sink lost records
     /// (a full disk, a closed pipe), and the run's report carries it.
-    fn finish(&mut self) -> Result<(), String> {
+    fn finish(&mut self) -> std::io::Result<()> {
         Ok(())
     }
 }
@@ -100,12 +100,9 @@ impl<W: Write + Send> TraceSink for JsonLines<W> {
         self.flushed = std::time::Instant::now();
     }
 
-    fn finish(&mut self) -> Result<(), String> {
+    fn finish(&mut self) -> std::io::Result<()> {
         self.write_pending();
         let flushed = self.out.flush();
-        match self.error.take().map_or(flushed, Err) {
-            Ok(()) => Ok(()),
-            Err(e) => Err(e.to_string()),
-        }
+        self.error.take().map_or(flushed, Err)
     }
 }
