@@ -14,15 +14,77 @@ These helpers make the usual things read like Python:
 
 `sleep` raises `Interrupted` when the host asks the running slot to stop;
 left uncaught in a slot that returns `result<_, interruption>`, it becomes
-that slot's error, as the Rust SDK's `?` does.
+that slot's error, as the Rust SDK's `?` does. `except Interrupted` catches
+interruptions only; `except Err` catches them and any other error result.
 """
 
+import functools
+
+import wit_world
 from componentize_py_types import Err
 from wit_world.imports import clock, config as host_config, logging, types
 
-#: Raised by `sleep` and `yield_now` when the host asks the running slot to
-#: stop; `.value` is the reason (`types.Interruption`).
-Interrupted = Err
+class Interrupted(Err):
+    """Raised by `sleep` and `yield_now` when the host asks the running slot
+    to stop; `.value` is the reason (`types.Interruption`).
+
+    It is an `Err`, so left uncaught in a slot that returns
+    `result<_, interruption>` it becomes that slot's error; but
+    `except Interrupted` catches only interruptions, not the error results
+    of other host calls."""
+
+
+def _interruptible(call, *args) -> None:
+    try:
+        call(*args)
+    except Interrupted:
+        raise
+    except Err as e:
+        raise Interrupted(e.value) from None
+
+
+# componentize-py turns only an exception of type `Err` itself (not of a
+# subclass) into a slot's error result. So `start`, the slot that returns
+# `result<_, interruption>`, is wrapped in every class that implements the
+# world's exports: an `Interrupted` leaving it leaves as a plain `Err`.
+
+
+def _plain_err(start):
+    @functools.wraps(start)
+    def slot(self, *args):
+        try:
+            return start(self, *args)
+        except Interrupted as e:
+            raise Err(e.value) from None
+
+    slot._radar_wrapped = True
+    return slot
+
+
+def _wrap_start_of_subclasses(protocol) -> None:
+    def hook(cls, **kwargs):
+        super(protocol, cls).__init_subclass__(**kwargs)
+        start = cls.__dict__.get("start")
+        if callable(start) and not getattr(start, "_radar_wrapped", False):
+            cls.start = _plain_err(start)
+
+    protocol.__init_subclass__ = classmethod(hook)
+
+
+def _export_protocols():
+    yield wit_world.WitWorld
+    try:
+        from wit_world import exports
+    except ImportError:
+        return
+    for value in vars(exports).values():
+        if isinstance(value, type) and value.__module__.startswith("wit_world"):
+            yield value
+
+
+for _protocol in _export_protocols():
+    if hasattr(_protocol, "start"):
+        _wrap_start_of_subclasses(_protocol)
 
 Level = types.Level
 
@@ -35,17 +97,18 @@ def now() -> float:
 def sleep(seconds: float) -> None:
     """Waits `seconds` of scheduler time (virtual in tests); raises
     `Interrupted` if the host asks the running slot to stop."""
-    clock.sleep(nanos(seconds))
+    _interruptible(clock.sleep, nanos(seconds))
 
 
 def sleep_nanos(nanos_: int) -> None:
     """`sleep` in whole nanoseconds."""
-    clock.sleep(nanos_)
+    _interruptible(clock.sleep, nanos_)
 
 
 def yield_now() -> None:
-    """Lets every other task ready at this instant run first."""
-    clock.yield_()
+    """Lets every other task ready at this instant run first; raises
+    `Interrupted` if the host asks the running slot to stop."""
+    _interruptible(clock.yield_)
 
 
 def interrupted():

@@ -408,8 +408,8 @@ pub enum PayloadError {
     /// A whole number the integer type cannot hold.
     #[error("{value} is out of range for {ty}")]
     OutOfRange {
-        /// The number given.
-        value: i128,
+        /// The number given, as JSON.
+        value: String,
         /// The integer type, in WIT syntax.
         ty: String,
     },
@@ -441,7 +441,7 @@ pub fn json_to_val(json: &Json, ty: &PayloadType) -> Result<Val, PayloadError> {
             .ok_or_else(mismatch)?;
         if n < lo || n > hi {
             return Err(PayloadError::OutOfRange {
-                value: n,
+                value: n.to_string(),
                 ty: ty.to_string(),
             });
         }
@@ -601,9 +601,11 @@ mod tests {
     #[test]
     fn json_of_the_wrong_shape_is_refused_with_the_type() {
         let err = json_to_val(&json!("five"), &PayloadType::U32).expect_err("refused");
-        assert!(err.contains("expected u32"), "{err}");
+        assert!(err.to_string().contains("expected u32"), "{err}");
+        assert!(matches!(err, PayloadError::Mismatch { .. }), "{err:?}");
         let err = json_to_val(&json!(300), &PayloadType::U8).expect_err("refused");
-        assert!(err.contains("out of range"), "{err}");
+        assert_eq!(err.to_string(), "300 is out of range for u8");
+        assert!(matches!(err, PayloadError::OutOfRange { .. }), "{err:?}");
     }
 
     #[test]

@@ -10,7 +10,8 @@
 //! (`builtin:test-response` for an event, `builtin:test-event` for a
 //! response), so `radar build` then `radar run radar.toml --for 10s` show it
 //! working. Everything is embedded in the `radar` binary: no checkout of
-//! Radar is needed.
+//! Radar is needed. The texts are files of `host/templates/` with
+//! `{{name}}`-style placeholders, and the SDK files of `guest-sdk/`.
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -83,6 +84,14 @@ pub enum ScaffoldError {
     /// The folder is there already.
     #[error("{0} exists already; choose another name or remove it")]
     Exists(PathBuf),
+    /// A template of `host/templates/` out of step with `radar new`.
+    #[error("template {template}: {cause}")]
+    Template {
+        /// The template's path in Radar's repository.
+        template: &'static str,
+        /// What does not fit.
+        cause: String,
+    },
     /// Writing the files failed.
     #[error("cannot write {path}: {cause}")]
     Write {
@@ -106,6 +115,40 @@ const PYTHON_DEV_RUNTIME: &str = include_str!("../../../guest-sdk/python/radar_d
 const PYTHON_DEV_GENERATOR: &str = include_str!("../../../guest-sdk/python/dev_runtime.py");
 const JS_DEV_RUNTIME: &str = include_str!("../../../guest-sdk/js/radar_dev.js");
 const JS_DEV_GENERATOR: &str = include_str!("../../../guest-sdk/js/dev_runtime.js");
+
+/// A file of `host/templates/`, with `{{key}}` placeholders [`fill`]s.
+struct Template {
+    /// Its path, for errors.
+    path: &'static str,
+    text: &'static str,
+}
+
+macro_rules! template {
+    ($path:literal) => {
+        &Template {
+            path: concat!("host/templates/", $path),
+            text: include_str!(concat!("../../templates/", $path)),
+        }
+    };
+}
+
+const EVENT_WIT: &Template = template!("event.wit");
+const RESPONSE_WIT: &Template = template!("response.wit");
+const MANIFEST: &Template = template!("radar.toml");
+const PARTNER_OF_EVENT: &Template = template!("partner-event.toml");
+const PARTNER_OF_RESPONSE: &Template = template!("partner-response.toml");
+const SCRIPT_NOTE: &Template = template!("script-note.toml");
+const RUST_EVENT: &Template = template!("rust/event.rs");
+const RUST_RESPONSE: &Template = template!("rust/response.rs");
+const RUST_CARGO: &Template = template!("rust/Cargo.toml");
+const RUST_TOOLCHAIN: &Template = template!("rust/rust-toolchain.toml");
+const RUST_SDK_CARGO: &Template = template!("rust/radar-guest.toml");
+const PYTHON_EVENT: &Template = template!("python/event.py");
+const PYTHON_RESPONSE: &Template = template!("python/response.py");
+const PYPROJECT: &Template = template!("python/pyproject.toml");
+const JS_EVENT: &Template = template!("js/event.js");
+const JS_RESPONSE: &Template = template!("js/response.js");
+const PACKAGE_JSON: &Template = template!("js/package.json");
 
 /// Whether `name` can name a plugin, a WIT world and package, and a crate.
 fn valid_name(name: &str) -> bool {
@@ -133,7 +176,7 @@ pub fn create(
     if dir.exists() {
         return Err(ScaffoldError::Exists(dir));
     }
-    let files = files(kind, name, language);
+    let files = files(kind, name, language)?;
     for (path, text, executable) in &files {
         write(&dir.join(path), text, *executable)?;
     }
@@ -159,11 +202,19 @@ fn write(path: &Path, text: &str, executable: bool) -> Result<(), ScaffoldError>
     Ok(())
 }
 
-/// Every file of the folder: path, text, whether it is executable.
-fn files(kind: Kind, name: &str, language: Language) -> Vec<(String, String, bool)> {
+/// One file of the folder: path, text, whether it is executable.
+type NewFile = (String, String, bool);
+
+/// Every file of the folder.
+fn files(kind: Kind, name: &str, language: Language) -> Result<Vec<NewFile>, ScaffoldError> {
     let snake = name.replace('-', "_");
+    let names = [("name", name), ("snake", snake.as_str())];
+    let world = match kind {
+        Kind::Event => EVENT_WIT,
+        Kind::Response => RESPONSE_WIT,
+    };
     let mut files = vec![
-        ("wit/world.wit".to_string(), world(kind, name), false),
+        ("wit/world.wit".to_string(), fill(world, &names)?, false),
         (
             "wit/deps/reactive/reactive.wit".to_string(),
             REACTIVE_WIT.to_string(),
@@ -172,7 +223,7 @@ fn files(kind: Kind, name: &str, language: Language) -> Vec<(String, String, boo
     ];
     let (wasm, command, watch) = match language {
         Language::Rust => {
-            files.extend(rust_files(kind, name));
+            files.extend(rust_files(kind, &names)?);
             (
                 format!("target/wasm32-wasip2/release/{snake}.wasm"),
                 "cargo build --release --target wasm32-wasip2".to_string(),
@@ -180,7 +231,7 @@ fn files(kind: Kind, name: &str, language: Language) -> Vec<(String, String, boo
             )
         }
         Language::Python => {
-            files.extend(python_files(kind, name));
+            files.extend(python_files(kind, &names)?);
             (
                 format!("target/{name}.wasm"),
                 format!("sh tools/build target/{name}.wasm"),
@@ -188,7 +239,7 @@ fn files(kind: Kind, name: &str, language: Language) -> Vec<(String, String, boo
             )
         }
         Language::Js => {
-            files.extend(js_files(kind, name));
+            files.extend(js_files(kind, &names)?);
             (
                 format!("target/{name}.wasm"),
                 format!("sh tools/build target/{name}.wasm"),
@@ -196,330 +247,108 @@ fn files(kind: Kind, name: &str, language: Language) -> Vec<(String, String, boo
             )
         }
     };
-    files.push((
-        "radar.toml".to_string(),
-        manifest(kind, name, language, &wasm, &command, watch),
-        false,
-    ));
-    files
-}
-
-fn world(kind: Kind, name: &str) -> String {
-    match kind {
-        Kind::Event => format!(
-            r#"/// The world of `{name}`: what it imports from Radar and exports to it.
-/// Change the payload type freely; connections check it.
-package local:{name};
-
-world {name} {{
-    include radar:reactive/event@0.1.0;
-    /// Called again and again while the event is connected: `some(value)`
-    /// triggers it with that payload.
-    export check: func() -> option<u32>;
-}}
-"#
-        ),
-        Kind::Response => format!(
-            r#"/// The world of `{name}`: what it imports from Radar and exports to it.
-/// Change the payload types freely; connections check them. The slots are
-/// in the interface `slots` (Radar also finds them at the world's top level,
-/// but componentize-py cannot export a top-level `exit`).
-package local:{name};
-
-/// The response's slots.
-interface slots {{
-    use radar:reactive/types@0.1.0.{{interruption}};
-    /// The behaviour, run when `start` is signalled; its result goes out
-    /// with `exited`.
-    start: func(payload: u32) -> result<u32, interruption>;
-    /// Runs after `start` when the response was interrupted.
-    interrupt: func();
-    /// Always runs last.
-    exit: func();
-}}
-
-world {name} {{
-    include radar:reactive/response@0.1.0;
-    export slots;
-}}
-"#
-        ),
-    }
-}
-
-fn manifest(
-    kind: Kind,
-    name: &str,
-    language: Language,
-    wasm: &str,
-    command: &str,
-    watch: &str,
-) -> String {
     let partner = match kind {
-        Kind::Event => format!(
-            r#"# A built-in partner, so that the event has something to trigger: the
-# paper's TestResponse, counting 2 s whenever `{name}` triggers.
-[plugins.Responder]
-wasm = "builtin:test-response"
-config = {{ count_for_s = 2, interval_s = 1 }}
-
-[[connect]]
-mode = "whenever"
-from = "{name}.triggered"
-to = "Responder.start"
-"#
-        ),
-        Kind::Response => format!(
-            r#"# A built-in partner, so that the response has something to start it:
-# the paper's TestEvent, triggering every 4 s.
-[plugins.Trigger]
-wasm = "builtin:test-event"
-config = {{ count_to = 4, interval_s = 1 }}
-
-[[connect]]
-mode = "whenever"
-from = "Trigger.triggered"
-to = "{name}.start"
-"#
-        ),
+        Kind::Event => PARTNER_OF_EVENT,
+        Kind::Response => PARTNER_OF_RESPONSE,
     };
     let script = match language {
         Language::Rust => String::new(),
-        Language::Python | Language::Js => {
-            let main = if language == Language::Python {
-                "app.py"
-            } else {
-                "app.js"
-            };
-            format!(
-                r#"# Quicker edits, no build per save: run the script on this world's
-# development runtime. Here, set   wasm = "target/dev.wasm",
-# source = "{main}"   and the build command to
-# "sh tools/build --dev target/dev.wasm", then run `radar build` once;
-# --watch swaps each edit of {main} in and rebuilds only when wit/ changes.
-"#
-            )
-        }
+        Language::Python => fill(SCRIPT_NOTE, &[("main", "app.py")])?,
+        Language::Js => fill(SCRIPT_NOTE, &[("main", "app.js")])?,
     };
-    format!(
-        r#"# `{name}` ({language}), ready to run from this folder:
-#     radar build                      # runs the build command below
-#     radar run radar.toml --for 10s   # virtual clock: instant
-#     radar run radar.toml --clock real --watch   # edit, save, see it swapped
-# Copy the [plugins.{name}] tables into a system's radar.toml to use it
-# there (paths are relative to the manifest).
-{script}
-[plugins.{name}]
-wasm = "{wasm}"
-config = {{ interval_s = 1 }}
-
-[plugins.{name}.build]
-command = "{command}"
-watch = {watch}
-
-{partner}"#
-    )
+    let manifest = fill(
+        MANIFEST,
+        &[
+            ("name", name),
+            ("language", &language.to_string()),
+            ("script", &script),
+            ("wasm", &wasm),
+            ("command", &command),
+            ("watch", watch),
+            ("partner", &fill(partner, &names)?),
+        ],
+    )?;
+    files.push(("radar.toml".to_string(), manifest, false));
+    Ok(files)
 }
 
-fn rust_files(kind: Kind, name: &str) -> Vec<(String, String, bool)> {
-    let snake = name.replace('-', "_");
-    let sdk = GUEST_SDK.replace(r#"path: "../wit","#, r#"path: "wit","#);
-    assert_ne!(sdk, GUEST_SDK, "the guest SDK reads its WIT from ../wit");
+/// `template` with each `{{key}}` replaced by its value. A placeholder
+/// without a value is an error (a template out of step with this file),
+/// not a folder with a hole in it.
+fn fill(template: &Template, values: &[(&str, &str)]) -> Result<String, ScaffoldError> {
+    let mut out = String::with_capacity(template.text.len());
+    let mut rest = template.text;
+    while let Some(open) = rest.find("{{") {
+        out.push_str(&rest[..open]);
+        let after = &rest[open + 2..];
+        let close = after.find("}}").ok_or_else(|| ScaffoldError::Template {
+            template: template.path,
+            cause: "a `{{` without its `}}`".into(),
+        })?;
+        let key = &after[..close];
+        let value = values
+            .iter()
+            .find(|(k, _)| *k == key)
+            .map(|(_, v)| *v)
+            .ok_or_else(|| ScaffoldError::Template {
+                template: template.path,
+                cause: format!("no value for `{{{{{key}}}}}`"),
+            })?;
+        out.push_str(value);
+        rest = &after[close + 2..];
+    }
+    out.push_str(rest);
+    Ok(out)
+}
+
+fn rust_files(kind: Kind, names: &[(&str, &str)]) -> Result<Vec<NewFile>, ScaffoldError> {
+    // The SDK's macro reads its WIT beside it, at `wit` in the copy.
+    let (in_repo, in_copy) = (r#"path: "../wit","#, r#"path: "wit","#);
+    if !GUEST_SDK.contains(in_repo) {
+        return Err(ScaffoldError::Template {
+            template: "guest-sdk/src/lib.rs",
+            cause: format!("the guest SDK no longer reads its WIT with `{in_repo}`"),
+        });
+    }
     let code = match kind {
-        Kind::Event => format!(
-            r#"//! `{name}`: an event. `check` runs again and again while the event is
-//! connected; `Some(value)` triggers it with that payload. Every
-//! `every`-th check (default 3) triggers, one check a second.
-use std::sync::atomic::{{AtomicU32, Ordering}};
-
-use radar_guest::prelude::*;
-
-radar_guest::plugin!(world: "{name}", path: "wit");
-
-/// Lives in the instance, between checks.
-static CHECKS: AtomicU32 = AtomicU32::new(0);
-
-struct Plugin;
-
-impl Guest for Plugin {{
-    fn check() -> Option<u32> {{
-        // `None` if the event was deactivated meanwhile.
-        sleep(config_secs("interval_s", Duration::from_secs(1))).ok()?;
-        let checks = CHECKS.fetch_add(1, Ordering::Relaxed) + 1;
-        info(&format!("check {{checks}}"));
-        (checks % config_or("every", 3u32).max(1) == 0).then_some(checks)
-    }}
-}}
-
-export!(Plugin);
-"#
-        ),
-        Kind::Response => format!(
-            r#"//! `{name}`: a response. `start` runs when it is started, one step a
-//! second for `steps` steps (default 3); an interruption ends it at its
-//! next `sleep`, then `interrupt` and `exit` run.
-use radar_guest::prelude::*;
-
-radar_guest::plugin!(world: "{name}", path: "wit");
-
-use exports::local::{snake}::slots::Guest;
-
-struct Plugin;
-
-impl Guest for Plugin {{
-    fn start(payload: u32) -> Result<u32, Interrupted> {{
-        info(&format!("started with {{payload}}"));
-        let steps = config_or("steps", 3u32);
-        for step in 1..=steps {{
-            sleep(config_secs("interval_s", Duration::from_secs(1)))?;
-            info(&format!("step {{step}}"));
-        }}
-        Ok(steps)
-    }}
-
-    fn interrupt() {{
-        info("interrupted");
-    }}
-
-    fn exit() {{
-        info("exit");
-    }}
-}}
-
-export!(Plugin);
-"#
-        ),
+        Kind::Event => RUST_EVENT,
+        Kind::Response => RUST_RESPONSE,
     };
-    vec![
-        (
-            "Cargo.toml".into(),
-            format!(
-                r#"[package]
-name = "{name}"
-version = "0.1.0"
-edition = "2021"
-
-[lib]
-crate-type = ["cdylib"]
-
-[dependencies]
-radar-guest = {{ path = "tools/radar-guest" }}
-
-[profile.release]
-opt-level = "s"
-strip = true
-
-# A plugin builds on its own, not as part of an enclosing workspace.
-[workspace]
-"#
-            ),
-            false,
-        ),
+    Ok(vec![
+        ("Cargo.toml".into(), fill(RUST_CARGO, names)?, false),
         (
             "rust-toolchain.toml".into(),
-            "[toolchain]\nchannel = \"1.95.0\"\ntargets = [\"wasm32-wasip2\"]\nprofile = \"minimal\"\n"
-                .into(),
+            RUST_TOOLCHAIN.text.into(),
             false,
         ),
-        ("src/lib.rs".into(), code, false),
+        ("src/lib.rs".into(), fill(code, names)?, false),
         (
             "tools/radar-guest/Cargo.toml".into(),
-            r#"# Radar's Rust guest SDK, copied here by `radar new`.
-[package]
-name = "radar-guest"
-version = "0.1.0"
-edition = "2021"
-
-[dependencies]
-wit-bindgen = "0.63"
-serde = { version = "1", features = ["derive"], optional = true }
-serde_json = { version = "1", optional = true }
-
-[features]
-state = ["dep:serde", "dep:serde_json"]
-"#
-            .into(),
+            RUST_SDK_CARGO.text.into(),
             false,
         ),
-        ("tools/radar-guest/src/lib.rs".into(), sdk, false),
+        (
+            "tools/radar-guest/src/lib.rs".into(),
+            GUEST_SDK.replace(in_repo, in_copy),
+            false,
+        ),
         (
             "tools/radar-guest/wit/reactive.wit".into(),
             REACTIVE_WIT.into(),
             false,
         ),
         (".gitignore".into(), "/target\nCargo.lock\n".into(), false),
-    ]
+    ])
 }
 
-fn python_files(kind: Kind, name: &str) -> Vec<(String, String, bool)> {
+fn python_files(kind: Kind, names: &[(&str, &str)]) -> Result<Vec<NewFile>, ScaffoldError> {
     let code = match kind {
-        Kind::Event => format!(
-            r#""""`{name}`: an event. `check` runs again and again while the event is
-connected; returning a value triggers it with that payload. Every
-`every`-th check (default 3) triggers, one check a second."""
-
-import wit_world
-from radar_guest import Interrupted, config, info, sleep
-
-
-class WitWorld(wit_world.WitWorld):
-    def __init__(self) -> None:
-        self.checks = 0  # lives in the instance, between checks
-
-    def check(self):
-        try:
-            sleep(config("interval_s", 1.0))
-        except Interrupted:
-            return None  # deactivated meanwhile
-        self.checks += 1
-        info(f"check {{self.checks}}")
-        return self.checks if self.checks % max(config("every", 3), 1) == 0 else None
-"#
-        ),
-        Kind::Response => format!(
-            r#""""`{name}`: a response. `start` runs when it is started, one step a
-second for `steps` steps (default 3); an interruption ends it at its next
-`sleep`, then `interrupt` and `exit` run."""
-
-from radar_guest import config, info, sleep
-from wit_world import exports
-
-
-class Slots(exports.Slots):
-    def start(self, payload: int) -> int:
-        info(f"started with {{payload}}")
-        steps = config("steps", 3)
-        for step in range(1, steps + 1):
-            sleep(config("interval_s", 1.0))  # an interruption ends `start`
-            info(f"step {{step}}")
-        return steps
-
-    def interrupt(self) -> None:
-        info("interrupted")
-
-    def exit(self) -> None:
-        info("exit")
-"#
-        ),
+        Kind::Event => PYTHON_EVENT,
+        Kind::Response => PYTHON_RESPONSE,
     };
-    vec![
-        ("app.py".into(), code, false),
-        (
-            "pyproject.toml".into(),
-            format!(
-                r#"[project]
-name = "{name}"
-version = "0.1.0"
-requires-python = ">=3.11"
-
-# What tools/build builds: the world in wit/, the code in app.py.
-[tool.radar]
-wit = "wit"
-world = "{name}"
-"#
-            ),
-            false,
-        ),
+    Ok(vec![
+        ("app.py".into(), fill(code, names)?, false),
+        ("pyproject.toml".into(), fill(PYPROJECT, names)?, false),
         ("tools/build".into(), PYTHON_BUILD.into(), true),
         ("tools/requirements.txt".into(), PYTHON_PINS.into(), false),
         ("tools/radar_guest.py".into(), PYTHON_HELPERS.into(), false),
@@ -534,78 +363,17 @@ world = "{name}"
             false,
         ),
         (".gitignore".into(), "/target\n__pycache__/\n".into(), false),
-    ]
+    ])
 }
 
-fn js_files(kind: Kind, name: &str) -> Vec<(String, String, bool)> {
+fn js_files(kind: Kind, names: &[(&str, &str)]) -> Result<Vec<NewFile>, ScaffoldError> {
     let code = match kind {
-        Kind::Event => format!(
-            r#"// `{name}`: an event. `check` runs again and again while the event is
-// connected; returning a value triggers it with that payload. Every
-// `every`-th check (default 3) triggers, one check a second.
-import {{ config, info, interrupted, sleep }} from './radar_guest.js';
-
-let checks = 0; // lives in the instance, between checks
-
-export function check() {{
-    try {{
-        sleep(config('interval_s', 1));
-    }} catch (e) {{
-        if (interrupted(e)) return undefined; // deactivated meanwhile
-        throw e;
-    }}
-    checks += 1;
-    info(`check ${{checks}}`);
-    return checks % Math.max(config('every', 3), 1) === 0 ? checks : undefined;
-}}
-"#
-        ),
-        Kind::Response => format!(
-            r#"// `{name}`: a response. `start` runs when it is started, one step a
-// second for `steps` steps (default 3); an interruption ends it at its next
-// `sleep`, then `interrupt` and `exit` run.
-import {{ config, info, sleep }} from './radar_guest.js';
-
-// The world exports its slots in the interface `slots`.
-export const slots = {{
-    start(payload) {{
-        info(`started with ${{payload}}`);
-        const steps = config('steps', 3);
-        for (let step = 1; step <= steps; step++) {{
-            sleep(config('interval_s', 1)); // an interruption ends `start`
-            info(`step ${{step}}`);
-        }}
-        return steps;
-    }},
-    interrupt() {{
-        info('interrupted');
-    }},
-    exit() {{
-        info('exit');
-    }},
-}};
-"#
-        ),
+        Kind::Event => JS_EVENT,
+        Kind::Response => JS_RESPONSE,
     };
-    vec![
-        ("app.js".into(), code, false),
-        (
-            "package.json".into(),
-            format!(
-                r#"{{
-  "name": "{name}",
-  "private": true,
-  "type": "module",
-  "description": "A Radar plugin; built by tools/build (the world in wit/, the code in app.js)",
-  "radar": {{
-    "wit": "wit",
-    "world": "{name}"
-  }}
-}}
-"#
-            ),
-            false,
-        ),
+    Ok(vec![
+        ("app.js".into(), fill(code, names)?, false),
+        ("package.json".into(), fill(PACKAGE_JSON, names)?, false),
         ("tools/build".into(), JS_BUILD.into(), true),
         ("tools/package.json".into(), JS_PINS.into(), false),
         ("tools/package-lock.json".into(), JS_LOCK.into(), false),
@@ -617,7 +385,7 @@ export const slots = {{
             false,
         ),
         (".gitignore".into(), "/target\n".into(), false),
-    ]
+    ])
 }
 
 #[cfg(test)]
@@ -645,7 +413,7 @@ mod tests {
     fn every_language_gets_a_world_a_build_table_and_a_partner() {
         for language in [Language::Rust, Language::Python, Language::Js] {
             for kind in [Kind::Event, Kind::Response] {
-                let files = files(kind, "demo", language);
+                let files = files(kind, "demo", language).expect("the templates fill");
                 let manifest = &files
                     .iter()
                     .find(|f| f.0 == "radar.toml")
@@ -661,5 +429,23 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn every_placeholder_is_filled_and_a_missing_value_is_an_error() {
+        for language in [Language::Rust, Language::Python, Language::Js] {
+            for kind in [Kind::Event, Kind::Response] {
+                for (path, text, _) in files(kind, "demo-two", language).expect("fills") {
+                    let own = !path.starts_with("tools/") && !path.starts_with("wit/deps");
+                    assert!(!(own && text.contains("{{")), "{path}:\n{text}");
+                }
+            }
+        }
+        let err = fill(MANIFEST, &[("name", "x")]).expect_err("values are missing");
+        assert!(
+            err.to_string()
+                .starts_with("template host/templates/radar.toml: no value for `{{"),
+            "{err}"
+        );
     }
 }

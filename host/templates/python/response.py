@@ -1,0 +1,22 @@
+"""`{{name}}`: a response. `start` runs when it is started, one step a
+second for `steps` steps (default 3); an interruption ends it at its next
+`sleep`, then `interrupt` and `exit` run."""
+
+from radar_guest import config, info, sleep
+from wit_world import exports
+
+
+class Slots(exports.Slots):
+    def start(self, payload: int) -> int:
+        info(f"started with {payload}")
+        steps = config("steps", 3)
+        for step in range(1, steps + 1):
+            sleep(config("interval_s", 1.0))  # an interruption ends `start`
+            info(f"step {step}")
+        return steps
+
+    def interrupt(self) -> None:
+        info("interrupted")
+
+    def exit(self) -> None:
+        info("exit")

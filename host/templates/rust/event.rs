@@ -1,0 +1,25 @@
+//! `{{name}}`: an event. `check` runs again and again while the event is
+//! connected; `Some(value)` triggers it with that payload. Every
+//! `every`-th check (default 3) triggers, one check a second.
+use std::sync::atomic::{AtomicU32, Ordering};
+
+use radar_guest::prelude::*;
+
+radar_guest::plugin!(world: "{{name}}", path: "wit");
+
+/// Lives in the instance, between checks.
+static CHECKS: AtomicU32 = AtomicU32::new(0);
+
+struct Plugin;
+
+impl Guest for Plugin {
+    fn check() -> Option<u32> {
+        // `None` if the event was deactivated meanwhile.
+        sleep(config_secs("interval_s", Duration::from_secs(1))).ok()?;
+        let checks = CHECKS.fetch_add(1, Ordering::Relaxed) + 1;
+        info(&format!("check {checks}"));
+        (checks % config_or("every", 3u32).max(1) == 0).then_some(checks)
+    }
+}
+
+export!(Plugin);
