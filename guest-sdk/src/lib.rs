@@ -122,7 +122,7 @@ fn saturating_nanos(duration: Duration) -> u64 {
 #[cfg(feature = "deliberative")]
 pub mod deliberative;
 
-/// A plugin's state across a hot swap (DESIGN §1.4), as serde values: the
+/// A plugin's state across a hot swap (`docs/hot-swap.md`), as serde values: the
 /// plugin's `snapshot` and `restore` exports become two short functions.
 ///
 /// ```ignore

@@ -36,7 +36,7 @@ pub enum RadarError {
         cause: String,
     },
     /// The component is valid but does not have the shape of an event or a
-    /// response (DESIGN §1.1, `wit/reactive.wit`).
+    /// response (`docs/semantics.md`, `wit/reactive.wit`).
     #[error("plugin `{plugin}`: wrong world: {cause}")]
     WrongWorld {
         /// The plugin's name in the system.

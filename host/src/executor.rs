@@ -3,7 +3,7 @@
 //! Every plugin is driven by one task (an `async` loop that owns the plugin's
 //! `Store`); wasmtime runs guest code on fibers inside those tasks. Tasks run
 //! strictly in the order they became ready (a FIFO of task ids), which is
-//! the order rule of DESIGN §1.3; a task woken twice before it runs is queued
+//! the order rule of `docs/semantics.md#time-and-order`; a task woken twice before it runs is queued
 //! once.
 
 use std::collections::{HashMap, VecDeque};

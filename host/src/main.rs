@@ -1,4 +1,4 @@
-//! `radar`: run a Radar system from the command line (DESIGN §3.1). Each
+//! `radar`: run a Radar system from the command line (`docs/cli.md`). Each
 //! subcommand lives in a module of `cli/`; this file only parses and
 //! dispatches.
 
@@ -13,7 +13,12 @@ mod cli;
 /// Runs robot reactive behaviours (RADAR events and responses) as
 /// sandboxed WebAssembly components.
 #[derive(Parser)]
-#[command(name = "radar", version)]
+#[command(
+    name = "radar",
+    version,
+    after_help = "Every command and flag: docs/cli.md in Radar's repository; \
+                  the manifest: docs/manifest.md; the trace: docs/trace.md."
+)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Cmd>,
@@ -60,7 +65,7 @@ fn main() -> ExitCode {
             lang,
             dir,
         }) => cli::workspace::new_plugin(&dir, kind, &name, lang),
-        None => cli::run::run(cli::run::RunArgs::default()),
+        None => cli::run::run(cli::run::RunArgs::defaults()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

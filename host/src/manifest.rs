@@ -1,4 +1,4 @@
-//! `radar.toml`: a system described in a file (DESIGN §3.2).
+//! `radar.toml`: a system described in a file (`docs/manifest.md`).
 //!
 //! ```toml
 //! [plugins.TestEvent]
@@ -241,7 +241,7 @@ pub struct BoardGrantEntry {
     pub write: Vec<String>,
 }
 
-/// `[plugins.NAME.build]` (DESIGN §3.2).
+/// `[plugins.NAME.build]` (`docs/manifest.md`).
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BuildEntry {
@@ -349,10 +349,18 @@ impl Manifest {
         };
         let mut manifest: Manifest = toml::from_str(text).map_err(|e| {
             // toml's own rendering spans several lines; the CLI promises one.
-            let line = e.span().map(|s| text[..s.start].lines().count().max(1));
+            // The line the error's span starts on, counted from 1.
+            let line = e.span().map(|s| text[..s.start].matches('\n').count() + 1);
+            // toml's messages may hold a second line (`expected ...`).
+            let message = e.message().trim().replace('\n', "; ");
+            let hint = if message.starts_with("unknown field") {
+                " (every key is in docs/manifest.md)"
+            } else {
+                ""
+            };
             bad(match line {
-                Some(line) => format!("line {line}: {}", e.message()),
-                None => e.message().to_string(),
+                Some(line) => format!("line {line}: {message}{hint}"),
+                None => format!("{message}{hint}"),
             })
         })?;
         manifest.dir = dir.to_path_buf();

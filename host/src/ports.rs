@@ -1,5 +1,5 @@
 //! The ports of plugins and the properties of connections between them:
-//! the vocabulary every floor shares (DESIGN §2.0, floor 1).
+//! the vocabulary every floor shares (`docs/architecture.md`, floor 1).
 //!
 //! A plugin's *signals* (`triggered`, `started`, `interrupted`, `exited`,
 //! `faulted`, and those it declares) are its outputs; a response's *slots*

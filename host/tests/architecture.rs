@@ -1,4 +1,4 @@
-//! The architecture, checked (DESIGN §2.0, `docs/architecture.md`): every
+//! The architecture, checked (`docs/architecture.md`, `docs/architecture.md`): every
 //! file of `host/src` sits on a floor, uses only its own floor and those
 //! below, and is in no import cycle; no source file of the project is over
 //! 800 lines.

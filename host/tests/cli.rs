@@ -1,4 +1,4 @@
-//! The `radar` command line (DESIGN §3.1): the built-in example, the trace
+//! The `radar` command line (`docs/cli.md`): the built-in example, the trace
 //! file, manifests, and one-line errors with a non-zero status.
 
 use std::path::Path;
@@ -68,7 +68,7 @@ fn a_trace_file_that_cannot_be_written_fails_the_run_with_one_line() {
 
 #[test]
 fn a_response_whose_exited_starts_it_restarts_on_each_exit() {
-    // DESIGN §1.1: `exited` is emitted once the response is idle.
+    // `docs/semantics.md`: `exited` is emitted once the response is idle.
     let dir = tempfile::tempdir().expect("temp dir");
     let manifest = write_manifest(
         dir.path(),

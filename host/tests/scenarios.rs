@@ -1,4 +1,4 @@
-//! `radar test` (scenario folders, DESIGN §3.4) and `radar run --record /
+//! `radar test` (scenario folders, `docs/testing.md`) and `radar run --record /
 //! --replay`, through the command line as users run them. The project's
 //! own scenarios (`tests/scenarios`) run here, so the README's test
 //! command runs them.

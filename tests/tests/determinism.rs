@@ -1,5 +1,4 @@
-//! A run under the virtual clock is a pure function of its inputs (DESIGN
-//! §1.3): the examples give byte-identical traces run after run, also
+//! A run under the virtual clock is a pure function of its inputs (`docs/semantics.md#time-and-order`): the examples give byte-identical traces run after run, also
 //! while other processes load the machine; guests in every language see
 //! only virtual time and seeded randomness; fuel as time keeps that.
 //!

@@ -1,6 +1,6 @@
 //! Property tests: random systems built from the fixture plugins, driven by
 //! random timed steps (connects with every mode and property, disconnects,
-//! injections, resets), each run checked against the laws of DESIGN §1.1
+//! injections, resets), each run checked against the laws of `docs/semantics.md#conservation`
 //! and run twice for a byte-identical trace.
 //!
 //! A failing case shrinks to a small system and is printed as a manifest
@@ -500,7 +500,7 @@ proptest! {
         let violations = radar::trace::check(&report.trace);
         prop_assert!(
             violations.is_empty(),
-            "the trace breaks the laws of DESIGN §1.1:\n{}",
+            "the trace breaks the laws of `docs/semantics.md#conservation`:\n{}",
             radar::trace::explain(&report.trace, &violations, 5)
         );
         if report.livelock.is_none() {

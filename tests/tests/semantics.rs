@@ -1,4 +1,4 @@
-//! One test per semantic rule of DESIGN §1.1, each read off the trace of a
+//! One test per semantic rule of `docs/semantics.md`, each read off the trace of a
 //! virtual-clock run.
 
 mod common;
@@ -332,7 +332,7 @@ fn interrupt_stops_start_at_its_next_interruption_point_then_runs_interrupt_and_
             json!({"kind": "state", "plugin": "R", "state": "exiting", "t": at}),
             json!({"kind": "slot-begin", "plugin": "R", "slot": "exit", "t": at}),
             json!({"kind": "slot-end", "plugin": "R", "slot": "exit", "outcome": "completed", "t": at}),
-            // Idle already when `exited` is emitted (DESIGN §1.1).
+            // Idle already when `exited` is emitted (`docs/semantics.md`).
             json!({"kind": "state", "plugin": "R", "state": "idle", "t": at}),
             json!({"kind": "signal", "plugin": "R", "signal": "exited", "payload": {"err": "interrupt"}, "t": at}),
         ],

@@ -1,4 +1,4 @@
-//! Named signals (DESIGN §1.1: "A plugin may declare further named
+//! Named signals (`docs/semantics.md`: "A plugin may declare further named
 //! signals"): a plugin's world imports an interface `signals`, whose
 //! functions are its signals; calling one emits it at once, routed, typed
 //! and recorded like the built-in ones.

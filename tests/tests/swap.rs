@@ -1,4 +1,4 @@
-//! Hot swap (DESIGN §1.4): a plugin replaced under live connections, its
+//! Hot swap (`docs/hot-swap.md`): a plugin replaced under live connections, its
 //! state moved, nothing lost; refusals and rollbacks leave the old version
 //! serving. Every trace here is checked by the laws (`common::run`).
 

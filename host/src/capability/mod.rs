@@ -17,7 +17,7 @@
 //! What a host call needs of the running system (route a signal, read or
 //! write the blackboard) it reaches through the [`running::RunningSystem`]
 //! trait, which the scheduler implements: the interfaces know no floor
-//! above their own (DESIGN §2.0). What a plugin hands the host (a payload,
+//! above their own (`docs/architecture.md`). What a plugin hands the host (a payload,
 //! a blackboard value) is checked and counted by its [`emitter::Emitter`].
 //!
 //! ```ignore

@@ -4,8 +4,8 @@
 //! and some need the system around it: a named signal is routed at once, a
 //! blackboard entry read or written. The scheduler implements
 //! [`RunningSystem`] and [`enter`]s it for the duration of a run; the host
-//! calls find it here, so that this floor never names the scheduler (DESIGN
-//! §2.0: a capability uses only the floors below it).
+//! calls find it here, so that this floor never names the scheduler (`docs/architecture.md`:
+//! a capability uses only the floors below it).
 //!
 //! ```ignore
 //! let _running = running::enter(core.clone()); // cleared when dropped, whatever happens

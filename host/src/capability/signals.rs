@@ -1,4 +1,4 @@
-//! A plugin's own named signals (DESIGN §1.1). Its world imports an
+//! A plugin's own named signals (`docs/semantics.md`). Its world imports an
 //! interface named `signals` (or `pkg:name/signals`) whose functions are
 //! the signals it declares: `obstacle: func(distance: f32)` declares
 //! `obstacle` with an `f32` payload, and calling it emits the signal at

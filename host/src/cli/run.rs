@@ -23,9 +23,10 @@ use super::say;
 /// chain of sleeps.
 const REAL_RECORDING_TOLERANCE: Duration = Duration::from_millis(50);
 
-#[derive(clap::Args, Default)]
+#[derive(clap::Args)]
 pub struct RunArgs {
-    /// A `radar.toml`; without it, the built-in example runs.
+    /// A `radar.toml` (docs/manifest.md); without it, the built-in example
+    /// runs.
     manifest: Option<PathBuf>,
     /// `virtual` (time jumps to the next timer: instant and deterministic)
     /// or `real` (the wall clock).
@@ -35,7 +36,7 @@ pub struct RunArgs {
     /// The built-in example stops after 20 s if not told otherwise.
     #[arg(long = "for", value_parser = parse_duration)]
     run_for: Option<Duration>,
-    /// Write the trace (DESIGN §3.3) to this file as JSON Lines.
+    /// Write the trace (`docs/trace.md`) to this file as JSON Lines.
     #[arg(long)]
     trace: Option<PathBuf>,
     /// Do not print the timeline.
@@ -51,7 +52,7 @@ pub struct RunArgs {
     #[arg(long = "write", value_parser = parse_write)]
     writes: Vec<BoardWrite>,
     /// Replace a plugin by another component at a given time (hot swap,
-    /// DESIGN §1.4): `AT:Plugin=PATH[:drain|restart]`, e.g.
+    /// `docs/hot-swap.md`): `AT:Plugin=PATH[:drain|restart]`, e.g.
     /// `3s:TestEvent=counter_v2.wasm:restart` (repeatable; drain by default).
     #[arg(long = "swap", value_parser = parse_swap)]
     swaps: Vec<Swap>,
@@ -67,8 +68,8 @@ pub struct RunArgs {
     watch: bool,
     /// Record every input from outside (injections, blackboard writes,
     /// swaps, from the command line, a watcher or a driver thread) with its
-    /// time, in the inputs.jsonl format (swapped-in components are copied
-    /// beside it).
+    /// time, in the inputs.jsonl format of docs/testing.md (swapped-in
+    /// components are copied beside it).
     #[arg(long)]
     record: Option<PathBuf>,
     /// Feed a recording (or a scenario's inputs.jsonl) back under the
@@ -105,6 +106,19 @@ pub struct RunArgs {
     /// (a check spinning under a huge fuel budget); `0` never stops it.
     #[arg(long, value_parser = parse_duration, default_value = "10s")]
     stall_timeout: Duration,
+}
+
+impl RunArgs {
+    /// `radar run` without arguments, every flag at its default: what
+    /// `radar` alone runs.
+    pub fn defaults() -> Self {
+        #[derive(clap::Parser)]
+        struct Only {
+            #[command(flatten)]
+            run: RunArgs,
+        }
+        <Only as clap::Parser>::parse_from(["radar"]).run
+    }
 }
 
 /// One `--swap`.

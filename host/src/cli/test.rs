@@ -11,8 +11,8 @@ use super::say;
 
 #[derive(clap::Args)]
 pub struct TestArgs {
-    /// Scenario folders, or folders holding them (default:
-    /// `tests/scenarios` if there is one, else here).
+    /// Scenario folders (docs/testing.md), or folders holding them
+    /// (default: `tests/scenarios` if there is one, else here).
     dirs: Vec<PathBuf>,
     /// Write each scenario's expect.jsonl from this run instead of
     /// comparing (the laws are still checked).

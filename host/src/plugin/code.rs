@@ -44,7 +44,7 @@ impl Kind {
 #[derive(Clone)]
 pub(crate) struct PluginCode {
     pub kind: Kind,
-    /// The first 12 hex digits of the component's sha256 (DESIGN §1.4).
+    /// The first 12 hex digits of the component's sha256 (`docs/hot-swap.md`).
     pub version: String,
     pub(super) pre: InstancePre<PluginCtx>,
     /// The blackboard entries it reads and writes.

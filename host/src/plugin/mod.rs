@@ -1,4 +1,4 @@
-//! Plugins (DESIGN §2.0, floor 3): loading components and checking their
+//! Plugins (`docs/architecture.md`, floor 3): loading components and checking their
 //! world, and live instances that Radar calls under limits.
 //!
 //! A [`loader::Loader`] holds a system's engines and linkers and compiles

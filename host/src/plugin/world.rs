@@ -97,7 +97,7 @@ pub(super) fn validate(
             }
         };
     let result = |f: &types::ComponentFunc| f.results().next().map(|t| PayloadType::from_wasm(&t));
-    // State for hot swap (DESIGN §1.4): both optional, typed if present.
+    // State for hot swap (`docs/hot-swap.md`): both optional, typed if present.
     let bytes = PayloadType::List(Box::new(PayloadType::U8));
     if let Some(f) = funcs.get("snapshot") {
         if f.params().len() != 0 || result(f).as_ref() != Some(&bytes) {

@@ -227,7 +227,7 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
             }
             // Asked to stop, the slot ignored it until its fuel ran out: the
             // store is dead, but the activation still ends the way the
-            // request said, on a fresh instance (DESIGN §2.1).
+            // request said, on a fresh instance (`docs/semantics.md#responses`).
             Err(fault) if fault.out_of_fuel && stop_request.is_some() => {
                 slot_end(&core, pid, Slot::Start, "trapped");
                 core.with(|st| {

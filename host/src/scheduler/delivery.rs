@@ -1,6 +1,6 @@
 //! What happens, synchronously, when a plugin emits a signal or a payload
 //! is injected: each connection's delivery under its target's busy policy,
-//! and the conservation law's records (DESIGN §1.1). Nothing here calls
+//! and the conservation law's records (`docs/semantics.md`). Nothing here calls
 //! into wasm: a delivery only changes state and wakes the target's actor.
 
 use std::rc::Rc;
@@ -221,7 +221,7 @@ impl State {
     }
 
     /// An accepted start leaves without beginning: recorded as dropped with
-    /// `reason` (the conservation law, DESIGN §1.1), and a `once ... until`
+    /// `reason` (the conservation law, `docs/semantics.md`), and a `once ... until`
     /// connection that would have lived with its activation ends.
     pub(super) fn withdraw_start(
         &mut self,

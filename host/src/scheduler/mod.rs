@@ -1,5 +1,5 @@
 //! The scheduler: one thread that owns every store, routes every signal and
-//! decides what runs next (DESIGN §1.1, §1.3).
+//! decides what runs next (`docs/semantics.md`).
 //!
 //! Each plugin is driven by one *actor* task, an `async` loop that owns the
 //! plugin's instance: an event's actor calls `check` at its cadence while

@@ -1,6 +1,6 @@
 //! `Plugin.port` names resolved: which signal or slot a name means, what
 //! ports a plugin has (for errors that list them), and whether a
-//! connection's types fit (DESIGN §1.2).
+//! connection's types fit (`docs/semantics.md#typing`).
 
 use super::state::State;
 use super::typing::{fits, type_text};

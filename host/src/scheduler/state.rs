@@ -102,7 +102,7 @@ pub(crate) struct PluginDef {
     pub code: Rc<PluginCode>,
     pub config: Arc<BTreeMap<String, String>>,
     pub limits: Limits,
-    /// An event's check period (DESIGN §1.1), in nanoseconds.
+    /// An event's check period (`docs/semantics.md`), in nanoseconds.
     pub period: u64,
     /// What it may do with the blackboard.
     pub grants: Arc<Grants>,

@@ -1,4 +1,4 @@
-//! Hot swap (DESIGN §1.4): a plugin replaced by a new version while the
+//! Hot swap (`docs/hot-swap.md`): a plugin replaced by a new version while the
 //! system runs, its connections untouched.
 //!
 //! The new version is compiled by whoever asks (`Radar::swap`, off the

@@ -6,7 +6,7 @@
 //! runs a slot. While one is running the scheduler only serves its commands;
 //! when it blocks (`sleep`, `waitfor`) or ends, the next context that became
 //! ready resumes, in the order they became ready (the executor's rule,
-//! DESIGN §1.3). So two contexts woken by the same step (a `waitfor` and an
+//! `docs/semantics.md#time-and-order`). So two contexts woken by the same step (a `waitfor` and an
 //! anonymous slot on the same signal) never race, and a run stays a pure
 //! function of its inputs. Under the real clock contexts resume at once.
 

@@ -1,5 +1,5 @@
 //! Which ports a plugin has, and whether a connection's types fit
-//! (DESIGN §1.2): a signal's payload type against a slot's parameter type,
+//! (`docs/semantics.md#typing`): a signal's payload type against a slot's parameter type,
 //! from the components' own type information.
 
 use crate::payload::PayloadType;
@@ -29,8 +29,7 @@ pub(super) fn signal_type(kind: &Kind, signal: Signal) -> Option<Option<PayloadT
     }
 }
 
-/// Whether a payload of type `emits` fits a slot taking `takes` (DESIGN
-/// §1.2: equal types, or a slot without parameter, which drops it); `Ok`
+/// Whether a payload of type `emits` fits a slot taking `takes` (`docs/semantics.md#typing`: equal types, or a slot without parameter, which drops it); `Ok`
 /// says whether the slot takes the payload at all.
 pub(super) fn fits(emits: &Option<PayloadType>, takes: &Option<PayloadType>) -> Result<bool, ()> {
     match (emits, takes) {

@@ -1,5 +1,5 @@
 //! `radar:reactive/system`: the host side of a deliberative component
-//! (the `deliberative` world), on the system's floor (DESIGN §2.0) because
+//! (the `deliberative` world), on the system's floor (`docs/architecture.md`) because
 //! every import is an operation of the [`Radar`](crate::Radar) handle. The program runs on a thread of its own, a
 //! native context of the run like a native Rust program, and every import
 //! is one of the scheduler's deliberative operations reached through a

@@ -239,7 +239,7 @@ impl Radar {
     }
 
     /// Replaces `plugin` by the component at `path` while the system runs
-    /// (DESIGN §1.4). The component is compiled here, on the caller's thread
+    /// (`docs/hot-swap.md`). The component is compiled here, on the caller's thread
     /// (through the compiled-artifact cache), then checked against every
     /// live connection of the plugin: a new version that does not fit is
     /// refused with an error naming the connection and both types, and the

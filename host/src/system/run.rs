@@ -72,7 +72,8 @@ pub struct RunReport {
     /// Virtual clock: the run was stopped at this time because signals kept
     /// flowing (or tasks kept running) without time advancing: connections
     /// that form a loop taking no time, such as `R.started → R.start` with
-    /// `restart`. The trace's last `log` line from `(radar)` says which.
+    /// `restart`. The trace's last record, `stopped` with reason
+    /// `livelock`, says what kept coming.
     pub livelock: Option<Duration>,
     /// Fuel (about one unit a wasm instruction) that each plugin's calls
     /// used in the run, all its instances together, instantiation aside.

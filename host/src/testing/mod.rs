@@ -16,7 +16,7 @@
 //! ```
 //!
 //! Runs are virtual-clock, so they are deterministic and take milliseconds;
-//! every trace is checked against the laws of DESIGN §1.1 before it is
+//! every trace is checked against the laws of `docs/semantics.md#conservation` before it is
 //! handed back. A failed assertion panics with the records around the
 //! point in question, so the test's output shows what happened instead.
 //! [`scenario`] is the same for scenario folders (`radar test`).
@@ -126,7 +126,7 @@ impl TestSystem {
     }
 
     /// Runs for `limit` of virtual time; the trace is checked against the
-    /// laws of DESIGN §1.1 (a broken law panics, showing where).
+    /// laws of `docs/semantics.md` (a broken law panics, showing where).
     pub fn run_for(self, limit: Duration) -> Result<TestRun, RadarError> {
         let report = self.builder.build()?.run(Some(limit))?;
         Ok(TestRun::new(report))
@@ -180,7 +180,7 @@ impl TestRun {
         let violations = crate::trace::check(&report.trace);
         assert!(
             violations.is_empty(),
-            "the trace breaks the laws of DESIGN §1.1:\n{}",
+            "the trace breaks the laws of `docs/semantics.md#conservation`:\n{}",
             crate::trace::explain(&report.trace, &violations, 5)
         );
         Self { report }

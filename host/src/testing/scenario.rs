@@ -1,4 +1,4 @@
-//! Scenario folders (DESIGN §3.4): what `radar test` runs.
+//! Scenario folders (`docs/testing.md`): what `radar test` runs.
 //!
 //! A scenario is a folder with a `radar.toml` (the system), optionally an
 //! `inputs.jsonl` (timed injections, blackboard writes and swaps, the
@@ -21,7 +21,7 @@
 //! ```
 //!
 //! A run is virtual-clock and deterministic, so a scenario passes when its
-//! trace obeys the laws of DESIGN §1.1 and equals the expected one; a
+//! trace obeys the laws of `docs/semantics.md#conservation` and equals the expected one; a
 //! failure says which law, or shows the first differing record.
 
 use std::collections::BTreeSet;
@@ -301,7 +301,7 @@ impl Scenario {
         let violations = crate::trace::check(&report.trace);
         if !violations.is_empty() {
             return Verdict::Failed(format!(
-                "the trace breaks the laws of DESIGN §1.1:\n{}",
+                "the trace breaks the laws of `docs/semantics.md#conservation`:\n{}",
                 crate::trace::explain(&report.trace, &violations, 5)
             ));
         }

@@ -1,4 +1,4 @@
-//! The laws every trace obeys (DESIGN §1.1), checked from the records alone.
+//! The laws every trace obeys (`docs/semantics.md`), checked from the records alone.
 //!
 //! Tests run this on every trace they produce, and `radar test` will run it
 //! on every scenario, so a rule broken by any path (a busy policy, a fault, a

@@ -1,6 +1,6 @@
 //! Inputs from outside a system, with their times: what `radar run --record`
-//! writes, `--replay` and a scenario's `inputs.jsonl` feed back (DESIGN
-//! §3.4).
+//! writes, `--replay` and a scenario's `inputs.jsonl` feed back
+//! (`docs/testing.md`).
 //!
 //! Under the virtual clock a run is a pure function of its system and its
 //! inputs, so the inputs are all a recording needs: injections, blackboard

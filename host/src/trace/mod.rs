@@ -1,4 +1,4 @@
-//! The trace: every observable step of a run, in order (DESIGN §3.3).
+//! The trace: every observable step of a run, in order (`docs/trace.md`).
 //!
 //! Under the virtual clock a run is a pure function of its inputs, so the
 //! trace is the artefact tests compare against expected files. Records are

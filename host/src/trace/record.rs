@@ -1,4 +1,4 @@
-//! A trace's records: what each says happened (DESIGN §3.3, `docs/trace.md`).
+//! A trace's records: what each says happened (`docs/trace.md`).
 
 use std::borrow::Cow;
 use std::sync::Arc;
@@ -28,7 +28,7 @@ impl Record {
     }
 }
 
-/// What a trace record says happened. Field names follow DESIGN §3.3.
+/// What a trace record says happened. Field names follow `docs/trace.md`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "kebab-case")]
 #[allow(missing_docs)]
@@ -81,7 +81,8 @@ pub enum Entry {
         outcome: Name,
     },
     /// A response changed state (`idle`, `running`, `interrupting`,
-    /// `exiting`) or a plugin's lifecycle changed (`error`).
+    /// `exiting`), a plugin went to `error`, or an event is `inactive` (at
+    /// the start of the run, and when a reset or a swap revives it).
     State { plugin: Arc<str>, state: Name },
     /// A plugin trapped, ran out of fuel or memory, and is now in `error`.
     Fault {

@@ -24,7 +24,7 @@ pub fn write_manifest(dir: &Path, body: &str) -> String {
     path.to_str().expect("utf-8 path").to_string()
 }
 
-/// Reads a trace file and checks it against the laws of DESIGN §1.1.
+/// Reads a trace file and checks it against the laws of `docs/semantics.md#conservation`.
 pub fn lawful_trace(path: &Path) -> (String, Vec<radar::trace::Record>) {
     let text = std::fs::read_to_string(path).expect("trace written");
     let records = radar::trace::parse_json_lines(&text).expect("every line is a record");

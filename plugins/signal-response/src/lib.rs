@@ -1,4 +1,4 @@
-//! A response with signals of its own (DESIGN §1.1): `start(steps)` takes
+//! A response with signals of its own (`docs/semantics.md`): `start(steps)` takes
 //! `steps` steps of `interval_s` (1 s), emitting `progress(done)` after
 //! each and `halfway` once, when half are done. Connect them like built-in
 //! signals: `whenever R.progress → ...`.

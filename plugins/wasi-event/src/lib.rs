@@ -10,8 +10,8 @@ use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
 radar_guest::plugin!(world: "wasi-probe", path: "../wit/wasi-probe");
 
-/// The monotonic clock at the first check (no destructor: see the SDK's
-/// note on top-level exports).
+/// The monotonic clock at the first check (a static without destructor:
+/// see top-level slots in docs/plugins-rust.md).
 static FIRST: OnceLock<Instant> = OnceLock::new();
 
 struct WasiEvent;

@@ -39,7 +39,7 @@ pub fn timer_event(name: &str, after_s: f64) -> Plugin {
 }
 
 /// Runs `builder` for `secs` of virtual time with `program`; the trace is
-/// checked against the laws of DESIGN §1.1.
+/// checked against the laws of `docs/semantics.md#conservation`.
 pub fn run<F>(builder: SystemBuilder, secs: u64, program: F) -> RunReport
 where
     F: FnOnce(Radar) -> Result<(), RadarError> + Send + 'static,
@@ -54,7 +54,7 @@ where
 }
 
 /// Panics, showing the records around each, if the run's trace breaks a
-/// law of DESIGN §1.1 (conservation, once, activations, faults).
+/// law of `docs/semantics.md` (conservation, once, activations, faults).
 pub fn checked(report: RunReport) -> RunReport {
     assert_eq!(
         report.trace_dropped, 0,
@@ -69,7 +69,7 @@ pub fn assert_lawful(trace: &[radar::trace::Record]) {
     let violations = radar::trace::check(trace);
     assert!(
         violations.is_empty(),
-        "the trace breaks the laws of DESIGN §1.1:\n{}",
+        "the trace breaks the laws of `docs/semantics.md#conservation`:\n{}",
         radar::trace::explain(trace, &violations, 5)
     );
 }
