@@ -1,4 +1,4 @@
-//! Many responses running at once (issue 10): N `TestResponse`s, each
+//! Many responses running at once: N `TestResponse`s, each
 //! started at 0 s and sleeping inside `start` (one count a second for ten
 //! seconds), run under the virtual clock; at 1.5 s a native program notes
 //! the resident memory and the memory mappings, then the run ends at 2 s.

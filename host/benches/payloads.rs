@@ -1,4 +1,4 @@
-//! Large payloads under the real clock (issue 18): how late a well-behaved
+//! Large payloads under the real clock: how late a well-behaved
 //! sleeper's 10 ms sleeps end while another plugin emits a payload of N
 //! bytes every 10 ms to a response that takes it, with the trace written
 //! to a file and the timeline rendered (to a sink). Each payload is lifted
@@ -111,14 +111,7 @@ fn lateness(secs: u64, bytes: usize) -> Result<(Vec<f64>, usize), String> {
             }))
             .connect(Link::whenever("Payloads.triggered", "R.start"));
     }
-    let measured = Measured::default();
-    measured
-        .attach(builder)
-        .build()
-        .map_err(|e| e.to_string())?
-        .run(Some(Duration::from_secs(secs)))
-        .map_err(|e| e.to_string())?;
-    measured.take()
+    measure(builder, secs)
 }
 
 /// The sleeper's lateness, in µs, beside a plugin that emits `bytes`-byte
@@ -135,6 +128,11 @@ fn flood_lateness(secs: u64, bytes: usize) -> Result<(Vec<f64>, usize), String> 
         .plugin(Plugin::file("R", plugins::BYTES_RESPONSE))
         .connect(Link::whenever("Payloads.chunk", "R.start"))
         .connect(Link::whenever("Payloads.triggered", "R.exit"));
+    measure(builder, secs)
+}
+
+/// Runs `builder` for `secs` with the sleeper's lateness measured.
+fn measure(builder: SystemBuilder, secs: u64) -> Result<(Vec<f64>, usize), String> {
     let measured = Measured::default();
     measured
         .attach(builder)

@@ -1,4 +1,4 @@
-//! The real clock, measured the way cyclictest reports (issue 10): how late
+//! The real clock, measured the way cyclictest reports: how late
 //! a plugin's sleep ends (timer lateness) and how long a trigger takes to
 //! begin its response's `start` slot with the trace written to a file, as
 //! histograms, with and without a real-time priority, on a quiet machine

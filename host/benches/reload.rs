@@ -1,4 +1,4 @@
-//! Hot reload end to end (issue 11): `radar run --clock real --watch` on a
+//! Hot reload end to end: `radar run --clock real --watch` on a
 //! copy of TestEvent in each language, its source edited N times (the
 //! default of `count_to` changed, a one-line edit), and for each edit:
 //!

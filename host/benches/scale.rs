@@ -1,4 +1,4 @@
-//! Cost per trigger cycle against the size of the system (issue 10): N
+//! Cost per trigger cycle against the size of the system: N
 //! pairs of `bench-event` (checks every 1 ms and triggers every time) →
 //! `bench-response` (whose `start` returns at once), under the virtual
 //! clock with the trace off. Each N is run for two lengths of virtual time

@@ -1,4 +1,4 @@
-//! Start-up of a large system (issue 10): 10,000 plugins (5,000
+//! Start-up of a large system: 10,000 plugins (5,000
 //! `bench-event`s, each connected to one of 5,000 `bench-response`s: two
 //! components, each used 5,000 times; `RADAR_STARTUP_N` sets the pairs),
 //! timed from `build` to the first millisecond of virtual time run, with the

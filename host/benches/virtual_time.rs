@@ -1,4 +1,4 @@
-//! How fast virtual time runs (issue 9): the paper's Listing 2/3 system for
+//! How fast virtual time runs: the paper's Listing 2/3 system for
 //! 24 hours of virtual time, and a system of 100 events polling every
 //! 10 ms for 1 hour of virtual time, each timed on the wall clock. Prints
 //! checks per second of wall time and how much faster than real time the

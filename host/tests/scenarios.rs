@@ -383,3 +383,38 @@ fn fuel_as_time_delays_what_compute_precedes() {
     assert!(!refused.status.success());
     assert!(text(&refused.stderr).contains("--fuel-as-time goes with the virtual clock"));
 }
+
+#[test]
+fn expect_with_a_tolerance_still_fails_a_run_that_ends_early() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let full = dir.path().join("full.jsonl");
+    let out = radar(&["run", "--for", "20s", "-q", "--trace", arg(&full)]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    // The same run to its end matches within the tolerance...
+    let whole = radar(&[
+        "run",
+        "--for",
+        "20s",
+        "-q",
+        "--expect",
+        arg(&full),
+        "--tolerance",
+        "1ms",
+    ]);
+    assert!(whole.status.success(), "{}", text(&whole.stderr));
+    // ...but one cut short does not: what the file holds after the run's
+    // end is still compared.
+    let short = radar(&[
+        "run",
+        "--for",
+        "1s",
+        "-q",
+        "--expect",
+        arg(&full),
+        "--tolerance",
+        "1ms",
+    ]);
+    assert!(!short.status.success(), "{}", text(&short.stdout));
+    let stderr = text(&short.stderr);
+    assert!(stderr.starts_with("radar: the run parts from"), "{stderr}");
+}

@@ -1,4 +1,4 @@
-//! Stopping a run from outside its course (issue 18): Ctrl-C and SIGTERM,
+//! Stopping a run from outside its course: Ctrl-C and SIGTERM,
 //! a virtual-clock run stuck in a call, and limits set in the manifest;
 //! the trace file holds the run up to its end, and says why it ended.
 

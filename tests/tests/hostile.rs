@@ -1,4 +1,4 @@
-//! Hostile and careless plugins (issue 18), part one: blocking waits, what
+//! Hostile and careless plugins, part one: blocking waits, what
 //! a component can grow, bursts and stalls. Each runs beside a well-behaved
 //! TestEvent → TestResponse pair; the host stays up, its memory stays
 //! bounded, the pair keeps its timing, and the trace obeys the laws.

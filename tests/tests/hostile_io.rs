@@ -1,4 +1,4 @@
-//! Hostile and careless plugins (issue 18), part two: bounded output,
+//! Hostile and careless plugins, part two: bounded output,
 //! payloads and floods, files and values a plugin hands the host. As in
 //! `hostile.rs`, each runs beside a well-behaved pair, one at a time.
 
