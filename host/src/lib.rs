@@ -21,6 +21,7 @@ pub(crate) mod executor;
 mod limiter;
 mod limits;
 pub mod manifest;
+pub mod network;
 mod panics;
 pub mod payload;
 mod plugin;
@@ -39,7 +40,9 @@ pub use clock::ClockKind;
 pub use error::RadarError;
 pub use payload::{Payload, PayloadType};
 pub use plugin::Limits;
-pub use ports::{Busy, Mode, PluginState, SwapPolicy};
+pub use ports::{
+    Busy, ConnectionOverview, Mode, Overview, PluginOverview, PluginState, SwapPolicy,
+};
 pub use scheduler::{AnonymousSlot, ProgramFailure};
 pub use system::{
     Connection, Deliberative, Interrupter, Link, Plugin, PreparedVersion, Radar, RunReport, System,

@@ -32,6 +32,10 @@ enum Cmd {
     /// scenario.toml) under the virtual clock and compares each trace with
     /// the expected one.
     Test(cli::test::TestArgs),
+    /// Steers a running system from outside (its manifest needs a
+    /// [network] table): ls, connect, disconnect, inject, write, read,
+    /// swap, reset, watch, stop.
+    Ctl(cli::ctl::CtlArgs),
     /// Runs each plugin's `[plugins.X.build]` command.
     Build {
         /// The `radar.toml` (default: `radar.toml` here).
@@ -58,6 +62,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Some(Cmd::Run(args)) => cli::run::run(*args),
         Some(Cmd::Test(args)) => cli::test::test(args),
+        Some(Cmd::Ctl(args)) => cli::ctl::ctl(args),
         Some(Cmd::Build { manifest }) => cli::workspace::build_all(manifest),
         Some(Cmd::New {
             kind,

@@ -66,6 +66,9 @@ pub struct Manifest {
     pub connect: Vec<ConnectEntry>,
     /// Limits of the whole system.
     pub limits: Option<SystemLimitsEntry>,
+    /// How the system appears on the network (`docs/network.md`); without
+    /// this table it listens on nothing.
+    pub network: Option<crate::network::NetworkSettings>,
     #[serde(skip)]
     dir: PathBuf,
 }
@@ -148,6 +151,9 @@ pub struct PluginEntry {
     /// Values the plugin reads through the `config` interface.
     #[serde(default)]
     pub config: BTreeMap<String, toml::Value>,
+    /// The agent the plugin is to run on (`docs/network.md`): not yet
+    /// supported, and refused with that reason.
+    pub node: Option<String>,
     /// An event's check period in milliseconds.
     pub period_ms: Option<u64>,
     /// Fuel per call.
@@ -394,10 +400,26 @@ impl Manifest {
                 }
             }
         }
+        for (name, entry) in &manifest.plugins {
+            if let Some(node) = &entry.node {
+                return Err(bad(format!(
+                    "plugins.{name}.node = \"{node}\": placing plugins on agents is not \
+                     supported yet; every plugin runs in the coordinator (docs/network.md)"
+                )));
+            }
+        }
+        if let Some(network) = &manifest.network {
+            network.validate().map_err(|e| bad(e.to_string()))?;
+        }
         for c in &manifest.connect {
             manifest.link(c).map_err(bad)?;
         }
         Ok(manifest)
+    }
+
+    /// The folder the manifest's paths are relative to.
+    pub fn dir(&self) -> &Path {
+        &self.dir
     }
 
     /// Adds the whole system to a builder: plugins, deliberative program and

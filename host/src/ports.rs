@@ -93,6 +93,50 @@ impl Busy {
     }
 }
 
+impl std::fmt::Display for Busy {
+    /// `drop`, `restart` or `queue:N`: the form `radar ctl connect --busy`
+    /// and a recording take.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Busy::Queue(n) => write!(f, "queue:{n}"),
+            other => f.write_str(other.as_str()),
+        }
+    }
+}
+
+impl std::str::FromStr for Busy {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<Self, String> {
+        match text {
+            "drop" => Ok(Busy::Drop),
+            "restart" => Ok(Busy::Restart),
+            "queue" => Ok(Busy::Queue(1)),
+            _ => text
+                .strip_prefix("queue:")
+                .and_then(|n| n.parse().ok())
+                .map(Busy::Queue)
+                .ok_or_else(|| {
+                    format!("unknown busy policy `{text}` (drop, restart, queue or queue:N)")
+                }),
+        }
+    }
+}
+
+impl std::str::FromStr for Mode {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<Self, String> {
+        match text {
+            "once" => Ok(Mode::Once),
+            "whenever" => Ok(Mode::Whenever),
+            _ => Err(format!(
+                "unknown connection mode `{text}` (once or whenever)"
+            )),
+        }
+    }
+}
+
 /// How a swap treats the work in progress.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum SwapPolicy {
@@ -206,4 +250,54 @@ pub(crate) fn split_port(spec: &str) -> (&str, Option<&str>) {
         Some((plugin, port)) => (plugin, Some(port)),
         None => (spec, None),
     }
+}
+
+/// What a running system looks like at one instant: its plugins and its
+/// connections (`radar ctl ls`, [`Radar::overview`](crate::Radar::overview)).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Overview {
+    /// Nanoseconds since the run began.
+    pub t: u64,
+    /// Every plugin, in the order the system was built.
+    pub plugins: Vec<PluginOverview>,
+    /// Every live connection, oldest first.
+    pub connections: Vec<ConnectionOverview>,
+}
+
+/// One plugin in an [`Overview`].
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PluginOverview {
+    /// Its name.
+    pub name: String,
+    /// `event` or `response`.
+    pub kind: String,
+    /// Its state, as [`PluginState::as_str`] names it.
+    pub state: String,
+    /// Its version (the first 12 hex digits of its component's sha256).
+    pub version: String,
+    /// Where it runs: the coordinator, or the agent it is placed on.
+    pub node: String,
+    /// Starts waiting for it (a response's queue).
+    pub queued: usize,
+}
+
+/// One connection in an [`Overview`].
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ConnectionOverview {
+    /// Its id, as the trace's `connect` record gave it.
+    pub id: u64,
+    /// `Plugin.signal`.
+    pub from: String,
+    /// `Plugin.slot`, or the anonymous slot or wait it serves.
+    pub to: String,
+    /// `once` or `whenever`.
+    pub mode: String,
+    /// `drop`, `restart` or `queue:N`.
+    pub busy: String,
+    /// The signal that interrupts what it starts, if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub until: Option<String>,
+    /// The least time between two deliveries, in nanoseconds, if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_interval: Option<u64>,
 }

@@ -206,6 +206,11 @@ impl<W: Write + Send> Timeline<W> {
                 reason,
             } => format!("swap of {plugin} to {version} rolled back: {reason}"),
             Entry::Stopped { reason, message } => format!("RUN STOPPED ({reason}): {message}"),
+            Entry::Refused {
+                command,
+                from,
+                reason,
+            } => format!("REFUSED {command} from {from}: {reason}"),
             Entry::ProgramEnd { outcome, error } => match error {
                 Some(error) => format!("deliberative program ended: {outcome}: {error}"),
                 None => format!("deliberative program ended: {outcome}"),

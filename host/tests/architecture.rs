@@ -42,6 +42,7 @@ const FLOORS: &[(&str, u8, &str)] = &[
     // 6. Edges.
     ("example", 6, "edges"),
     ("manifest", 6, "edges"),
+    ("network", 6, "edges"),
     ("testing", 6, "edges"),
     ("timeline", 6, "edges"),
     ("workspace", 6, "edges"),

@@ -2,6 +2,7 @@
 
 use std::io::Write;
 
+pub mod ctl;
 pub mod run;
 pub mod test;
 pub mod workspace;

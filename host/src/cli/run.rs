@@ -8,6 +8,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result};
 use radar::manifest::{parse_duration, Manifest};
+use radar::network::Network;
 use radar::timeline::Timeline;
 use radar::trace::compare::{compare, load_values, Comparison};
 use radar::trace::inputs::{self, Input, TimedInput};
@@ -289,6 +290,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     if args.watch && (args.manifest.is_none() || args.clock != ClockKind::Real) {
         anyhow::bail!("--watch goes with a manifest and --clock real");
     }
+    let mut network: Option<Network> = None;
     let report = match &args.manifest {
         None => {
             let limit = run_for.unwrap_or(Duration::from_secs(20));
@@ -335,11 +337,34 @@ pub fn run(args: RunArgs) -> Result<()> {
                 anyhow::bail!("with the virtual clock, say how long to run (e.g. --for 30s)");
             }
             let manifest = Manifest::load(path)?;
+            // A replay takes its inputs from the recording, not the network.
+            if let Some(settings) = manifest.network.as_ref().filter(|_| replay.is_none()) {
+                let swaps =
+                    std::env::temp_dir().join(format!("radar-ctl-swaps-{}", std::process::id()));
+                let net = Network::open(settings, manifest.dir(), swaps)?;
+                builder = builder.trace_to(net.publisher());
+                network = Some(net);
+            }
             let system = manifest.add_to(builder).build()?;
             warn_of_changed_plugins(replay.as_deref(), &system);
             stop_on_signals(&system);
             if !args.quiet {
-                say(format_args!("Radar: {}, {clock} clock\n", path.display()));
+                say(format_args!("Radar: {}, {clock} clock", path.display()));
+            }
+            if let Some(net) = &mut network {
+                net.serve(system.handle())?;
+                let endpoints = match net.endpoints() {
+                    [] => "no endpoint of its own".to_string(),
+                    some => some.join(", "),
+                };
+                say(format_args!(
+                    "network: system `{}` on {endpoints}, control {}",
+                    net.system(),
+                    net.control().as_str()
+                ));
+            }
+            if !args.quiet {
+                say(format_args!(""));
             }
             if args.watch {
                 let versions = system.versions();
@@ -354,6 +379,20 @@ pub fn run(args: RunArgs) -> Result<()> {
             system.run(run_for)?
         }
     };
+    if let Some(net) = network.take() {
+        let (left_out, dropped) = net.losses();
+        if left_out > 0 || dropped > 0 {
+            eprintln!(
+                "radar: network: {left_out} trace record(s) not published (the network fell \
+                 behind; the trace file has them all), {dropped} message(s) not taken (the \
+                 control queue was full)"
+            );
+        }
+        drop(net);
+        let _ = std::fs::remove_dir_all(
+            std::env::temp_dir().join(format!("radar-ctl-swaps-{}", std::process::id())),
+        );
+    }
     if let Some(at) = report.livelock {
         anyhow::bail!(
             "stopped at {:.3} s: the system kept working without virtual time advancing \

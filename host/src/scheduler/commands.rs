@@ -49,11 +49,16 @@ pub(crate) enum Woke {
 pub(crate) enum Command {
     Connect {
         link: LinkSpec,
+        /// From outside the run (`radar ctl`): recorded, kept until an
+        /// outside disconnect.
+        external: bool,
         reply: Sender<Result<Vec<u64>, RadarError>>,
     },
     Disconnect {
         ids: Vec<u64>,
         reason: &'static str,
+        /// From outside the run: recorded.
+        external: bool,
     },
     Inject {
         to: String,
@@ -77,7 +82,19 @@ pub(crate) enum Command {
     },
     Reset {
         plugin: String,
+        /// From outside the run: recorded.
+        external: bool,
         reply: Sender<Result<(), RadarError>>,
+    },
+    /// What the system looks like now (`radar ctl ls`).
+    Overview {
+        reply: Sender<crate::ports::Overview>,
+    },
+    /// A command from outside was refused: recorded.
+    Refused {
+        command: String,
+        from: String,
+        reason: String,
     },
     Now {
         reply: Sender<Duration>,
@@ -192,6 +209,10 @@ impl Command {
             self,
             Command::Inject { external: true, .. }
                 | Command::BoardWrite { external: true, .. }
+                | Command::Connect { external: true, .. }
+                | Command::Disconnect { external: true, .. }
+                | Command::Reset { external: true, .. }
+                | Command::Refused { .. }
                 | Command::Swap {
                     origin: Some(_),
                     ..

@@ -6,11 +6,9 @@ use std::time::Duration;
 
 use super::commands::{Command, ProgramFailure};
 use super::run::Scheduler;
-use super::state::{Lifecycle, NativeTask, State, WaiterReply};
+use super::state::{NativeTask, State, WaiterReply};
 use crate::clock::duration_nanos;
-use crate::error::RadarError;
 use crate::payload::Payload;
-use crate::ports::PluginState;
 use crate::trace::inputs::Input;
 use crate::trace::Entry;
 
@@ -21,15 +19,40 @@ impl Scheduler {
             core.with(State::count_move);
         }
         match cmd {
-            Command::Connect { link, reply } => {
-                let result = core.with(|st| st.connect(link));
+            Command::Connect {
+                link,
+                external,
+                reply,
+            } => {
+                let result = core.with(|st| {
+                    if external {
+                        st.connect_from_outside(link)
+                    } else {
+                        st.connect(link)
+                    }
+                });
                 let _ = reply.send(result);
             }
-            Command::Disconnect { ids, reason } => core.with(|st| {
+            Command::Disconnect {
+                ids,
+                reason,
+                external,
+            } => core.with(|st| {
                 for id in ids {
+                    if external {
+                        st.record_input(Input::Disconnect { id });
+                    }
                     st.disconnect(id, reason);
                 }
             }),
+            Command::Overview { reply } => {
+                let _ = reply.send(core.with(|st| st.overview()));
+            }
+            Command::Refused {
+                command,
+                from,
+                reason,
+            } => core.with(|st| st.refused(command, from, reason)),
             Command::Inject {
                 to,
                 payload,
@@ -89,29 +112,16 @@ impl Scheduler {
                     core.with(|st| st.resume(lockstep, Box::new(move || reply.send(()).is_ok())));
                 }));
             }),
-            Command::Reset { plugin, reply } => {
-                let result = core.with(|st| {
-                    let pid = st.plugin(&plugin)?;
-                    let entry = &mut st.plugins[pid];
-                    if entry.lifecycle != Lifecycle::Error {
-                        return Err(RadarError::NotFaulted(plugin));
-                    }
-                    entry.reset_requested = true;
-                    entry.wake();
-                    Ok(())
-                });
+            Command::Reset {
+                plugin,
+                external,
+                reply,
+            } => {
+                let result = core.with(|st| st.request_reset(&plugin, external));
                 let _ = reply.send(result);
             }
             Command::PluginState { plugin, reply } => {
-                let _ = reply.send(core.with(|st| {
-                    let entry = &st.plugins[st.plugin(&plugin)?];
-                    Ok(match (entry.lifecycle, entry.is_event()) {
-                        (Lifecycle::Error, _) => PluginState::Error,
-                        (Lifecycle::Inactive, _) => PluginState::Inactive,
-                        (Lifecycle::Active, true) => PluginState::Active,
-                        (Lifecycle::Active, false) => entry.phase.state(),
-                    })
-                }));
+                let _ = reply.send(core.with(|st| Ok(st.state_of(st.plugin(&plugin)?))));
             }
             Command::Now { reply } => {
                 let _ = reply.send(Duration::from_nanos(core.base.now()));

@@ -20,7 +20,7 @@ use std::time::Duration;
 use serde_json::Value as Json;
 use wasmtime::component::Val;
 
-use super::commands::Injection;
+use super::commands::{Injection, LinkSpec};
 use super::state::{Core, State};
 use super::versions::NewVersion;
 use crate::clock::duration_nanos;
@@ -65,6 +65,18 @@ pub(crate) enum StaticWhat {
         policy: SwapPolicy,
         code: Option<Result<Box<NewVersion>, (String, RadarError)>>,
     },
+    /// A connection made from outside (`radar ctl connect`).
+    Connect(LinkSpec),
+    /// A connection ended from outside.
+    Disconnect(u64),
+    /// A faulted plugin reset from outside.
+    Reset(String),
+    /// A refused command's record.
+    Refused {
+        command: String,
+        from: String,
+        reason: String,
+    },
 }
 
 /// What an input does when it is applied.
@@ -81,6 +93,7 @@ enum Action {
         policy: SwapPolicy,
         origin: Origin,
     },
+    Outside(StaticWhat),
 }
 
 /// A static input to apply at a recorded place: `at`, after `after` moves.
@@ -163,6 +176,7 @@ impl State {
                         policy,
                     }
                 }
+                other => Action::Outside(other),
             };
             match (place.filter(|_| placeable), action) {
                 (Some(place), action) => placed.push((at, place, action)),
@@ -215,6 +229,24 @@ impl State {
                 // A refusal is recorded; the run goes on.
                 let _ = self.request_swap(&plugin, code, policy, Some(&origin));
             }
+            // Each as it went when it was recorded: a failure here is the
+            // replay parting from the recording, which the digest shows.
+            Action::Outside(StaticWhat::Connect(link)) => {
+                let _ = self.connect_from_outside(link);
+            }
+            Action::Outside(StaticWhat::Disconnect(id)) => {
+                self.record_input(Input::Disconnect { id });
+                self.disconnect(id, "closed");
+            }
+            Action::Outside(StaticWhat::Reset(plugin)) => {
+                let _ = self.request_reset(&plugin, true);
+            }
+            Action::Outside(StaticWhat::Refused {
+                command,
+                from,
+                reason,
+            }) => self.refused(command, from, reason),
+            Action::Outside(_) => {}
         }
     }
 
@@ -251,6 +283,12 @@ impl State {
             Action::Inject(injection) => format!("the injection into {}", injection.label),
             Action::Write { entry, .. } => format!("the write of `{entry}`"),
             Action::Swap { plugin, .. } => format!("the swap of {plugin}"),
+            Action::Outside(StaticWhat::Connect(link)) => {
+                format!("the connection from {}", link.from)
+            }
+            Action::Outside(StaticWhat::Disconnect(id)) => format!("the end of connection {id}"),
+            Action::Outside(StaticWhat::Reset(plugin)) => format!("the reset of {plugin}"),
+            Action::Outside(_) => "a refused command".to_string(),
         };
         self.trace.divergence = Some(format!(
             "the replay parts from the recording before {what} at {:.3} s: the recorded run \

@@ -27,6 +27,7 @@ mod inputs;
 mod livelock;
 mod mailbox;
 mod native;
+mod outside;
 mod recording;
 mod resolve;
 mod run;

@@ -402,7 +402,13 @@ impl State {
         // of what happened (see `inputs`).
         let placed = matches!(
             input,
-            Input::Inject { .. } | Input::BoardWrite { .. } | Input::Swap { .. }
+            Input::Inject { .. }
+                | Input::BoardWrite { .. }
+                | Input::Swap { .. }
+                | Input::Connect { .. }
+                | Input::Disconnect { .. }
+                | Input::Reset { .. }
+                | Input::Refused { .. }
         );
         let virtual_clock = self.base.kind() == ClockKind::Virtual;
         let step = (placed && virtual_clock).then(|| self.moves_now());

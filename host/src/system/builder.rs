@@ -22,9 +22,9 @@ use crate::clock::ClockKind;
 use crate::error::RadarError;
 use crate::limiter::MemoryBudget;
 use crate::plugin::{default_cache_dir, Limits, Loader};
-use crate::ports::SwapPolicy;
+use crate::ports::{Mode, SwapPolicy};
 use crate::scheduler::board::BoardUser;
-use crate::scheduler::{Place, PluginDef, StaticInput, StaticWhat};
+use crate::scheduler::{LinkSpec, LinkTarget, Place, PluginDef, StaticInput, StaticWhat};
 use crate::trace::inputs::{Input, InputRecorder, TimedInput};
 use crate::trace::TraceSink;
 use crate::watchdog::RunWatch;
@@ -220,6 +220,35 @@ impl SystemBuilder {
                         SwapPolicy::Drain
                     },
                     code: None,
+                },
+                Input::Connect {
+                    from,
+                    to,
+                    mode,
+                    busy,
+                    until,
+                } => {
+                    let mode = mode.parse().unwrap_or(Mode::Whenever);
+                    let busy = busy.parse().unwrap_or_default();
+                    StaticWhat::Connect(LinkSpec {
+                        from: from.clone(),
+                        to: LinkTarget::Slot(to.clone()),
+                        mode,
+                        busy,
+                        min_interval: None,
+                        until: until.clone(),
+                    })
+                }
+                Input::Disconnect { id } => StaticWhat::Disconnect(*id),
+                Input::Reset { plugin } => StaticWhat::Reset(plugin.clone()),
+                Input::Refused {
+                    command,
+                    from,
+                    reason,
+                } => StaticWhat::Refused {
+                    command: command.clone(),
+                    from: from.clone(),
+                    reason: reason.clone(),
                 },
                 Input::End {
                     digest: Some(digest),

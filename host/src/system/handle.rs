@@ -49,6 +49,7 @@ impl Radar {
     pub fn connect(&self, link: Link) -> Result<Connection, RadarError> {
         let ids = self.ask(|reply| Command::Connect {
             link: link.spec,
+            external: false,
             reply,
         })??;
         Ok(Connection {
@@ -208,8 +209,56 @@ impl Radar {
     pub fn reset(&self, plugin: &str) -> Result<(), RadarError> {
         self.ask(|reply| Command::Reset {
             plugin: plugin.to_string(),
+            external: !self.lockstep(),
             reply,
         })?
+    }
+
+    /// Makes a connection for the rest of the run on behalf of someone
+    /// outside it (`radar ctl connect`): recorded as an input, so that a
+    /// replay makes it too, and ended only by [`Radar::disconnect`].
+    /// Returns its ids (two for `once ... until`).
+    pub fn connect_from_outside(&self, link: Link) -> Result<Vec<u64>, RadarError> {
+        self.ask(|reply| Command::Connect {
+            link: link.spec,
+            external: true,
+            reply,
+        })?
+    }
+
+    /// Ends connection `id`, whoever made it (`radar ctl disconnect`):
+    /// recorded as an input, and in the trace with reason `closed`.
+    pub fn disconnect(&self, id: u64) -> Result<(), RadarError> {
+        self.tx
+            .send(Command::Disconnect {
+                ids: vec![id],
+                reason: "closed",
+                external: true,
+            })
+            .map_err(|_| RadarError::Stopped)
+    }
+
+    /// Records that a command from outside the process was refused, and
+    /// why (a `refused` record, kept by `--record`).
+    pub fn refused(
+        &self,
+        command: impl Into<String>,
+        from: impl Into<String>,
+        reason: impl Into<String>,
+    ) -> Result<(), RadarError> {
+        self.tx
+            .send(Command::Refused {
+                command: command.into(),
+                from: from.into(),
+                reason: reason.into(),
+            })
+            .map_err(|_| RadarError::Stopped)
+    }
+
+    /// The system now: every plugin (kind, state, version, node) and every
+    /// live connection (id, mode, busy policy, until).
+    pub fn overview(&self) -> Result<crate::ports::Overview, RadarError> {
+        self.ask(|reply| Command::Overview { reply })
     }
 
     /// Runs `task` on a new thread as a native context of the run: under the

@@ -123,6 +123,7 @@ impl Connection {
         let _ = self.tx.send(Command::Disconnect {
             ids: std::mem::take(&mut self.ids),
             reason: "closed",
+            external: false,
         });
     }
 
@@ -138,6 +139,7 @@ impl Drop for Connection {
             let _ = self.tx.send(Command::Disconnect {
                 ids: std::mem::take(&mut self.ids),
                 reason: "scope",
+                external: false,
             });
         }
     }

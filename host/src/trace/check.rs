@@ -421,6 +421,7 @@ impl Checker {
             | Entry::Log { .. }
             | Entry::ProgramEnd { .. }
             | Entry::Stopped { .. }
+            | Entry::Refused { .. }
             | Entry::SwapRequest { .. }
             | Entry::SwapRefused { .. }
             | Entry::SwapRolledBack { .. } => {}

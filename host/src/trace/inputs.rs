@@ -87,6 +87,42 @@ pub enum Input {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         version: Option<String>,
     },
+    /// A connection made from outside the run (`radar ctl connect`, a
+    /// handle used off the run's own threads).
+    Connect {
+        /// `Plugin.signal`.
+        from: String,
+        /// `Plugin.slot`.
+        to: String,
+        /// `once` or `whenever`.
+        mode: String,
+        /// `drop`, `restart` or `queue:N`.
+        #[serde(default = "busy_drop")]
+        busy: String,
+        /// The signal that interrupts what it starts.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        until: Option<String>,
+    },
+    /// A connection ended from outside the run (`radar ctl disconnect`).
+    Disconnect {
+        /// The connection's id.
+        id: u64,
+    },
+    /// A faulted plugin reset from outside the run (`radar ctl reset`).
+    Reset {
+        /// The plugin.
+        plugin: String,
+    },
+    /// A command from outside the run that was refused (its `refused`
+    /// record).
+    Refused {
+        /// What it asked.
+        command: String,
+        /// Who asked.
+        from: String,
+        /// Why it was refused.
+        reason: String,
+    },
     /// A recording's first line: the clock it was made on.
     Recording {
         /// `virtual` or `real`.
@@ -107,6 +143,10 @@ pub enum Input {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         digest: Option<String>,
     },
+}
+
+fn busy_drop() -> String {
+    "drop".into()
 }
 
 fn drain() -> String {

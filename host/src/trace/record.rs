@@ -148,6 +148,14 @@ pub enum Entry {
     /// coming without virtual time advancing, and no plugin made most of
     /// them). The run's last record.
     Stopped { reason: Name, message: String },
+    /// A command or a message from outside the process (`radar ctl`, a
+    /// Zenoh put) was not carried out: `command` says what it asked,
+    /// `from` who asked (as far as Radar can tell), `reason` why not.
+    Refused {
+        command: String,
+        from: String,
+        reason: String,
+    },
     /// Deliberative code finished: `outcome` is `ok`, `error` (with the
     /// error) or `panicked`.
     ProgramEnd {
@@ -185,6 +193,11 @@ impl Record {
                 error, backtrace, ..
             } => error.len() + backtrace.as_ref().map_or(0, String::len),
             Entry::Stopped { message, .. } => message.len(),
+            Entry::Refused {
+                command,
+                from,
+                reason,
+            } => command.len() + from.len() + reason.len(),
             Entry::SwapRefused { reason, .. } | Entry::SwapRolledBack { reason, .. } => {
                 reason.len()
             }

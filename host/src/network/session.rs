@@ -1,0 +1,97 @@
+//! Opening Zenoh sessions the way Radar wants them: nothing listened on or
+//! scouted that the settings do not name, and messages bounded in size.
+
+use std::path::Path;
+
+use zenoh::{Config, Session, Wait};
+
+use super::settings::NetworkSettings;
+use super::NetworkError;
+
+/// The largest message a Radar session takes (a `ctl swap` carries a
+/// whole component): anything larger ends the link that sent it.
+pub const MAX_MESSAGE_BYTES: usize = 128 << 20;
+
+fn set(config: &mut Config, key: &str, value: serde_json::Value) -> Result<(), NetworkError> {
+    config
+        .insert_json5(key, &value.to_string())
+        .map_err(|e| NetworkError::Settings(format!("{key}: {e}")))
+}
+
+/// What both kinds of session share: no multicast scouting (it would
+/// listen on a multicast group), bounded messages, credentials.
+fn base(
+    mode: &str,
+    listen: &[String],
+    connect: &[String],
+    credentials: Option<(&str, &str)>,
+) -> Result<Config, NetworkError> {
+    let mut config = Config::default();
+    set(&mut config, "mode", mode.into())?;
+    set(&mut config, "listen/endpoints", serde_json::json!(listen))?;
+    set(&mut config, "connect/endpoints", serde_json::json!(connect))?;
+    set(&mut config, "scouting/multicast/enabled", false.into())?;
+    set(
+        &mut config,
+        "transport/link/rx/max_message_size",
+        MAX_MESSAGE_BYTES.into(),
+    )?;
+    if let Some((user, password)) = credentials {
+        set(&mut config, "transport/auth/usrpwd/user", user.into())?;
+        set(
+            &mut config,
+            "transport/auth/usrpwd/password",
+            password.into(),
+        )?;
+    }
+    Ok(config)
+}
+
+/// The coordinator's session: a peer on the manifest's endpoints.
+/// `users` (resolved against the manifest's folder) turns on Zenoh's
+/// user/password authentication for every peer that connects.
+pub(super) fn coordinator(
+    settings: &NetworkSettings,
+    users: Option<&Path>,
+) -> Result<Session, NetworkError> {
+    let credentials = settings.user.as_deref().zip(settings.password.as_deref());
+    let mut config = base("peer", &settings.listen, &settings.connect, credentials)?;
+    if let Some(file) = users {
+        if !file.is_file() {
+            return Err(NetworkError::Settings(format!(
+                "users file {} does not exist",
+                file.display()
+            )));
+        }
+        set(
+            &mut config,
+            "transport/auth/usrpwd/dictionary_file",
+            file.display().to_string().into(),
+        )?;
+    }
+    zenoh::open(config)
+        .wait()
+        .map_err(|e| NetworkError::Session(one_line(&e.to_string())))
+}
+
+/// A tool's session (`radar ctl`): a client of the endpoints given, which
+/// fails at once if none can be reached.
+pub fn client(
+    connect: &[String],
+    credentials: Option<(&str, &str)>,
+) -> Result<Session, NetworkError> {
+    let config = base("client", &[], connect, credentials)?;
+    zenoh::open(config).wait().map_err(|e| {
+        NetworkError::Session(format!(
+            "cannot reach {} ({}); is the system running with [network] listen there, and are the user and password right?",
+            connect.join(", "),
+            one_line(&e.to_string())
+        ))
+    })
+}
+
+/// Zenoh's message on one line, without the source location it appends.
+fn one_line(text: &str) -> String {
+    let text = text.split(" at /").next().unwrap_or(text);
+    text.split_whitespace().collect::<Vec<_>>().join(" ")
+}

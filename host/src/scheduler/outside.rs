@@ -1,0 +1,114 @@
+//! Commands from outside the run (`radar ctl`, a handle used off the run's
+//! own threads) that are not plugin inputs: connections kept until an
+//! outside disconnect, resets, refusals, and the overview `ctl ls` prints.
+//! Each one that changes the run is recorded as an input first, so a
+//! replay makes the same change at the same place (`docs/network.md`).
+
+use super::commands::{LinkSpec, LinkTarget};
+use super::state::{Lifecycle, State};
+use crate::error::RadarError;
+use crate::ports::{ConnectionOverview, Overview, PluginOverview, PluginState};
+use crate::trace::inputs::Input;
+use crate::trace::Entry;
+
+impl State {
+    /// A connection asked for from outside: recorded as an input, then made.
+    pub(super) fn connect_from_outside(&mut self, link: LinkSpec) -> Result<Vec<u64>, RadarError> {
+        if let LinkTarget::Slot(to) = &link.to {
+            self.record_input(Input::Connect {
+                from: link.from.clone(),
+                to: to.clone(),
+                mode: link.mode.as_str().into(),
+                busy: link.busy.to_string(),
+                until: link.until.clone(),
+            });
+        }
+        self.connect(link)
+    }
+
+    /// Asks for a faulted plugin to be instantiated again.
+    pub(super) fn request_reset(&mut self, plugin: &str, external: bool) -> Result<(), RadarError> {
+        let pid = self.plugin(plugin)?;
+        if self.plugins[pid].lifecycle != Lifecycle::Error {
+            return Err(RadarError::NotFaulted(plugin.to_string()));
+        }
+        if external {
+            self.record_input(Input::Reset {
+                plugin: plugin.to_string(),
+            });
+        }
+        let entry = &mut self.plugins[pid];
+        entry.reset_requested = true;
+        entry.wake();
+        Ok(())
+    }
+
+    /// A command from outside that was not carried out: an input (a replay
+    /// records it again at the same place) and a `refused` record.
+    pub(super) fn refused(&mut self, command: String, from: String, reason: String) {
+        self.record_input(Input::Refused {
+            command: command.clone(),
+            from: from.clone(),
+            reason: reason.clone(),
+        });
+        self.record(Entry::Refused {
+            command,
+            from,
+            reason,
+        });
+    }
+
+    /// A plugin's state as deliberative code sees it.
+    pub(super) fn state_of(&self, pid: usize) -> PluginState {
+        let entry = &self.plugins[pid];
+        match (entry.lifecycle, entry.is_event()) {
+            (Lifecycle::Error, _) => PluginState::Error,
+            (Lifecycle::Inactive, _) => PluginState::Inactive,
+            (Lifecycle::Active, true) => PluginState::Active,
+            (Lifecycle::Active, false) => entry.phase.state(),
+        }
+    }
+
+    /// The system now: plugins and live connections.
+    pub(super) fn overview(&self) -> Overview {
+        let plugins = (0..self.plugins.len())
+            .map(|pid| {
+                let entry = &self.plugins[pid];
+                PluginOverview {
+                    name: entry.def.name.clone(),
+                    kind: if entry.is_event() {
+                        "event"
+                    } else {
+                        "response"
+                    }
+                    .into(),
+                    state: self.state_of(pid).as_str().into(),
+                    version: entry.def.code.version.clone(),
+                    node: "(coordinator)".into(),
+                    queued: entry.queue.len() + usize::from(entry.next.is_some()),
+                }
+            })
+            .collect();
+        let connections = self
+            .connections
+            .iter()
+            .map(|(id, conn)| ConnectionOverview {
+                id: *id,
+                from: self.signal_label(conn.from),
+                to: conn.to_label.to_string(),
+                mode: conn.mode.as_str().into(),
+                busy: conn.busy.to_string(),
+                until: conn
+                    .until
+                    .and_then(|u| self.connections.get(&u))
+                    .map(|u| self.signal_label(u.from)),
+                min_interval: conn.min_interval,
+            })
+            .collect();
+        Overview {
+            t: self.now(),
+            plugins,
+            connections,
+        }
+    }
+}
