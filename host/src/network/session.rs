@@ -82,11 +82,43 @@ pub fn client(
 ) -> Result<Session, NetworkError> {
     let config = base("client", &[], connect, credentials)?;
     zenoh::open(config).wait().map_err(|e| {
-        NetworkError::Session(format!(
-            "cannot reach {} ({}); is the system running with [network] listen there, and are the user and password right?",
-            connect.join(", "),
-            one_line(&e.to_string())
-        ))
+        // Zenoh says only that it could not connect: a TCP endpoint that
+        // accepts a connection but not the session refused the user.
+        let answering: Vec<&str> = connect
+            .iter()
+            .filter(|ep| tcp_answers(ep))
+            .map(String::as_str)
+            .collect();
+        NetworkError::Session(if answering.is_empty() {
+            format!(
+                "nothing answers at {} ({}): is the system running, with [network] listen there?",
+                connect.join(", "),
+                one_line(&e.to_string())
+            )
+        } else {
+            format!(
+                "{} answers but refused the session: the system wants a user and password \
+                 (control = \"authenticated\") and {}",
+                answering.join(", "),
+                if credentials.is_some() {
+                    "these are wrong"
+                } else {
+                    "none were given (--user, --password)"
+                }
+            )
+        })
+    })
+}
+
+/// Whether a `tcp/HOST:PORT` endpoint accepts a TCP connection.
+fn tcp_answers(endpoint: &str) -> bool {
+    use std::net::ToSocketAddrs;
+    let Some(address) = endpoint.strip_prefix("tcp/") else {
+        return false;
+    };
+    let address = address.split('#').next().unwrap_or(address);
+    address.to_socket_addrs().ok().and_then(|mut a| a.next()).is_some_and(|a| {
+        std::net::TcpStream::connect_timeout(&a, std::time::Duration::from_millis(500)).is_ok()
     })
 }
 
