@@ -117,9 +117,13 @@ fn tcp_answers(endpoint: &str) -> bool {
         return false;
     };
     let address = address.split('#').next().unwrap_or(address);
-    address.to_socket_addrs().ok().and_then(|mut a| a.next()).is_some_and(|a| {
-        std::net::TcpStream::connect_timeout(&a, std::time::Duration::from_millis(500)).is_ok()
-    })
+    address
+        .to_socket_addrs()
+        .ok()
+        .and_then(|mut a| a.next())
+        .is_some_and(|a| {
+            std::net::TcpStream::connect_timeout(&a, std::time::Duration::from_millis(500)).is_ok()
+        })
 }
 
 /// Zenoh's message on one line, without the source location it appends.
