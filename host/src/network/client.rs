@@ -5,10 +5,10 @@ use std::time::Duration;
 
 use zenoh::{Session, Wait};
 
+use super::error::NetworkError;
 use super::keys;
 use super::local_key;
 use super::protocol::{Command, Reply, Request};
-use super::NetworkError;
 
 /// How long a tool waits for an answer.
 pub const ANSWER_TIMEOUT: Duration = Duration::from_secs(10);

@@ -13,13 +13,13 @@ use zenoh::query::Query;
 use zenoh::sample::SampleKind;
 use zenoh::{Session, Wait};
 
+use super::error::NetworkError;
 use super::keys;
 use super::local_key::KeyFile;
 use super::protocol::{self, Command, Reply, Request, MAX_REQUEST_BYTES};
 use super::publish::Publisher;
 use super::session;
 use super::settings::{Control, NetworkSettings};
-use super::NetworkError;
 use crate::ports::{Busy, SwapPolicy};
 use crate::system::{Link, Radar};
 use crate::trace::TraceSink;
@@ -481,7 +481,11 @@ impl Server {
 }
 
 /// `ctl ls`: the system, its plugins, its connections, a line each.
-fn ls(system: &str, control: Control, radar: &Radar) -> Result<Vec<String>, crate::RadarError> {
+fn ls(
+    system: &str,
+    control: Control,
+    radar: &Radar,
+) -> Result<Vec<String>, crate::error::RadarError> {
     let overview = radar.overview()?;
     let mut lines = vec![format!(
         "system {system} t={:.3}s control={} plugins={} connections={}",

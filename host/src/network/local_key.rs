@@ -11,7 +11,7 @@ use std::io::{Read, Write};
 use std::os::unix::fs::{DirBuilderExt, OpenOptionsExt, PermissionsExt};
 use std::path::PathBuf;
 
-use super::NetworkError;
+use super::error::NetworkError;
 
 /// Where the key of system `system` is kept for the current user.
 pub(super) fn path(system: &str) -> PathBuf {

@@ -5,8 +5,8 @@ use std::path::Path;
 
 use zenoh::{Config, Session, Wait};
 
+use super::error::NetworkError;
 use super::settings::NetworkSettings;
-use super::NetworkError;
 
 /// The largest message a Radar session takes (a `ctl swap` carries a
 /// whole component): anything larger ends the link that sent it.

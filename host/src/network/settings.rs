@@ -4,8 +4,8 @@ use std::path::PathBuf;
 
 use serde::Deserialize;
 
+use super::error::NetworkError;
 use super::keys::is_chunk;
-use super::NetworkError;
 
 /// Who may change a system from outside its process.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
