@@ -158,6 +158,10 @@ impl TimeBase {
     }
 
     /// Whether compute takes virtual time (fuel as time).
+    pub fn fuel_per_second(&self) -> Option<u64> {
+        self.0.fuel_per_second
+    }
+
     pub fn fuel_is_time(&self) -> bool {
         self.0.fuel_per_second.is_some()
     }

@@ -39,7 +39,7 @@ pub mod workspace;
 pub use clock::ClockKind;
 pub use error::RadarError;
 pub use payload::{Payload, PayloadType};
-pub use plugin::Limits;
+pub use plugin::{Agents, Limits};
 pub use ports::{
     Busy, ConnectionOverview, Mode, Overview, PluginOverview, PluginState, SwapPolicy,
 };

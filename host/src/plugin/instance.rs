@@ -12,6 +12,7 @@ use wasmtime::component::{Func, ResourceTable, Val};
 use wasmtime::{Store, Trap, WasmBacktrace};
 
 use super::code::PluginCode;
+use super::remote::{Remote, RemoteInstance};
 use super::limits::Limits;
 use super::store::PluginCtx;
 use crate::capability::clock::{ClockState, ClockView};
@@ -56,6 +57,8 @@ pub(crate) struct InstanceSetup {
     pub budget: Arc<MemoryBudget>,
     /// What stops a call from outside it (see [`crate::watchdog`]).
     pub watch: Arc<RunWatch>,
+    /// The agent the plugin runs on, if it is placed on one.
+    pub remote: Option<Remote>,
 }
 
 /// How a call into a plugin ended badly.
@@ -94,24 +97,62 @@ impl Fault {
         }
     }
 
-    fn missing(export: &str) -> Self {
+    pub(crate) fn missing(export: &str) -> Self {
         Self::new(format!("plugin has no `{export}` export"))
     }
 }
 
-/// One live instance of a plugin, in its own store.
+/// One live instance of a plugin: in its own store here, or on an agent
+/// (`super::remote`), called alike.
 pub(crate) struct PluginInstance {
+    inner: Inner,
+}
+
+enum Inner {
+    Local(LocalInstance),
+    Remote(RemoteInstance),
+}
+
+/// The functions Radar calls, as indexes into `PluginCode::exports`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Export {
+    Check = 0,
+    Start = 1,
+    Interrupt = 2,
+    Exit = 3,
+    Snapshot = 4,
+    Restore = 5,
+}
+
+impl Export {
+    /// The export's name.
+    pub(crate) fn name(self) -> &'static str {
+        super::code::EXPORTS[self as usize]
+    }
+
+    /// The export named `name`.
+    pub(crate) fn named(name: &str) -> Option<Self> {
+        [
+            Self::Check,
+            Self::Start,
+            Self::Interrupt,
+            Self::Exit,
+            Self::Snapshot,
+            Self::Restore,
+        ]
+        .into_iter()
+        .find(|e| e.name() == name)
+    }
+}
+
+/// One live instance of a plugin in its own store, in this process.
+pub(crate) struct LocalInstance {
     store: Store<PluginCtx>,
     _counted: crate::limits::LiveInstance,
     fuel_per_call: u64,
     fuel_used: Arc<AtomicU64>,
     stderr: StderrTail,
-    check: Option<Func>,
-    start: Option<Func>,
-    interrupt: Option<Func>,
-    exit: Option<Func>,
-    snapshot: Option<Func>,
-    restore: Option<Func>,
+    funcs: [Option<Func>; 6],
 }
 
 /// One line: the trap or the error chain, without the wasm backtrace
@@ -161,7 +202,27 @@ pub(crate) fn describe_fault(err: &wasmtime::Error) -> String {
 }
 
 impl PluginCode {
+    /// A new instance for `setup`: in this process, or on the agent the
+    /// plugin is placed on.
     pub async fn instantiate(&self, setup: InstanceSetup) -> Result<PluginInstance, Fault> {
+        let inner = match setup.remote.clone() {
+            Some(remote) => Inner::Remote(RemoteInstance::open(self, &setup, remote).await?),
+            None => Inner::Local(self.instantiate_here(setup).await?),
+        };
+        Ok(PluginInstance { inner })
+    }
+
+    /// Which of the functions Radar calls the component exports.
+    pub(crate) fn exported(&self) -> [bool; 6] {
+        let mut has = [false; 6];
+        for (i, export) in self.exports.iter().enumerate() {
+            has[i] = export.is_some();
+        }
+        has
+    }
+
+    /// A new instance in this process.
+    pub(crate) async fn instantiate_here(&self, setup: InstanceSetup) -> Result<LocalInstance, Fault> {
         let counted = crate::limits::room_for_instance().map_err(|e| Fault::new(e.to_string()))?;
         let real_clock = setup.base.kind() == ClockKind::Real;
         let stderr = StderrTail::default();
@@ -245,25 +306,37 @@ impl PluginCode {
                 .and_then(|i| instance.get_func(&mut store, i))
         });
         let mut next = || funcs.next().flatten();
-        let (check, start, interrupt) = (next(), next(), next());
-        let (exit, snapshot, restore) = (next(), next(), next());
-        Ok(PluginInstance {
+        let funcs = [next(), next(), next(), next(), next(), next()];
+        Ok(LocalInstance {
             store,
             _counted: counted,
             fuel_per_call: setup.limits.fuel_per_call,
             fuel_used: setup.fuel_used,
             stderr,
-            check,
-            start,
-            interrupt,
-            exit,
-            snapshot,
-            restore,
+            funcs,
         })
     }
 }
 
-impl PluginInstance {
+impl LocalInstance {
+    /// Whether the component exports `export`.
+    pub(crate) fn has(&self, export: Export) -> bool {
+        self.funcs[export as usize].is_some()
+    }
+
+    /// Calls `export` (which it must have).
+    pub(crate) async fn call_export(
+        &mut self,
+        export: Export,
+        params: &[Val],
+        has_result: bool,
+    ) -> Result<Option<Val>, Fault> {
+        let Some(func) = self.funcs[export as usize] else {
+            return Err(Fault::missing(export.name()));
+        };
+        self.call(func, export.name(), params, has_result).await
+    }
+
     /// Calls `export` (`func`) under the plugin's limits: fuel, a log
     /// budget, the watchdog (see [`crate::watchdog`]), and the payload size
     /// of its result. A panic of the host while serving the call (a bug of
@@ -359,14 +432,36 @@ impl PluginInstance {
         Ok(has_result.then_some(result))
     }
 
+}
+
+impl PluginInstance {
+    fn has(&self, export: Export) -> bool {
+        match &self.inner {
+            Inner::Local(local) => local.has(export),
+            Inner::Remote(remote) => remote.has(export),
+        }
+    }
+
+    async fn call(
+        &mut self,
+        export: Export,
+        params: &[Val],
+        has_result: bool,
+    ) -> Result<Option<Val>, Fault> {
+        if !self.has(export) {
+            return Err(Fault::missing(export.name()));
+        }
+        match &mut self.inner {
+            Inner::Local(local) => local.call_export(export, params, has_result).await,
+            Inner::Remote(remote) => remote.call(export, params, has_result).await,
+        }
+    }
+
     /// Runs `check`: `Some(payload)` when the event triggered (`Val::Tuple`
     /// of nothing for a payload-less trigger is never produced: `None` inside
     /// means triggered without payload).
     pub async fn check(&mut self) -> Result<Option<Option<Val>>, Fault> {
-        let Some(f) = self.check else {
-            return Err(Fault::missing("check"));
-        };
-        match self.call(f, "check", &[], true).await? {
+        match self.call(Export::Check, &[], true).await? {
             Some(Val::Bool(true)) => Ok(Some(None)),
             Some(Val::Option(Some(v))) => Ok(Some(Some(*v))),
             _ => Ok(None),
@@ -380,33 +475,32 @@ impl PluginInstance {
         payload: Option<Arc<Val>>,
         has_result: bool,
     ) -> Result<Option<Val>, Fault> {
-        let Some(f) = self.start else {
-            return Err(Fault::missing("start"));
-        };
         let params = payload.as_deref().map_or(&[][..], std::slice::from_ref);
-        self.call(f, "start", params, has_result).await
+        self.call(Export::Start, params, has_result).await
     }
 
     pub async fn interrupt(&mut self, payload: Option<Arc<Val>>) -> Result<(), Fault> {
-        let Some(f) = self.interrupt else {
+        if !self.has(Export::Interrupt) {
             return Ok(());
-        };
+        }
         let params = payload.as_deref().map_or(&[][..], std::slice::from_ref);
-        self.call(f, "interrupt", params, false).await.map(drop)
+        self.call(Export::Interrupt, params, false).await.map(drop)
     }
 
     pub async fn exit(&mut self) -> Result<(), Fault> {
-        let Some(f) = self.exit else { return Ok(()) };
-        self.call(f, "exit", &[], false).await.map(drop)
+        if !self.has(Export::Exit) {
+            return Ok(());
+        }
+        self.call(Export::Exit, &[], false).await.map(drop)
     }
 
     /// The plugin's state in its own format, if it exports `snapshot`.
     pub async fn snapshot(&mut self) -> Result<Option<Vec<u8>>, Fault> {
-        let Some(f) = self.snapshot else {
+        if !self.has(Export::Snapshot) {
             return Ok(None);
-        };
+        }
         let wrong = |what: &str| Fault::new(format!("`snapshot` returned {what}, not list<u8>"));
-        match self.call(f, "snapshot", &[], true).await? {
+        match self.call(Export::Snapshot, &[], true).await? {
             Some(Val::List(items)) => items
                 .into_iter()
                 .map(|b| match b {
@@ -422,17 +516,17 @@ impl PluginInstance {
 
     /// Whether the plugin exports `restore`.
     pub fn can_restore(&self) -> bool {
-        self.restore.is_some()
+        self.has(Export::Restore)
     }
 
     /// Hands `state` to the plugin's `restore`; `Err` inside is the error
     /// the plugin returned.
     pub async fn restore(&mut self, state: Vec<u8>) -> Result<Result<(), String>, Fault> {
-        let Some(f) = self.restore else {
+        if !self.has(Export::Restore) {
             return Ok(Ok(()));
-        };
+        }
         let bytes = Val::List(state.into_iter().map(Val::U8).collect());
-        match self.call(f, "restore", &[bytes], true).await? {
+        match self.call(Export::Restore, &[bytes], true).await? {
             Some(Val::Result(Err(error))) => Ok(Err(match error.as_deref() {
                 Some(Val::String(text)) => text.clone(),
                 _ => "restore returned an error".into(),

@@ -9,7 +9,7 @@ use crate::limiter::GrowthLimits;
 /// one plugin from taking the machine; a manifest's plugin table overrides
 /// any of them (`fuel`, `memory_bytes`, `table_elements`, `memories`,
 /// `tables`, `instances`, `log_bytes`, `payload_bytes`).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Limits {
     /// Fuel (roughly, wasm instructions) one call may use before it traps.
     pub fuel_per_call: u64,

@@ -15,6 +15,7 @@ mod code;
 mod instance;
 mod limits;
 mod loader;
+pub(crate) mod remote;
 mod store;
 mod world;
 
@@ -23,3 +24,4 @@ pub(crate) use code::{version_of, Kind, PluginCode};
 pub(crate) use instance::{describe_fault, Fault, InstanceSetup, PluginInstance};
 pub use limits::Limits;
 pub(crate) use loader::Loader;
+pub use remote::Agents;

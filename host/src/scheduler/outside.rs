@@ -84,7 +84,11 @@ impl State {
                     .into(),
                     state: self.state_of(pid).as_str().into(),
                     version: entry.def.code.version.clone(),
-                    node: "(coordinator)".into(),
+                    node: entry
+                        .def
+                        .remote
+                        .as_ref()
+                        .map_or_else(|| "(coordinator)".into(), |r| r.node.clone()),
                     queued: entry.queue.len() + usize::from(entry.next.is_some()),
                 }
             })

@@ -108,6 +108,8 @@ pub(crate) struct PluginDef {
     pub grants: Arc<Grants>,
     /// What of the host it sees through WASI.
     pub wasi: Arc<crate::capability::wasi::WasiGrants>,
+    /// The agent it runs on, if it is placed on one.
+    pub remote: Option<crate::plugin::remote::Remote>,
 }
 
 pub(super) struct PluginEntry {
@@ -358,6 +360,7 @@ impl State {
                 fuel_used: entry.fuel_used.clone(),
                 budget: self.budget.clone(),
                 watch: self.watch.clone(),
+                remote: entry.def.remote.clone(),
             },
         )
     }

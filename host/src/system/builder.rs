@@ -21,7 +21,8 @@ use crate::clock::duration_nanos;
 use crate::clock::ClockKind;
 use crate::error::RadarError;
 use crate::limiter::MemoryBudget;
-use crate::plugin::{default_cache_dir, Limits, Loader};
+use crate::plugin::remote::Remote;
+use crate::plugin::{default_cache_dir, Agents, Limits, Loader};
 use crate::ports::{Mode, SwapPolicy};
 use crate::scheduler::board::BoardUser;
 use crate::scheduler::{LinkSpec, LinkTarget, Place, PluginDef, StaticInput, StaticWhat};
@@ -54,6 +55,7 @@ pub struct SystemBuilder {
     period: Duration,
     memory_budget: Option<usize>,
     stall_timeout: Option<Duration>,
+    agents: Option<Agents>,
 }
 
 impl Default for SystemBuilder {
@@ -78,6 +80,7 @@ impl Default for SystemBuilder {
             period: Duration::from_millis(10),
             memory_budget: None,
             stall_timeout: Some(crate::watchdog::DEFAULT_STALL_TIMEOUT),
+            agents: None,
         }
     }
 }
@@ -90,6 +93,40 @@ impl System {
 }
 
 impl SystemBuilder {
+    /// Where plugin `p`, placed on `node`, runs, with its component's
+    /// bytes to ship there.
+    fn placement(agents: Option<&Agents>, p: &Plugin, node: &str) -> Result<Remote, RadarError> {
+        let refuse = |cause: String| RadarError::BadSetting {
+            plugin: p.name.clone(),
+            cause,
+        };
+        let Some(agents) = agents else {
+            return Err(refuse(format!(
+                "it is placed on agent `{node}` but the system is not on the network \
+                 (a [network] table)"
+            )));
+        };
+        if p.script.is_some() || !p.wasi.dirs.is_empty() {
+            return Err(refuse(
+                "a plugin on an agent cannot have a script or WASI directories yet".into(),
+            ));
+        }
+        let component = match &p.source {
+            Source::File(path) => std::fs::read(path).map_err(|e| RadarError::Read {
+                plugin: p.name.clone(),
+                path: path.clone(),
+                cause: e,
+            })?,
+            Source::Bytes(bytes) => bytes.clone(),
+        };
+        Ok(Remote {
+            node: node.to_string(),
+            system: agents.system.clone(),
+            link: agents.link.clone(),
+            component: Arc::new(component),
+        })
+    }
+
     /// The clock the system runs on (default: virtual).
     pub fn clock(mut self, clock: ClockKind) -> Self {
         self.clock = clock;
@@ -327,6 +364,14 @@ impl SystemBuilder {
         self
     }
 
+    /// How the system reaches the agents its plugins are placed on
+    /// ([`Plugin::on_node`](crate::Plugin::on_node)): made by
+    /// `radar::network`.
+    pub fn agents(mut self, agents: Agents) -> Self {
+        self.agents = Some(agents);
+        self
+    }
+
     /// Limits for plugins that do not set their own.
     pub fn default_limits(mut self, limits: Limits) -> Self {
         self.limits = limits;
@@ -361,6 +406,7 @@ impl SystemBuilder {
         let mut loader = Loader::new(self.cache_dir)?;
         let mut defs: Vec<PluginDef> = Vec::new();
         let mut names = std::collections::HashSet::new();
+        let agents = self.agents.clone();
         for p in self.plugins {
             if p.name.is_empty() || p.name.contains(|c: char| c == '.' || c.is_whitespace()) {
                 return Err(RadarError::BadName(p.name));
@@ -389,6 +435,10 @@ impl SystemBuilder {
             if let Some(main) = &p.script {
                 code = loader.with_script(&p.name, &code, main)?;
             }
+            let remote = match &p.node {
+                None => None,
+                Some(node) => Some(Self::placement(agents.as_ref(), &p, node)?),
+            };
             defs.push(PluginDef {
                 code: Rc::new(code),
                 config: Arc::new(p.config),
@@ -396,6 +446,7 @@ impl SystemBuilder {
                 period: duration_nanos(p.period.unwrap_or(self.period)),
                 grants: Arc::new(p.grants),
                 wasi: Arc::new(p.wasi),
+                remote,
                 name: p.name,
             });
         }

@@ -29,6 +29,7 @@ pub struct Plugin {
     pub(super) limits: Option<Limits>,
     pub(super) grants: Grants,
     pub(super) wasi: WasiGrants,
+    pub(super) node: Option<String>,
 }
 
 impl Plugin {
@@ -52,7 +53,17 @@ impl Plugin {
             limits: None,
             grants: Grants::default(),
             wasi: WasiGrants::default(),
+            node: None,
         }
+    }
+
+    /// Places the plugin on the agent named `node` (`radar agent --name
+    /// NODE`): its code runs there, the system's semantics here
+    /// (`docs/network.md`). The system needs
+    /// [`SystemBuilder::agents`](crate::SystemBuilder::agents).
+    pub fn on_node(mut self, node: impl Into<String>) -> Self {
+        self.node = Some(node.into());
+        self
     }
 
     /// Makes the plugin's component a development runtime (such as
