@@ -36,6 +36,9 @@ enum Cmd {
     /// [network] table): ls, connect, disconnect, inject, write, read,
     /// swap, reset, watch, stop.
     Ctl(cli::ctl::CtlArgs),
+    /// Runs the plugins coordinators place on this machine (manifests
+    /// say `node = "NAME"`), until Ctrl-C.
+    Agent(cli::agent::AgentArgs),
     /// Runs each plugin's `[plugins.X.build]` command.
     Build {
         /// The `radar.toml` (default: `radar.toml` here).
@@ -63,6 +66,7 @@ fn main() -> ExitCode {
         Some(Cmd::Run(args)) => cli::run::run(*args),
         Some(Cmd::Test(args)) => cli::test::test(args),
         Some(Cmd::Ctl(args)) => cli::ctl::ctl(args),
+        Some(Cmd::Agent(args)) => cli::agent::agent(args),
         Some(Cmd::Build { manifest }) => cli::workspace::build_all(manifest),
         Some(Cmd::New {
             kind,

@@ -71,6 +71,14 @@ pub struct Manifest {
     pub network: Option<crate::network::NetworkSettings>,
     #[serde(skip)]
     dir: PathBuf,
+    /// Whether plugins go to the agents their `node` names (not in a
+    /// replay, which runs the whole system here).
+    #[serde(skip, default = "placed")]
+    place_on_agents: bool,
+}
+
+fn placed() -> bool {
+    true
 }
 
 /// `[limits]`: what the whole system may take.
@@ -151,8 +159,8 @@ pub struct PluginEntry {
     /// Values the plugin reads through the `config` interface.
     #[serde(default)]
     pub config: BTreeMap<String, toml::Value>,
-    /// The agent the plugin is to run on (`docs/network.md`): not yet
-    /// supported, and refused with that reason.
+    /// The agent the plugin runs on (`radar agent --name NODE`,
+    /// `docs/network.md`); without it, the coordinator.
     pub node: Option<String>,
     /// An event's check period in milliseconds.
     pub period_ms: Option<u64>,
@@ -401,11 +409,19 @@ impl Manifest {
             }
         }
         for (name, entry) in &manifest.plugins {
-            if let Some(node) = &entry.node {
-                return Err(bad(format!(
-                    "plugins.{name}.node = \"{node}\": placing plugins on agents is not \
-                     supported yet; every plugin runs in the coordinator (docs/network.md)"
-                )));
+            match &entry.node {
+                Some(node) if manifest.network.is_none() => {
+                    return Err(bad(format!(
+                        "plugins.{name}.node = \"{node}\": placing a plugin on an agent needs \
+                         a [network] table (docs/network.md)"
+                    )));
+                }
+                Some(node) if !crate::network::keys::is_chunk(node) => {
+                    return Err(bad(format!(
+                        "plugins.{name}.node: `{node}` cannot be an agent's name"
+                    )));
+                }
+                _ => {}
             }
         }
         if let Some(network) = &manifest.network {
@@ -415,6 +431,20 @@ impl Manifest {
             manifest.link(c).map_err(bad)?;
         }
         Ok(manifest)
+    }
+
+    /// The agents the plugins are placed on, each once.
+    pub fn nodes(&self) -> Vec<String> {
+        let mut nodes: Vec<String> = self.plugins.values().filter_map(|p| p.node.clone()).collect();
+        nodes.sort();
+        nodes.dedup();
+        nodes
+    }
+
+    /// Runs every plugin here, whatever its `node` (a replay of a
+    /// distributed run on one machine).
+    pub fn run_everything_here(&mut self) {
+        self.place_on_agents = false;
     }
 
     /// The folder the manifest's paths are relative to.
@@ -460,6 +490,9 @@ impl Manifest {
             };
             if let Some(source) = &entry.source {
                 plugin = plugin.source(self.dir.join(source));
+            }
+            if let Some(node) = entry.node.as_ref().filter(|_| self.place_on_agents) {
+                plugin = plugin.on_node(node);
             }
             for (key, value) in &entry.config {
                 plugin = plugin.config(key, config_text(value));

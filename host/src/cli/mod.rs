@@ -2,6 +2,7 @@
 
 use std::io::Write;
 
+pub mod agent;
 pub mod ctl;
 pub mod run;
 pub mod test;

@@ -24,6 +24,9 @@ use super::say;
 /// chain of sleeps.
 const REAL_RECORDING_TOLERANCE: Duration = Duration::from_millis(50);
 
+/// How long a run waits for the agents its plugins are placed on.
+const AGENT_WAIT: Duration = Duration::from_secs(10);
+
 #[derive(clap::Args)]
 pub struct RunArgs {
     /// A `radar.toml` (docs/manifest.md); without it, the built-in example
@@ -336,13 +339,29 @@ pub fn run(args: RunArgs) -> Result<()> {
                 // Active events keep setting timers: virtual time never runs out.
                 anyhow::bail!("with the virtual clock, say how long to run (e.g. --for 30s)");
             }
-            let manifest = Manifest::load(path)?;
-            // A replay takes its inputs from the recording, not the network.
+            let mut manifest = Manifest::load(path)?;
+            // A replay takes its inputs from the recording, not the
+            // network, and runs the whole system here.
+            if replay.is_some() {
+                manifest.run_everything_here();
+            }
             if let Some(settings) = manifest.network.as_ref().filter(|_| replay.is_none()) {
                 let swaps =
                     std::env::temp_dir().join(format!("radar-ctl-swaps-{}", std::process::id()));
                 let net = Network::open(settings, manifest.dir(), swaps)?;
-                builder = builder.trace_to(net.publisher());
+                builder = builder.trace_to(net.publisher()).agents(net.agents());
+                let nodes = manifest.nodes();
+                if !nodes.is_empty() {
+                    let missing = net.wait_for_agents(&nodes, AGENT_WAIT);
+                    if !missing.is_empty() {
+                        eprintln!(
+                            "radar: agent(s) {} not reachable after {} s: their plugins fault \
+                             (node-lost) until they come",
+                            missing.join(", "),
+                            AGENT_WAIT.as_secs()
+                        );
+                    }
+                }
                 network = Some(net);
             }
             let system = manifest.add_to(builder).build()?;

@@ -14,12 +14,15 @@ use zenoh::sample::SampleKind;
 use zenoh::{Session, Wait};
 
 use super::error::NetworkError;
+use super::agents::ZenohAgents;
 use super::keys;
 use super::local_key::KeyFile;
 use super::protocol::{self, Command, Reply, Request, MAX_REQUEST_BYTES};
 use super::publish::Publisher;
 use super::session;
 use super::settings::{Control, NetworkSettings};
+use crate::plugin::remote::AgentLink;
+use crate::plugin::Agents;
 use crate::ports::{Busy, SwapPolicy};
 use crate::system::{Link, Radar};
 use crate::trace::TraceSink;
@@ -44,6 +47,7 @@ pub struct Network {
     thread: Option<JoinHandle<()>>,
     /// Where swapped-in components from `ctl swap` are written.
     swaps: PathBuf,
+    agents: Arc<ZenohAgents>,
 }
 
 /// Something that came in, for the control thread.
@@ -77,13 +81,15 @@ impl Network {
             _ => None,
         };
         let session = session::coordinator(settings, users.as_deref())?;
+        let (agents, declared) = ZenohAgents::open(&session, &settings.system)?;
         Ok(Self {
+            agents,
             settings: settings.clone(),
             session,
             key,
             left_out: Arc::default(),
             dropped: Arc::default(),
-            declared: Vec::new(),
+            declared,
             thread: None,
             swaps,
         })
@@ -111,6 +117,20 @@ impl Network {
             self.settings.system.clone(),
             self.left_out.clone(),
         )
+    }
+
+    /// How the system reaches its agents: give it to the builder.
+    pub fn agents(&self) -> Agents {
+        Agents::new(
+            self.settings.system.clone(),
+            self.agents.clone() as Arc<dyn AgentLink>,
+        )
+    }
+
+    /// Waits until the agents named are alive, at most `limit`: those
+    /// still missing (their plugins fault `node-lost` until they come).
+    pub fn wait_for_agents(&self, nodes: &[String], limit: Duration) -> Vec<String> {
+        self.agents.wait_for(nodes, limit)
     }
 
     /// Records the network fell too far behind to publish, and messages
@@ -182,6 +202,10 @@ impl Network {
             .wait()
             .map_err(|e| declare("the system's liveliness token", e))?;
         self.declared.push(Box::new(token));
+        let handle = radar.clone();
+        self.agents.on_agent(Box::new(move |node, came| {
+            let _ = handle.agent_changed(node, !came);
+        }));
         let server = Server {
             radar,
             session: self.session.clone(),

@@ -41,6 +41,29 @@ pub fn alive_plugin(system: &str, plugin: &str) -> String {
     format!("radar/{system}/alive/plugin/{plugin}")
 }
 
+/// What coordinators send agent `node`.
+pub fn agent_in(node: &str) -> String {
+    format!("radar/@agent/{node}/in")
+}
+
+/// What agent `node` sends the coordinator of `system`.
+pub fn agent_out(system: &str, node: &str) -> String {
+    format!("radar/{system}/agent/{node}")
+}
+
+/// Agent `node`'s liveliness token.
+pub fn agent_alive(node: &str) -> String {
+    format!("radar/@agent/{node}/alive")
+}
+
+/// Every agent's liveliness token.
+pub const ALL_AGENTS: &str = "radar/@agent/*/alive";
+
+/// The agent named by a liveliness key (`radar/@agent/<node>/alive`).
+pub fn agent_of(key: &str) -> Option<&str> {
+    key.strip_prefix("radar/@agent/")?.strip_suffix("/alive")
+}
+
 /// Every system's liveliness token, for discovery.
 pub const ALL_SYSTEMS: &str = "radar/*/alive";
 

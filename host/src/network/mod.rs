@@ -14,6 +14,8 @@
 //! This module is an edge: it drives the running system only through its
 //! handle ([`crate::Radar`]) and sees it only through trace records.
 
+mod agent;
+mod agents;
 pub mod client;
 mod control;
 mod error;
@@ -24,6 +26,7 @@ mod publish;
 mod session;
 mod settings;
 
+pub use agent::Agent;
 pub use control::Network;
 pub use error::NetworkError;
 pub use settings::{Control, NetworkSettings};

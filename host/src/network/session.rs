@@ -74,6 +74,14 @@ pub(super) fn coordinator(
         .map_err(|e| NetworkError::Session(one_line(&e.to_string())))
 }
 
+/// An agent's session: a peer on the endpoints given.
+pub(super) fn peer(listen: &[String], connect: &[String]) -> Result<Session, NetworkError> {
+    let config = base("peer", listen, connect, None)?;
+    zenoh::open(config)
+        .wait()
+        .map_err(|e| NetworkError::Session(one_line(&e.to_string())))
+}
+
 /// A tool's session (`radar ctl`): a client of the endpoints given, which
 /// fails at once if none can be reached.
 pub fn client(

@@ -21,7 +21,7 @@ mod world;
 
 pub(crate) use cache::default_cache_dir;
 pub(crate) use code::{version_of, Kind, PluginCode};
-pub(crate) use instance::{describe_fault, Fault, InstanceSetup, PluginInstance};
+pub(crate) use instance::{describe_fault, Export, Fault, InstanceSetup, PluginInstance};
 pub use limits::Limits;
 pub(crate) use loader::Loader;
 pub use remote::Agents;

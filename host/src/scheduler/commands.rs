@@ -90,6 +90,11 @@ pub(crate) enum Command {
     Overview {
         reply: Sender<crate::ports::Overview>,
     },
+    /// An agent's liveliness ended (`lost`) or came back.
+    Node {
+        node: String,
+        lost: bool,
+    },
     /// A command from outside was refused: recorded.
     Refused {
         command: String,
@@ -213,6 +218,7 @@ impl Command {
                 | Command::Disconnect { external: true, .. }
                 | Command::Reset { external: true, .. }
                 | Command::Refused { .. }
+                | Command::Node { .. }
                 | Command::Swap {
                     origin: Some(_),
                     ..

@@ -295,8 +295,15 @@ impl State {
         if let Some(u) = activation.and_then(|a| a.until) {
             self.disconnect(u, "until");
         }
+        // Starts it had accepted are dropped: with the fault, or with the
+        // agent it ran on.
+        let reason = if fault.cause.starts_with("node-lost") {
+            "node-lost"
+        } else {
+            "fault"
+        };
         for request in withdrawn {
-            self.withdraw_start(pid, request, "fault");
+            self.withdraw_start(pid, request, reason);
         }
         self.emit(
             pid,

@@ -45,6 +45,13 @@ impl Scheduler {
                     st.disconnect(id, reason);
                 }
             }),
+            Command::Node { node, lost } => core.with(|st| {
+                if lost {
+                    st.node_lost(&node);
+                } else {
+                    st.node_back(&node);
+                }
+            }),
             Command::Overview { reply } => {
                 let _ = reply.send(core.with(|st| st.overview()));
             }

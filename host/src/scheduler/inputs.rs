@@ -71,6 +71,8 @@ pub(crate) enum StaticWhat {
     Disconnect(u64),
     /// A faulted plugin reset from outside.
     Reset(String),
+    /// An agent lost.
+    NodeLost(String),
     /// A refused command's record.
     Refused {
         command: String,
@@ -238,6 +240,7 @@ impl State {
                 self.record_input(Input::Disconnect { id });
                 self.disconnect(id, "closed");
             }
+            Action::Outside(StaticWhat::NodeLost(node)) => self.node_lost(&node),
             Action::Outside(StaticWhat::Reset(plugin)) => {
                 let _ = self.request_reset(&plugin, true);
             }
@@ -288,6 +291,7 @@ impl State {
             }
             Action::Outside(StaticWhat::Disconnect(id)) => format!("the end of connection {id}"),
             Action::Outside(StaticWhat::Reset(plugin)) => format!("the reset of {plugin}"),
+            Action::Outside(StaticWhat::NodeLost(node)) => format!("the loss of agent {node}"),
             Action::Outside(_) => "a refused command".to_string(),
         };
         self.trace.divergence = Some(format!(

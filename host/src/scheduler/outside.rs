@@ -7,6 +7,7 @@
 use super::commands::{LinkSpec, LinkTarget};
 use super::state::{Lifecycle, State};
 use crate::error::RadarError;
+use crate::plugin::Fault;
 use crate::ports::{ConnectionOverview, Overview, PluginOverview, PluginState};
 use crate::trace::inputs::Input;
 use crate::trace::Entry;
@@ -56,6 +57,55 @@ impl State {
             from,
             reason,
         });
+    }
+
+    /// Agent `node` is lost: its plugins fault (`node-lost`), an
+    /// activation in progress as soon as its call next waits, an event at
+    /// its next check, an idle response now; the starts they had accepted
+    /// are dropped (`node-lost`). Recorded as an input.
+    pub(super) fn node_lost(&mut self, node: &str) {
+        self.record_input(Input::NodeLost {
+            node: node.to_string(),
+        });
+        let cause = format!("node-lost: agent `{node}` was lost (its liveliness token went)");
+        for pid in self.on_node(node) {
+            let entry = &self.plugins[pid];
+            if entry.lifecycle == Lifecycle::Error {
+                continue;
+            }
+            if entry.is_event() || entry.activation.is_some() {
+                entry.stop.request_fault(cause.clone());
+                self.plugins[pid].wake();
+            } else {
+                self.fault(pid, Fault::new(cause.clone()));
+            }
+        }
+    }
+
+    /// Agent `node` is back: its faulted plugins are instantiated again
+    /// (as by `reset`, recorded), and a fault not yet taken is withdrawn.
+    pub(super) fn node_back(&mut self, node: &str) {
+        for pid in self.on_node(node) {
+            let entry = &self.plugins[pid];
+            if entry.lifecycle == Lifecycle::Error {
+                let name = entry.def.name.clone();
+                let _ = self.request_reset(&name, true);
+            } else if entry.stop.fault().is_some_and(|c| c.starts_with("node-lost")) {
+                entry.stop.clear_fault();
+            }
+        }
+    }
+
+    fn on_node(&self, node: &str) -> Vec<usize> {
+        (0..self.plugins.len())
+            .filter(|pid| {
+                self.plugins[*pid]
+                    .def
+                    .remote
+                    .as_ref()
+                    .is_some_and(|r| r.node == node)
+            })
+            .collect()
     }
 
     /// A plugin's state as deliberative code sees it.

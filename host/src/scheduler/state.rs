@@ -412,6 +412,7 @@ impl State {
                 | Input::Disconnect { .. }
                 | Input::Reset { .. }
                 | Input::Refused { .. }
+                | Input::NodeLost { .. }
         );
         let virtual_clock = self.base.kind() == ClockKind::Virtual;
         let step = (placed && virtual_clock).then(|| self.moves_now());

@@ -278,6 +278,7 @@ impl SystemBuilder {
                 }
                 Input::Disconnect { id } => StaticWhat::Disconnect(*id),
                 Input::Reset { plugin } => StaticWhat::Reset(plugin.clone()),
+                Input::NodeLost { node } => StaticWhat::NodeLost(node.clone()),
                 Input::Refused {
                     command,
                     from,

@@ -255,6 +255,17 @@ impl Radar {
             .map_err(|_| RadarError::Stopped)
     }
 
+    /// Agent `node` was lost (`lost`) or came back: its plugins fault
+    /// with `node-lost`, or are instantiated again (`docs/network.md`).
+    pub fn agent_changed(&self, node: &str, lost: bool) -> Result<(), RadarError> {
+        self.tx
+            .send(Command::Node {
+                node: node.to_string(),
+                lost,
+            })
+            .map_err(|_| RadarError::Stopped)
+    }
+
     /// The system now: every plugin (kind, state, version, node) and every
     /// live connection (id, mode, busy policy, until).
     pub fn overview(&self) -> Result<crate::ports::Overview, RadarError> {

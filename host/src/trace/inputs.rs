@@ -123,6 +123,11 @@ pub enum Input {
         /// Why it was refused.
         reason: String,
     },
+    /// An agent was lost: its plugins faulted (`node-lost`).
+    NodeLost {
+        /// The agent.
+        node: String,
+    },
     /// A recording's first line: the clock it was made on.
     Recording {
         /// `virtual` or `real`.

@@ -1,0 +1,42 @@
+//! `radar agent --name NAME`: joins the network and runs the plugins
+//! coordinators place on it (`docs/network.md`), until Ctrl-C.
+
+use anyhow::Result;
+use radar::network::Agent;
+
+use super::say;
+
+#[derive(clap::Args)]
+pub struct AgentArgs {
+    /// The agent's name, as manifests place plugins on it (`node = "NAME"`).
+    #[arg(long)]
+    name: String,
+    /// A Zenoh endpoint to listen on (repeatable), e.g. tcp/0.0.0.0:7448.
+    #[arg(long)]
+    listen: Vec<String>,
+    /// A Zenoh endpoint to connect to (repeatable): the coordinator's, or
+    /// a peer's, e.g. tcp/192.168.1.10:7447.
+    #[arg(long)]
+    connect: Vec<String>,
+}
+
+pub fn agent(args: AgentArgs) -> Result<()> {
+    if args.listen.is_empty() && args.connect.is_empty() {
+        anyhow::bail!("say where to meet coordinators: --connect ENDPOINT or --listen ENDPOINT");
+    }
+    let agent = Agent::start(&args.name, &args.listen, &args.connect)?;
+    let (tx, rx) = crossbeam_channel::bounded::<()>(1);
+    let _ = ctrlc::set_handler(move || {
+        let _ = tx.try_send(());
+    });
+    let mut places: Vec<String> = args.listen.clone();
+    places.extend(args.connect.iter().map(|c| format!("→ {c}")));
+    say(format_args!(
+        "agent {} on {} (Ctrl-C to stop)",
+        agent.name(),
+        places.join(", ")
+    ));
+    let _ = rx.recv();
+    say(format_args!("agent {} stopped", agent.name()));
+    Ok(())
+}

@@ -1,0 +1,170 @@
+//! The coordinator's way to its agents ([`AgentLink`] over Zenoh): one
+//! inbox per placed plugin, the agents' liveliness followed, a lost agent
+//! said as such to every call waiting on it (`docs/network.md`).
+
+use std::collections::{HashMap, HashSet};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use crossbeam_channel::{unbounded, Receiver, RecvTimeoutError, Sender};
+use zenoh::qos::CongestionControl;
+use zenoh::sample::SampleKind;
+use zenoh::{Session, Wait};
+
+use super::error::NetworkError;
+use super::keys;
+use crate::plugin::remote::{AgentLink, FromAgent, ToAgent};
+
+/// What happens when an agent comes and goes: given the agent's name.
+pub(super) type OnAgent = Box<dyn Fn(&str, bool) + Send + Sync>;
+
+type Inbox = (Sender<FromAgent>, Receiver<FromAgent>);
+
+/// See the module docs.
+pub(super) struct ZenohAgents {
+    session: Session,
+    inboxes: Mutex<HashMap<(String, String), Inbox>>,
+    alive: Mutex<HashSet<String>>,
+    on_agent: Mutex<Option<OnAgent>>,
+}
+
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+impl ZenohAgents {
+    /// Follows the agents' liveliness and takes their messages to
+    /// `system`; the declarations live as long as the returned values.
+    pub(super) fn open(
+        session: &Session,
+        system: &str,
+    ) -> Result<(Arc<Self>, Vec<Box<dyn Send>>), NetworkError> {
+        let this = Arc::new(Self {
+            session: session.clone(),
+            inboxes: Mutex::default(),
+            alive: Mutex::default(),
+            on_agent: Mutex::default(),
+        });
+        let declare = |what: &str, e: zenoh::Error| NetworkError::Declare {
+            what: what.to_string(),
+            cause: e.to_string(),
+        };
+        let messages = {
+            let this = this.clone();
+            let prefix = format!("radar/{system}/agent/");
+            session
+                .declare_subscriber(format!("{prefix}*"))
+                .callback(move |sample| {
+                    let Some(node) = sample.key_expr().as_str().strip_prefix(&prefix) else {
+                        return;
+                    };
+                    let bytes = sample.payload().to_bytes();
+                    if let Ok(message) = serde_json::from_slice::<FromAgent>(&bytes) {
+                        let _ = this.inbox(node, message.plugin()).0.send(message);
+                    }
+                })
+                .wait()
+                .map_err(|e| declare("the agents' messages", e))?
+        };
+        let liveliness = {
+            let this = this.clone();
+            session
+                .liveliness()
+                .declare_subscriber(keys::ALL_AGENTS)
+                .history(true)
+                .callback(move |sample| {
+                    let Some(node) = keys::agent_of(sample.key_expr().as_str()) else {
+                        return;
+                    };
+                    let came = sample.kind() == SampleKind::Put;
+                    let changed = {
+                        let mut alive = lock(&this.alive);
+                        if came {
+                            alive.insert(node.to_string())
+                        } else {
+                            alive.remove(node)
+                        }
+                    };
+                    if came && changed {
+                        // What the lost instance had sent is stale.
+                        for ((n, _), (_, rx)) in lock(&this.inboxes).iter() {
+                            if n == node {
+                                while rx.try_recv().is_ok() {}
+                            }
+                        }
+                    }
+                    if changed {
+                        if let Some(on_agent) = lock(&this.on_agent).as_ref() {
+                            on_agent(node, came);
+                        }
+                    }
+                })
+                .wait()
+                .map_err(|e| declare("the agents' liveliness", e))?
+        };
+        Ok((this, vec![Box::new(messages), Box::new(liveliness)]))
+    }
+
+    /// Calls `on_agent` when an agent comes back or is lost.
+    pub(super) fn on_agent(&self, on_agent: OnAgent) {
+        *lock(&self.on_agent) = Some(on_agent);
+    }
+
+    /// Waits until every agent in `nodes` is alive, at most `limit`; the
+    /// ones still missing.
+    pub(super) fn wait_for(&self, nodes: &[String], limit: Duration) -> Vec<String> {
+        let began = Instant::now();
+        loop {
+            let missing: Vec<String> = {
+                let alive = lock(&self.alive);
+                nodes.iter().filter(|n| !alive.contains(*n)).cloned().collect()
+            };
+            if missing.is_empty() || began.elapsed() >= limit {
+                return missing;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    fn inbox(&self, node: &str, plugin: &str) -> Inbox {
+        lock(&self.inboxes)
+            .entry((node.to_string(), plugin.to_string()))
+            .or_insert_with(unbounded)
+            .clone()
+    }
+
+    fn is_alive(&self, node: &str) -> bool {
+        lock(&self.alive).contains(node)
+    }
+}
+
+impl AgentLink for ZenohAgents {
+    fn send(&self, node: &str, message: &ToAgent, component: &[u8]) -> Result<(), String> {
+        if !self.is_alive(node) {
+            return Err("is not reachable (no liveliness token)".into());
+        }
+        let mut bytes = serde_json::to_vec(message).map_err(|e| e.to_string())?;
+        if !component.is_empty() {
+            bytes.push(b'\n');
+            bytes.extend_from_slice(component);
+        }
+        self.session
+            .put(keys::agent_in(node), bytes)
+            .congestion_control(CongestionControl::Block)
+            .wait()
+            .map_err(|e| format!("cannot be sent to: {e}"))
+    }
+
+    fn recv(&self, node: &str, plugin: &str) -> Result<FromAgent, String> {
+        let (_, rx) = self.inbox(node, plugin);
+        loop {
+            match rx.recv_timeout(Duration::from_millis(20)) {
+                Ok(message) => return Ok(message),
+                Err(RecvTimeoutError::Timeout) if !self.is_alive(node) => {
+                    return Err("was lost (its liveliness token went)".into());
+                }
+                Err(_) => {}
+            }
+        }
+    }
+}
