@@ -435,10 +435,23 @@ impl Manifest {
 
     /// The agents the plugins are placed on, each once.
     pub fn nodes(&self) -> Vec<String> {
-        let mut nodes: Vec<String> = self.plugins.values().filter_map(|p| p.node.clone()).collect();
+        let mut nodes: Vec<String> = self
+            .plugins
+            .values()
+            .filter_map(|p| p.node.clone())
+            .collect();
         nodes.sort();
         nodes.dedup();
         nodes
+    }
+
+    /// Places every plugin on agent `node` (a test of a system on agents
+    /// against the same system in one process).
+    pub fn place_all_on(&mut self, node: &str) {
+        for entry in self.plugins.values_mut() {
+            entry.node = Some(node.to_string());
+        }
+        self.place_on_agents = true;
     }
 
     /// Runs every plugin here, whatever its `node` (a replay of a

@@ -159,6 +159,7 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, out: Outbox, loader: Arc<Mutex<Loade
         ToAgent::Instantiate {
             plugin,
             version,
+            script,
             config,
             limits,
             seed,
@@ -194,6 +195,10 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, out: Outbox, loader: Arc<Mutex<Loade
                 .lock()
                 .unwrap_or_else(|e| e.into_inner())
                 .load_bytes(&plugin, &component)
+                .map(|code| match script {
+                    Some(script) => code.with_script(Arc::from(script)),
+                    None => code,
+                })
                 .map_err(|e| Fault::new(e.to_string()));
             match code {
                 Ok(code) => {
@@ -364,7 +369,12 @@ impl Link {
 }
 
 impl RunningSystem for Link {
-    fn emit(&self, _plugin: &str, signal: SignalName, payload: Option<Val>) -> wasmtime::Result<()> {
+    fn emit(
+        &self,
+        _plugin: &str,
+        signal: SignalName,
+        payload: Option<Val>,
+    ) -> wasmtime::Result<()> {
         let payload = payload
             .as_ref()
             .map(WireVal::from_val)

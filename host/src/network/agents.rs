@@ -117,7 +117,11 @@ impl ZenohAgents {
         loop {
             let missing: Vec<String> = {
                 let alive = lock(&self.alive);
-                nodes.iter().filter(|n| !alive.contains(*n)).cloned().collect()
+                nodes
+                    .iter()
+                    .filter(|n| !alive.contains(*n))
+                    .cloned()
+                    .collect()
             };
             if missing.is_empty() || began.elapsed() >= limit {
                 return missing;

@@ -13,8 +13,8 @@ use zenoh::query::Query;
 use zenoh::sample::SampleKind;
 use zenoh::{Session, Wait};
 
-use super::error::NetworkError;
 use super::agents::ZenohAgents;
+use super::error::NetworkError;
 use super::keys;
 use super::local_key::KeyFile;
 use super::protocol::{self, Command, Reply, Request, MAX_REQUEST_BYTES};

@@ -53,8 +53,11 @@ pub(crate) struct PluginCode {
     pub(super) exports: Arc<[Option<ComponentExportIndex>; 6]>,
     /// The component's own version, and the script a development runtime
     /// runs, if this is one (see [`crate::script`]).
-    pub(super) component_version: Arc<str>,
-    pub(super) script: Option<Arc<str>>,
+    pub(crate) component_version: Arc<str>,
+    pub(crate) script: Option<Arc<str>>,
+    /// The component itself, shipped to an agent when the plugin is
+    /// placed on one.
+    pub(crate) bytes: Arc<[u8]>,
 }
 
 impl PluginCode {

@@ -12,8 +12,8 @@ use wasmtime::component::{Func, ResourceTable, Val};
 use wasmtime::{Store, Trap, WasmBacktrace};
 
 use super::code::PluginCode;
-use super::remote::{Remote, RemoteInstance};
 use super::limits::Limits;
+use super::remote::{Remote, RemoteInstance};
 use super::store::PluginCtx;
 use crate::capability::clock::{ClockState, ClockView};
 use crate::capability::config::ConfigState;
@@ -222,7 +222,10 @@ impl PluginCode {
     }
 
     /// A new instance in this process.
-    pub(crate) async fn instantiate_here(&self, setup: InstanceSetup) -> Result<LocalInstance, Fault> {
+    pub(crate) async fn instantiate_here(
+        &self,
+        setup: InstanceSetup,
+    ) -> Result<LocalInstance, Fault> {
         let counted = crate::limits::room_for_instance().map_err(|e| Fault::new(e.to_string()))?;
         let real_clock = setup.base.kind() == ClockKind::Real;
         let stderr = StderrTail::default();
@@ -431,7 +434,6 @@ impl LocalInstance {
         }
         Ok(has_result.then_some(result))
     }
-
 }
 
 impl PluginInstance {

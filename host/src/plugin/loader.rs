@@ -299,6 +299,7 @@ impl Loader {
             exports,
             component_version: digest[..12].into(),
             script: None,
+            bytes: bytes.into(),
         };
         self.prepared.insert(digest, code.clone());
         Ok(code)

@@ -28,8 +28,8 @@ use crate::capability::running::running;
 use crate::clock::{StopFlag, StopReason, TimeBase, YieldNow};
 use crate::ports::SignalName;
 
-/// Where a plugin placed on an agent runs, and its component (shipped to
-/// the agent at each instantiation).
+/// Where a plugin placed on an agent runs (its component, the version
+/// instantiated, is shipped there at each instantiation).
 #[derive(Clone)]
 pub(crate) struct Remote {
     /// The agent's name.
@@ -38,8 +38,6 @@ pub(crate) struct Remote {
     pub system: String,
     /// How to reach it.
     pub link: Arc<dyn AgentLink>,
-    /// The component's bytes.
-    pub component: Arc<Vec<u8>>,
 }
 
 /// A system's way to its agents, for
@@ -77,6 +75,8 @@ pub(crate) enum ToAgent {
         system: String,
         plugin: String,
         version: String,
+        /// A development runtime's script (`radar.source`), if it runs one.
+        script: Option<String>,
         config: BTreeMap<String, String>,
         limits: Limits,
         seed: u64,
@@ -392,14 +392,15 @@ impl RemoteInstance {
         let message = ToAgent::Instantiate {
             system: this.system.clone(),
             plugin: this.plugin.to_string(),
-            version: code.version.clone(),
+            version: code.component_version.to_string(),
+            script: code.script.as_deref().map(str::to_string),
             config: (*setup.config).clone(),
             limits: setup.limits.clone(),
             seed: setup.seed,
             fuel_per_second: setup.base.fuel_per_second(),
             now: setup.base.now(),
         };
-        this.send(&message, &this.remote.component)?;
+        this.send(&message, &code.bytes)?;
         match this.recv()? {
             FromAgent::Instantiated { result, .. } => result.map_err(Fault::from)?,
             other => return Err(this.confused(&other)),

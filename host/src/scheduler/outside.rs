@@ -90,7 +90,11 @@ impl State {
             if entry.lifecycle == Lifecycle::Error {
                 let name = entry.def.name.clone();
                 let _ = self.request_reset(&name, true);
-            } else if entry.stop.fault().is_some_and(|c| c.starts_with("node-lost")) {
+            } else if entry
+                .stop
+                .fault()
+                .is_some_and(|c| c.starts_with("node-lost"))
+            {
                 entry.stop.clear_fault();
             }
         }

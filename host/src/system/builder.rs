@@ -106,24 +106,17 @@ impl SystemBuilder {
                  (a [network] table)"
             )));
         };
-        if p.script.is_some() || !p.wasi.dirs.is_empty() {
+        if !p.wasi.dirs.is_empty() {
             return Err(refuse(
-                "a plugin on an agent cannot have a script or WASI directories yet".into(),
+                "a plugin on an agent cannot have WASI directories yet (they would be the \
+                 agent's)"
+                    .into(),
             ));
         }
-        let component = match &p.source {
-            Source::File(path) => std::fs::read(path).map_err(|e| RadarError::Read {
-                plugin: p.name.clone(),
-                path: path.clone(),
-                cause: e,
-            })?,
-            Source::Bytes(bytes) => bytes.clone(),
-        };
         Ok(Remote {
             node: node.to_string(),
             system: agents.system.clone(),
             link: agents.link.clone(),
-            component: Arc::new(component),
         })
     }
 

@@ -34,7 +34,7 @@ use serde::Deserialize;
 
 use crate::clock::ClockKind;
 use crate::manifest::{parse_duration, Manifest};
-use crate::plugin::Limits;
+use crate::plugin::{Agents, Limits};
 use crate::system::{RunReport, System};
 use crate::trace::compare::{compare, parse_values, Comparison};
 use crate::trace::inputs::{self, Input, TimedInput};
@@ -185,6 +185,7 @@ pub struct Scenario {
     settings: Settings,
     run_for: Duration,
     comparison: Comparison,
+    agents: Option<Agents>,
 }
 
 /// How a scenario went.
@@ -258,7 +259,17 @@ impl Scenario {
             settings,
             run_for,
             comparison,
+            agents: None,
         })
+    }
+
+    /// Runs every plugin of the scenario on agent `node`, reached through
+    /// `agents` (`docs/network.md`): its trace must be the one of the same
+    /// system in one process.
+    pub fn placed_on(mut self, node: &str, agents: Agents) -> Self {
+        self.manifest.place_all_on(node);
+        self.agents = Some(agents);
+        self
     }
 
     /// Runs the system under the virtual clock with the scenario's inputs
@@ -279,6 +290,9 @@ impl Scenario {
         }
         if let Some(rate) = self.settings.fuel.per_second {
             builder = builder.fuel_as_time(rate);
+        }
+        if let Some(agents) = &self.agents {
+            builder = builder.agents(agents.clone());
         }
         let builder = self.manifest.add_to(builder).inputs(&self.inputs);
         let system = builder.build().map_err(|e| e.to_string())?;

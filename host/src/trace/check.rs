@@ -44,7 +44,7 @@ use super::record::{Entry, Record};
 
 /// Reasons of a `dropped` record for a start that had been accepted (it was
 /// delivered, then left the queue without beginning).
-pub const WITHDRAWN: &[&str] = &["restarted", "fault", "swap-refused"];
+pub const WITHDRAWN: &[&str] = &["restarted", "fault", "node-lost", "swap-refused"];
 
 /// A rule a trace breaks.
 #[derive(Clone, Debug, PartialEq, Eq)]
