@@ -108,8 +108,16 @@ fn scenario_folders_give_the_same_trace_with_every_plugin_on_an_agent() {
             began.elapsed().as_secs_f64()
         );
     }
-    drop(net);
+    // They did run there: without the agent the same scenario faults.
     agent.kill();
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenarios/obstacle");
+    let alone = Scenario::load(&dir, "obstacle")
+        .expect("loads")
+        .placed_on("base", net.agents())
+        .run()
+        .expect("runs")
+        .trace_json_lines();
+    assert!(alone.contains("node-lost: agent `base`"), "{alone}");
 }
 
 /// The manifest of a system whose response runs on agent `base`: an

@@ -158,6 +158,7 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, out: Outbox, loader: Arc<Mutex<Loade
     let Ok((
         ToAgent::Instantiate {
             plugin,
+            name: plugin_name,
             version,
             script,
             config,
@@ -172,7 +173,7 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, out: Outbox, loader: Arc<Mutex<Loade
     else {
         return;
     };
-    let name: Arc<str> = Arc::from(plugin.as_str());
+    let name: Arc<str> = Arc::from(plugin_name.as_str());
     let base = TimeBase::with_fuel_time(ClockKind::Virtual, fuel_per_second);
     base.advance_to(now);
     let stop = Arc::new(StopFlag::default());
@@ -194,7 +195,7 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, out: Outbox, loader: Arc<Mutex<Loade
             let code = loader
                 .lock()
                 .unwrap_or_else(|e| e.into_inner())
-                .load_bytes(&plugin, &component)
+                .load_bytes(&plugin_name, &component)
                 .map(|code| match script {
                     Some(script) => code.with_script(Arc::from(script)),
                     None => code,

@@ -15,6 +15,10 @@ use super::error::NetworkError;
 use super::keys;
 use crate::plugin::remote::{AgentLink, FromAgent, ToAgent};
 
+/// How long a call may go without a word from its agent before the agent
+/// counts as lost (a call computes for well under a second on its fuel).
+const SILENCE: Duration = Duration::from_secs(60);
+
 /// What happens when an agent comes and goes: given the agent's name.
 pub(super) type OnAgent = Box<dyn Fn(&str, bool) + Send + Sync>;
 
@@ -161,14 +165,25 @@ impl AgentLink for ZenohAgents {
 
     fn recv(&self, node: &str, plugin: &str) -> Result<FromAgent, String> {
         let (_, rx) = self.inbox(node, plugin);
+        let began = Instant::now();
         loop {
             match rx.recv_timeout(Duration::from_millis(20)) {
                 Ok(message) => return Ok(message),
                 Err(RecvTimeoutError::Timeout) if !self.is_alive(node) => {
                     return Err("was lost (its liveliness token went)".into());
                 }
+                Err(_) if began.elapsed() > SILENCE => {
+                    return Err(format!(
+                        "stopped answering (nothing for {} s)",
+                        SILENCE.as_secs()
+                    ));
+                }
                 Err(_) => {}
             }
         }
+    }
+
+    fn forget(&self, node: &str, plugin: &str) {
+        lock(&self.inboxes).remove(&(node.to_string(), plugin.to_string()));
     }
 }

@@ -61,19 +61,25 @@ pub(crate) trait AgentLink: Send + Sync {
     /// instantiation. An error says the agent is lost.
     fn send(&self, node: &str, message: &ToAgent, component: &[u8]) -> Result<(), String>;
     /// Waits for agent `node`'s next message about `plugin`; an error says
-    /// the agent is lost (its liveliness ended) and why.
+    /// the agent is lost (its liveliness ended, or it stopped answering)
+    /// and why.
     fn recv(&self, node: &str, plugin: &str) -> Result<FromAgent, String>;
+    /// `plugin`'s messages are no longer wanted.
+    fn forget(&self, node: &str, plugin: &str);
 }
 
 /// A message from the coordinator to an agent.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(tag = "m", rename_all = "kebab-case")]
 pub(crate) enum ToAgent {
-    /// Make a new instance of `plugin` from the component that follows
-    /// (its first 12 hex digits of sha256 must be `version`).
+    /// Make a new instance of plugin `name` from the component that
+    /// follows (its first 12 hex digits of sha256 must be `version`);
+    /// `plugin` names this instance in every message after (a plugin may
+    /// have two at once: the old version and the new one of a swap).
     Instantiate {
         system: String,
         plugin: String,
+        name: String,
         version: String,
         /// A development runtime's script (`radar.source`), if it runs one.
         script: Option<String>,
@@ -368,7 +374,10 @@ pub(crate) fn node_lost(node: &str, why: &str) -> Fault {
 pub(crate) struct RemoteInstance {
     remote: Remote,
     system: String,
+    /// The plugin's name.
     plugin: Arc<str>,
+    /// This instance's name in messages: the plugin's and a number.
+    route: String,
     base: TimeBase,
     stop: Arc<StopFlag>,
     has: [bool; 6],
@@ -381,8 +390,11 @@ impl RemoteInstance {
         setup: &InstanceSetup,
         remote: Remote,
     ) -> Result<Self, Fault> {
+        static INSTANCES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let number = INSTANCES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let this = Self {
             system: remote.system.clone(),
+            route: format!("{}#{number}", setup.name),
             plugin: setup.name.clone(),
             base: setup.base.clone(),
             stop: setup.stop.clone(),
@@ -391,7 +403,8 @@ impl RemoteInstance {
         };
         let message = ToAgent::Instantiate {
             system: this.system.clone(),
-            plugin: this.plugin.to_string(),
+            plugin: this.route.clone(),
+            name: this.plugin.to_string(),
             version: code.component_version.to_string(),
             script: code.script.as_deref().map(str::to_string),
             config: (*setup.config).clone(),
@@ -424,7 +437,7 @@ impl RemoteInstance {
         let mut message = self
             .remote
             .link
-            .recv(&self.remote.node, &self.plugin)
+            .recv(&self.remote.node, &self.route)
             .map_err(|why| node_lost(&self.remote.node, &why))?;
         for line in message.logs() {
             self.base
@@ -444,7 +457,7 @@ impl RemoteInstance {
         self.send(
             &ToAgent::Answer {
                 system: self.system.clone(),
-                plugin: self.plugin.to_string(),
+                plugin: self.route.clone(),
                 result,
             },
             &[],
@@ -470,7 +483,7 @@ impl RemoteInstance {
         self.send(
             &ToAgent::Call {
                 system: self.system.clone(),
-                plugin: self.plugin.to_string(),
+                plugin: self.route.clone(),
                 export: export.name().to_string(),
                 args,
                 has_result,
@@ -496,7 +509,7 @@ impl RemoteInstance {
                     self.send(
                         &ToAgent::Wake {
                             system: self.system.clone(),
-                            plugin: self.plugin.to_string(),
+                            plugin: self.route.clone(),
                             now: self.base.now(),
                             stop: stop_code(&self.stop),
                             fault: self.stop.fault(),
@@ -543,11 +556,12 @@ impl RemoteInstance {
 
 impl Drop for RemoteInstance {
     fn drop(&mut self) {
+        self.remote.link.forget(&self.remote.node, &self.route);
         let _ = self.remote.link.send(
             &self.remote.node,
             &ToAgent::Drop {
                 system: self.system.clone(),
-                plugin: self.plugin.to_string(),
+                plugin: self.route.clone(),
             },
             &[],
         );
