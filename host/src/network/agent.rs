@@ -139,6 +139,7 @@ impl Outbox {
             .session
             .put(&self.key, bytes)
             .congestion_control(CongestionControl::Block)
+            .express(true)
             .wait();
     }
 }

@@ -24,6 +24,9 @@ pub(super) type OnAgent = Box<dyn Fn(&str, bool) + Send + Sync>;
 
 type Inbox = (Sender<FromAgent>, Receiver<FromAgent>);
 
+/// Zenoh declarations, alive as long as this is.
+pub(super) type Declared = Vec<Box<dyn Send>>;
+
 /// See the module docs.
 pub(super) struct ZenohAgents {
     session: Session,
@@ -42,7 +45,7 @@ impl ZenohAgents {
     pub(super) fn open(
         session: &Session,
         system: &str,
-    ) -> Result<(Arc<Self>, Vec<Box<dyn Send>>), NetworkError> {
+    ) -> Result<(Arc<Self>, Declared), NetworkError> {
         let this = Arc::new(Self {
             session: session.clone(),
             inboxes: Mutex::default(),
@@ -159,6 +162,7 @@ impl AgentLink for ZenohAgents {
         self.session
             .put(keys::agent_in(node), bytes)
             .congestion_control(CongestionControl::Block)
+            .express(true)
             .wait()
             .map_err(|e| format!("cannot be sent to: {e}"))
     }
