@@ -117,6 +117,9 @@ pub fn ctl(args: CtlArgs) -> Result<()> {
             for system in systems {
                 print_reply(client.request(&system, Command::Ls, &[]))?;
             }
+            for agent in client.agents()? {
+                say(format_args!("agent {agent} alive"));
+            }
             return Ok(());
         }
         Verb::Watch => {

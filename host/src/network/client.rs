@@ -56,6 +56,28 @@ impl Client {
         Ok(names)
     }
 
+    /// The names of the agents that are alive, sorted.
+    pub fn agents(&self) -> Result<Vec<String>, NetworkError> {
+        let replies = self
+            .session
+            .liveliness()
+            .get(keys::ALL_AGENTS)
+            .timeout(Duration::from_secs(2))
+            .wait()
+            .map_err(|e| NetworkError::Session(e.to_string()))?;
+        let mut names = Vec::new();
+        while let Ok(reply) = replies.recv() {
+            if let Ok(sample) = reply.result() {
+                if let Some(name) = keys::agent_of(sample.key_expr().as_str()) {
+                    names.push(name.to_string());
+                }
+            }
+        }
+        names.sort();
+        names.dedup();
+        Ok(names)
+    }
+
     /// The one system to talk to: `named`, or the only one alive.
     pub fn pick(&self, named: Option<&str>) -> Result<String, String> {
         let alive = self.systems().map_err(|e| e.to_string())?;
