@@ -67,8 +67,7 @@ fn network(system: &str, listen: &str, connect: &str) -> Network {
         "system = \"{system}\"\nlisten = [\"{listen}\"]\nconnect = [\"{connect}\"]\ncontrol = \"open\""
     ))
     .expect("settings");
-    let swaps = std::env::temp_dir().join("radar-bench-network-swaps");
-    Network::open(&settings, Path::new("."), swaps).expect("network")
+    Network::open(&settings, Path::new(".")).expect("network")
 }
 
 /// Trigger → start-returned of R, in µs: from E's `triggered` to the end
@@ -106,9 +105,10 @@ fn trigger_to_start(secs: u64, net: Option<&Network>) -> Vec<f64> {
     out
 }
 
-/// A bare Zenoh round trip between two sessions on loopback, in µs.
-/// `express`: sent at once rather than batched, as Radar sends a call.
-fn bare_round_trip(secs: u64, express: bool) -> Vec<f64> {
+/// A bare Zenoh round trip between two sessions on loopback, and its
+/// first hop (put → subscriber), in µs. `express`: sent at once rather than
+/// batched, as Radar sends a call.
+fn bare_round_trip(secs: u64, express: bool) -> (Vec<f64>, Vec<f64>) {
     let endpoint = format!("tcp/127.0.0.1:{}", free_port());
     let open = |mode: &str, listen: bool| {
         let mut config = zenoh::Config::default();
@@ -131,9 +131,11 @@ fn bare_round_trip(secs: u64, express: bool) -> Vec<f64> {
     let server = open("peer", true);
     let client = open("peer", false);
     let echo = server.clone();
+    let (hop_tx, hop_rx) = mpsc::channel();
     let _pong = server
         .declare_subscriber("bench/ping")
         .callback(move |s| {
+            let _ = hop_tx.send(Instant::now());
             let _ = echo
                 .put("bench/pong", s.payload().clone())
                 .express(express)
@@ -151,6 +153,7 @@ fn bare_round_trip(secs: u64, express: bool) -> Vec<f64> {
         .expect("subscriber");
     std::thread::sleep(Duration::from_millis(500));
     let mut out = Vec::new();
+    let mut hops = Vec::new();
     let end = Instant::now() + Duration::from_secs(secs);
     while Instant::now() < end {
         let sent = Instant::now();
@@ -162,9 +165,12 @@ fn bare_round_trip(secs: u64, express: bool) -> Vec<f64> {
         if let Ok(back) = rx.recv_timeout(Duration::from_secs(1)) {
             out.push(back.duration_since(sent).as_secs_f64() * 1e6);
         }
+        if let Ok(there) = hop_rx.recv_timeout(Duration::from_secs(1)) {
+            hops.push(there.duration_since(sent).as_secs_f64() * 1e6);
+        }
         std::thread::sleep(Duration::from_millis(10));
     }
-    out
+    (out, hops)
 }
 
 /// Signals a second, E → R both on the agent (or here), virtual clock.

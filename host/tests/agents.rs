@@ -68,9 +68,7 @@ fn scenario_folders_give_the_same_trace_with_every_plugin_on_an_agent() {
     ))
     .expect("settings");
     assert_eq!(settings.control, Control::Open);
-    let swaps = tempfile::tempdir().expect("temp dir");
-    let net = Network::open(&settings, Path::new("."), swaps.path().to_path_buf())
-        .expect("the network opens");
+    let net = Network::open(&settings, Path::new(".")).expect("the network opens");
     assert!(net
         .wait_for_agents(&["base".to_string()], Duration::from_secs(20))
         .is_empty());

@@ -450,6 +450,10 @@ fn garbage_on_every_key_never_stalls_the_run_and_good_messages_still_work() {
         "radar/flooded/inject/Avoid/start",
         "radar/flooded/inject/Nobody/start",
         "radar/flooded/inject/Avoid/explode",
+        "radar/flooded/write",
+        // What agents and coordinators say to each other.
+        "radar/flooded/agent/base",
+        "radar/@agent/base/in",
     ];
     let began = Instant::now();
     for round in 0..200 {

@@ -18,13 +18,24 @@ pub struct AgentArgs {
     /// a peer's, e.g. tcp/192.168.1.10:7447.
     #[arg(long)]
     connect: Vec<String>,
+    /// The user to present to a coordinator with control = "authenticated".
+    #[arg(long)]
+    user: Option<String>,
+    /// The user's password (or set RADAR_PASSWORD).
+    #[arg(long, env = "RADAR_PASSWORD", hide_env_values = true)]
+    password: Option<String>,
 }
 
 pub fn agent(args: AgentArgs) -> Result<()> {
     if args.listen.is_empty() && args.connect.is_empty() {
         anyhow::bail!("say where to meet coordinators: --connect ENDPOINT or --listen ENDPOINT");
     }
-    let agent = Agent::start(&args.name, &args.listen, &args.connect)?;
+    let credentials = match (&args.user, &args.password) {
+        (Some(user), Some(password)) => Some((user.as_str(), password.as_str())),
+        (Some(_), None) => anyhow::bail!("--user needs --password (or RADAR_PASSWORD)"),
+        _ => None,
+    };
+    let agent = Agent::start(&args.name, &args.listen, &args.connect, credentials)?;
     let (tx, rx) = crossbeam_channel::bounded::<()>(1);
     let _ = ctrlc::set_handler(move || {
         let _ = tx.try_send(());

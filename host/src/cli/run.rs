@@ -346,9 +346,7 @@ pub fn run(args: RunArgs) -> Result<()> {
                 manifest.run_everything_here();
             }
             if let Some(settings) = manifest.network.as_ref().filter(|_| replay.is_none()) {
-                let swaps =
-                    std::env::temp_dir().join(format!("radar-ctl-swaps-{}", std::process::id()));
-                let net = Network::open(settings, manifest.dir(), swaps)?;
+                let net = Network::open(settings, manifest.dir())?;
                 builder = builder.trace_to(net.publisher()).agents(net.agents());
                 let nodes = manifest.nodes();
                 if !nodes.is_empty() {
@@ -408,9 +406,6 @@ pub fn run(args: RunArgs) -> Result<()> {
             );
         }
         drop(net);
-        let _ = std::fs::remove_dir_all(
-            std::env::temp_dir().join(format!("radar-ctl-swaps-{}", std::process::id())),
-        );
     }
     if let Some(at) = report.livelock {
         anyhow::bail!(

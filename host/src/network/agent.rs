@@ -14,6 +14,7 @@ use std::task::{Context, Poll, Wake, Waker};
 use crossbeam_channel::{unbounded, Receiver, Sender};
 use wasmtime::component::Val;
 use zenoh::qos::CongestionControl;
+use zenoh::sample::SampleKind;
 use zenoh::{Session, Wait};
 
 use super::error::NetworkError;
@@ -39,18 +40,24 @@ type Inbox = Sender<(ToAgent, Vec<u8>)>;
 impl Agent {
     /// Joins the network on `listen`/`connect` as agent `name` and starts
     /// taking plugins.
-    pub fn start(name: &str, listen: &[String], connect: &[String]) -> Result<Self, NetworkError> {
+    pub fn start(
+        name: &str,
+        listen: &[String],
+        connect: &[String],
+        credentials: Option<(&str, &str)>,
+    ) -> Result<Self, NetworkError> {
         if !keys::is_chunk(name) {
             return Err(NetworkError::Settings(format!(
                 "agent name `{name}` cannot be part of a key expression"
             )));
         }
-        let session = super::session::peer(listen, connect)?;
+        let session = super::session::peer(listen, connect, credentials)?;
         let loader = Arc::new(Mutex::new(
             Loader::new(crate::plugin::default_cache_dir())
                 .map_err(|e| NetworkError::Settings(e.to_string()))?,
         ));
         let workers: Arc<Mutex<HashMap<(String, String), Inbox>>> = Arc::default();
+        let callback_workers = workers.clone();
         let declare = |what: &str, e: zenoh::Error| NetworkError::Declare {
             what: what.to_string(),
             cause: e.to_string(),
@@ -70,7 +77,7 @@ impl Agent {
                     };
                     let (system, plugin) = message.about();
                     let key = (system.to_string(), plugin.to_string());
-                    let mut workers = workers.lock().unwrap_or_else(|e| e.into_inner());
+                    let mut workers = callback_workers.lock().unwrap_or_else(|e| e.into_inner());
                     if matches!(message, ToAgent::Instantiate { .. }) {
                         // A new instance: a fresh worker (the old one ends
                         // when its inbox closes).
@@ -90,8 +97,25 @@ impl Agent {
                         }
                     }
                     let ends = matches!(message, ToAgent::Drop { .. });
-                    if let Some(tx) = workers.get(&key) {
-                        let _ = tx.send((message, component.to_vec()));
+                    match workers.get(&key) {
+                        Some(tx) => {
+                            let _ = tx.send((message, component.to_vec()));
+                        }
+                        // An instance this agent does not have (it
+                        // restarted since): said at once, so the call
+                        // faults instead of waiting.
+                        None if !ends => Outbox {
+                            session: session.clone(),
+                            key: keys::agent_out(&key.0, &node),
+                        }
+                        .send(&FromAgent::Returned {
+                            plugin: key.1.clone(),
+                            result: Err(WireFault::from(Fault::new(
+                                "node-lost: the agent does not have this instance (it restarted)",
+                            ))),
+                            logs: Vec::new(),
+                        }),
+                        None => {}
                     }
                     if ends {
                         workers.remove(&key);
@@ -99,6 +123,26 @@ impl Agent {
                 })
                 .wait()
                 .map_err(|e| declare("the agent's inbox", e))?
+        };
+        // A coordinator that is gone leaves no worker behind.
+        let systems = {
+            let workers = workers.clone();
+            session
+                .liveliness()
+                .declare_subscriber(keys::ALL_SYSTEMS)
+                .callback(move |sample| {
+                    if sample.kind() != SampleKind::Delete {
+                        return;
+                    }
+                    if let Some(system) = keys::system_of(sample.key_expr().as_str()) {
+                        workers
+                            .lock()
+                            .unwrap_or_else(|e| e.into_inner())
+                            .retain(|(s, _), _| s != system);
+                    }
+                })
+                .wait()
+                .map_err(|e| declare("the systems' liveliness", e))?
         };
         let token = session
             .liveliness()
@@ -108,7 +152,7 @@ impl Agent {
         Ok(Self {
             name: name.to_string(),
             session,
-            _declared: vec![Box::new(inbox), Box::new(token)],
+            _declared: vec![Box::new(inbox), Box::new(systems), Box::new(token)],
         })
     }
 

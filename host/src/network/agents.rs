@@ -6,7 +6,7 @@ use std::collections::{HashMap, HashSet};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use crossbeam_channel::{unbounded, Receiver, RecvTimeoutError, Sender};
+use crossbeam_channel::{bounded, Receiver, RecvTimeoutError, Sender};
 use zenoh::qos::CongestionControl;
 use zenoh::sample::SampleKind;
 use zenoh::{Session, Wait};
@@ -18,6 +18,10 @@ use crate::plugin::remote::{AgentLink, FromAgent, ToAgent};
 /// How long a call may go without a word from its agent before the agent
 /// counts as lost (a call computes for well under a second on its fuel).
 const SILENCE: Duration = Duration::from_secs(60);
+
+/// Messages from an agent waiting for one instance, at most (a call has
+/// at most one outstanding).
+const INBOX: usize = 64;
 
 /// What happens when an agent comes and goes: given the agent's name.
 pub(super) type OnAgent = Box<dyn Fn(&str, bool) + Send + Sync>;
@@ -67,7 +71,12 @@ impl ZenohAgents {
                     };
                     let bytes = sample.payload().to_bytes();
                     if let Ok(message) = serde_json::from_slice::<FromAgent>(&bytes) {
-                        let _ = this.inbox(node, message.plugin()).0.send(message);
+                        // Only to an instance the coordinator opened, and
+                        // bounded: a flood cannot grow it.
+                        let key = (node.to_string(), message.plugin().to_string());
+                        if let Some((tx, _)) = lock(&this.inboxes).get(&key) {
+                            let _ = tx.try_send(message);
+                        }
                     }
                 })
                 .wait()
@@ -137,15 +146,10 @@ impl ZenohAgents {
         }
     }
 
-    fn inbox(&self, node: &str, plugin: &str) -> Inbox {
+    fn inbox(&self, node: &str, route: &str) -> Option<Inbox> {
         lock(&self.inboxes)
-            .entry((node.to_string(), plugin.to_string()))
-            .or_insert_with(unbounded)
-            .clone()
-    }
-
-    fn is_alive(&self, node: &str) -> bool {
-        lock(&self.alive).contains(node)
+            .get(&(node.to_string(), route.to_string()))
+            .cloned()
     }
 }
 
@@ -167,27 +171,43 @@ impl AgentLink for ZenohAgents {
             .map_err(|e| format!("cannot be sent to: {e}"))
     }
 
-    fn recv(&self, node: &str, plugin: &str) -> Result<FromAgent, String> {
-        let (_, rx) = self.inbox(node, plugin);
+    fn open(&self, node: &str, route: &str) {
+        lock(&self.inboxes).insert((node.to_string(), route.to_string()), bounded(INBOX));
+    }
+
+    fn recv(
+        &self,
+        node: &str,
+        route: &str,
+        give_up: &dyn Fn() -> bool,
+    ) -> Result<FromAgent, Option<String>> {
+        let Some((_, rx)) = self.inbox(node, route) else {
+            return Err(Some("has no such instance".into()));
+        };
         let began = Instant::now();
         loop {
             match rx.recv_timeout(Duration::from_millis(20)) {
                 Ok(message) => return Ok(message),
+                Err(_) if give_up() => return Err(None),
                 Err(RecvTimeoutError::Timeout) if !self.is_alive(node) => {
-                    return Err("was lost (its liveliness token went)".into());
+                    return Err(Some("was lost (its liveliness token went)".into()));
                 }
                 Err(_) if began.elapsed() > SILENCE => {
-                    return Err(format!(
+                    return Err(Some(format!(
                         "stopped answering (nothing for {} s)",
                         SILENCE.as_secs()
-                    ));
+                    )));
                 }
                 Err(_) => {}
             }
         }
     }
 
-    fn forget(&self, node: &str, plugin: &str) {
-        lock(&self.inboxes).remove(&(node.to_string(), plugin.to_string()));
+    fn forget(&self, node: &str, route: &str) {
+        lock(&self.inboxes).remove(&(node.to_string(), route.to_string()));
+    }
+
+    fn is_alive(&self, node: &str) -> bool {
+        lock(&self.alive).contains(node)
     }
 }

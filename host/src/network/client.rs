@@ -103,10 +103,13 @@ impl Client {
         command: Command,
         component: &[u8],
     ) -> Result<Reply, String> {
+        // The key goes only with a change: a reading needs none, and the
+        // fewer messages carry it the better.
+        let key = command.changes().then(|| local_key::read(system)).flatten();
         let request = Request {
             command,
             sender: Some(whoami()),
-            key: local_key::read(system),
+            key,
         };
         let mut payload = serde_json::to_vec(&request).map_err(|e| e.to_string())?;
         if !component.is_empty() {

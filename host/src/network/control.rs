@@ -2,6 +2,7 @@
 //! and the control thread that carries out what `radar ctl` and puts ask,
 //! if `control` lets them in.
 
+use std::os::unix::fs::{DirBuilderExt, MetadataExt, OpenOptionsExt};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -63,13 +64,9 @@ enum Incoming {
 impl Network {
     /// Opens the session the settings describe (listening where they
     /// say, nowhere else), and under `control = "local"` writes the
-    /// control key. `base` is the manifest's folder (for `users`), `swaps`
-    /// where components sent by `ctl swap` are kept.
-    pub fn open(
-        settings: &NetworkSettings,
-        base: &Path,
-        swaps: PathBuf,
-    ) -> Result<Self, NetworkError> {
+    /// control key. `base` is the manifest's folder (for `users`).
+    pub fn open(settings: &NetworkSettings, base: &Path) -> Result<Self, NetworkError> {
+        let swaps = super::local_key::dir().join(format!("swaps-{}", std::process::id()));
         settings.validate()?;
         let users = settings
             .users
@@ -225,6 +222,7 @@ impl Network {
 
 impl Drop for Network {
     fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.swaps);
         // Undeclaring drops the callbacks' senders: the thread ends.
         self.declared.clear();
         if let Some(thread) = self.thread.take() {
@@ -232,6 +230,12 @@ impl Drop for Network {
         }
         let _ = self.session.close().wait();
     }
+}
+
+/// Whether two keys are equal, in a time that does not depend on where
+/// they differ.
+fn same(a: &[u8], b: &[u8]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
 }
 
 fn answer(query: &Query, reply: &Reply) -> zenoh::Result<()> {
@@ -290,7 +294,7 @@ impl Server {
     fn allowed(&self, key: Option<&[u8]>) -> Result<(), String> {
         match (&self.control, &self.key) {
             (Control::Local, Some((expected, path))) => {
-                if key == Some(expected.as_bytes()) {
+                if key.is_some_and(|k| same(k, expected.as_bytes())) {
                     Ok(())
                 } else {
                     Err(format!(
@@ -454,9 +458,29 @@ impl Server {
             .and_then(|e| e.to_str())
             .filter(|e| e.chars().all(|c| c.is_ascii_alphanumeric()))
             .unwrap_or("wasm");
-        std::fs::create_dir_all(&self.swaps)?;
+        // Only this user may write (or swap a file into) the folder.
+        std::fs::DirBuilder::new()
+            .recursive(true)
+            .mode(0o700)
+            .create(&self.swaps)?;
+        let meta = std::fs::symlink_metadata(&self.swaps)?;
+        if !meta.is_dir()
+            || meta.uid() != rustix::process::getuid().as_raw()
+            || meta.mode() & 0o077 != 0
+        {
+            return Err(std::io::Error::other(format!(
+                "{} is not a folder only this user can write",
+                self.swaps.display()
+            )));
+        }
         let path = self.swaps.join(format!("{hex}.{ext}"));
-        std::fs::write(&path, bytes)?;
+        let _ = std::fs::remove_file(&path);
+        std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .mode(0o600)
+            .open(&path)
+            .and_then(|mut f| std::io::Write::write_all(&mut f, bytes))?;
         Ok(path)
     }
 
@@ -472,7 +496,8 @@ impl Server {
         } else if let Some(port) = rest.strip_prefix("/inject/") {
             ("inject", port.replacen('/', ".", 1))
         } else {
-            return;
+            let reason = "a put on a key that names no entry or slot".to_string();
+            return self.refuse("write", &from, &reason);
         };
         let summary = format!("{command} {target}");
         if let Err(reason) = self.allowed(attachment) {

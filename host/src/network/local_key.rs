@@ -13,13 +13,18 @@ use std::path::PathBuf;
 
 use super::error::NetworkError;
 
-/// Where the key of system `system` is kept for the current user.
-pub(super) fn path(system: &str) -> PathBuf {
-    let dir = match std::env::var_os("XDG_RUNTIME_DIR").filter(|d| !d.is_empty()) {
+/// The current user's folder for Radar's keys and the components `ctl
+/// swap` sends.
+pub(super) fn dir() -> PathBuf {
+    match std::env::var_os("XDG_RUNTIME_DIR").filter(|d| !d.is_empty()) {
         Some(dir) => PathBuf::from(dir).join("radar"),
         None => PathBuf::from(format!("/tmp/radar-{}", rustix::process::getuid().as_raw())),
-    };
-    dir.join(format!("{system}.key"))
+    }
+}
+
+/// Where the key of system `system` is kept for the current user.
+pub(super) fn path(system: &str) -> PathBuf {
+    dir().join(format!("{system}.key"))
 }
 
 /// A file holding a new random key for `system`, removed when dropped.

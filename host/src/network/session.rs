@@ -31,6 +31,9 @@ fn base(
     set(&mut config, "listen/endpoints", serde_json::json!(listen))?;
     set(&mut config, "connect/endpoints", serde_json::json!(connect))?;
     set(&mut config, "scouting/multicast/enabled", false.into())?;
+    // Nor connect to peers that other peers tell of: only to the
+    // endpoints given.
+    set(&mut config, "scouting/gossip/enabled", false.into())?;
     set(
         &mut config,
         "transport/link/rx/max_message_size",
@@ -75,8 +78,12 @@ pub(super) fn coordinator(
 }
 
 /// An agent's session: a peer on the endpoints given.
-pub(super) fn peer(listen: &[String], connect: &[String]) -> Result<Session, NetworkError> {
-    let config = base("peer", listen, connect, None)?;
+pub(super) fn peer(
+    listen: &[String],
+    connect: &[String],
+    credentials: Option<(&str, &str)>,
+) -> Result<Session, NetworkError> {
+    let config = base("peer", listen, connect, credentials)?;
     zenoh::open(config)
         .wait()
         .map_err(|e| NetworkError::Session(one_line(&e.to_string())))

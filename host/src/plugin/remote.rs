@@ -60,12 +60,23 @@ pub(crate) trait AgentLink: Send + Sync {
     /// Sends `message` to agent `node`, with `component` after it for an
     /// instantiation. An error says the agent is lost.
     fn send(&self, node: &str, message: &ToAgent, component: &[u8]) -> Result<(), String>;
-    /// Waits for agent `node`'s next message about `plugin`; an error says
-    /// the agent is lost (its liveliness ended, or it stopped answering)
-    /// and why.
-    fn recv(&self, node: &str, plugin: &str) -> Result<FromAgent, String>;
-    /// `plugin`'s messages are no longer wanted.
-    fn forget(&self, node: &str, plugin: &str);
+    /// Opens the inbox of instance `route` on `node`: messages for a route
+    /// that was not opened are dropped.
+    fn open(&self, node: &str, route: &str);
+    /// Waits for agent `node`'s next message about instance `route`; an
+    /// error says the agent is lost (its liveliness ended, or it stopped
+    /// answering) and why. Gives up when `give_up` says so (the run is
+    /// being stopped), with `None`.
+    fn recv(
+        &self,
+        node: &str,
+        route: &str,
+        give_up: &dyn Fn() -> bool,
+    ) -> Result<FromAgent, Option<String>>;
+    /// Instance `route`'s messages are no longer wanted.
+    fn forget(&self, node: &str, route: &str);
+    /// Whether agent `node` is alive now.
+    fn is_alive(&self, node: &str) -> bool;
 }
 
 /// A message from the coordinator to an agent.
@@ -370,6 +381,14 @@ pub(crate) fn node_lost(node: &str, why: &str) -> Fault {
     Fault::new(format!("node-lost: agent `{node}` {why}"))
 }
 
+/// 64 random bits, as hex.
+fn nonce() -> String {
+    let mut bytes = [0u8; 8];
+    let _ = std::fs::File::open("/dev/urandom")
+        .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut bytes));
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
 /// A live instance on an agent, seen from the coordinator.
 pub(crate) struct RemoteInstance {
     remote: Remote,
@@ -380,6 +399,7 @@ pub(crate) struct RemoteInstance {
     route: String,
     base: TimeBase,
     stop: Arc<StopFlag>,
+    watch: Arc<crate::watchdog::RunWatch>,
     has: [bool; 6],
 }
 
@@ -392,9 +412,13 @@ impl RemoteInstance {
     ) -> Result<Self, Fault> {
         static INSTANCES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         let number = INSTANCES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        // Unguessable: a message for a route that was not opened is dropped.
+        let route = format!("{}#{number}-{}", setup.name, nonce());
+        remote.link.open(&remote.node, &route);
         let this = Self {
             system: remote.system.clone(),
-            route: format!("{}#{number}", setup.name),
+            watch: setup.watch.clone(),
+            route,
             plugin: setup.name.clone(),
             base: setup.base.clone(),
             stop: setup.stop.clone(),
@@ -434,11 +458,19 @@ impl RemoteInstance {
 
     /// The agent's next message, its log lines copied into the trace.
     fn recv(&self) -> Result<FromAgent, Fault> {
+        let watch = &self.watch;
+        let give_up = || watch.stopping().is_some();
         let mut message = self
             .remote
             .link
-            .recv(&self.remote.node, &self.route)
-            .map_err(|why| node_lost(&self.remote.node, &why))?;
+            .recv(&self.remote.node, &self.route, &give_up)
+            .map_err(|why| match why {
+                Some(why) => node_lost(&self.remote.node, &why),
+                None => Fault {
+                    run_stopped: true,
+                    ..Fault::new("the run is being stopped")
+                },
+            })?;
         for line in message.logs() {
             self.base
                 .push_log(&self.plugin, static_level(&line.level), line.message);

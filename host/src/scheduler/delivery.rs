@@ -305,11 +305,23 @@ impl State {
         for request in withdrawn {
             self.withdraw_start(pid, request, reason);
         }
+        let lost = fault.cause.starts_with("node-lost");
         self.emit(
             pid,
             Signal::Faulted,
             Some(Arc::new(Val::String(fault.cause))),
         );
+        // Lost with an agent that is back already (it restarted before its
+        // loss was seen): taken back at once, as its return would.
+        let back = self.plugins[pid]
+            .def
+            .remote
+            .as_ref()
+            .is_some_and(|r| lost && r.link.is_alive(&r.node));
+        if back {
+            let name = self.plugins[pid].def.name.clone();
+            let _ = self.request_reset(&name, true);
+        }
     }
 
     /// Resolves and parses an injection: the slot and the payload as the

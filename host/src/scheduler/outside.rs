@@ -83,19 +83,16 @@ impl State {
     }
 
     /// Agent `node` is back: its faulted plugins are instantiated again
-    /// (as by `reset`, recorded), and a fault not yet taken is withdrawn.
+    /// (as by `reset`, recorded). One whose `node-lost` fault is still
+    /// pending (an event between checks) takes it at its next call and is
+    /// then taken back at once (see `fault`): its instance was on the
+    /// agent that went.
     pub(super) fn node_back(&mut self, node: &str) {
         for pid in self.on_node(node) {
             let entry = &self.plugins[pid];
             if entry.lifecycle == Lifecycle::Error {
                 let name = entry.def.name.clone();
                 let _ = self.request_reset(&name, true);
-            } else if entry
-                .stop
-                .fault()
-                .is_some_and(|c| c.starts_with("node-lost"))
-            {
-                entry.stop.clear_fault();
             }
         }
     }

@@ -106,10 +106,9 @@ impl SystemBuilder {
                  (a [network] table)"
             )));
         };
-        if !p.wasi.dirs.is_empty() {
+        if !p.wasi.dirs.is_empty() || !p.wasi.env.is_empty() {
             return Err(refuse(
-                "a plugin on an agent cannot have WASI directories yet (they would be the \
-                 agent's)"
+                "a plugin on an agent cannot have WASI grants (directories, environment) yet"
                     .into(),
             ));
         }
