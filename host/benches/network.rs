@@ -271,12 +271,11 @@ fn main() {
     println!("network bench: loopback, {secs} s per latency run, real clock\n");
     summary(
         "bare Zenoh round trip (batched)",
-        bare_round_trip(secs, false),
+        bare_round_trip(secs, false).0,
     );
-    let bare = summary(
-        "bare Zenoh round trip (express)",
-        bare_round_trip(secs, true),
-    );
+    let (round_trips, hops) = bare_round_trip(secs, true);
+    let hop = summary("bare Zenoh hop, put → subscriber (express)", hops);
+    let bare = summary("bare Zenoh round trip (express)", round_trips);
     let local = summary(
         "trigger → start returned, R here",
         trigger_to_start(secs, None),
@@ -286,8 +285,10 @@ fn main() {
         trigger_to_start(secs, Some(&net)),
     );
     println!(
-        "\nremote path: {:.2}× the bare express round trip, {:.1}× the local path (p50)",
+        "\nremote path (a call there and back): {:.2}× the bare express round trip, \
+         {:.2}× the bare one-way hop, {:.1}× the local path (p50)",
         remote / bare,
+        remote / hop,
         remote / local
     );
     let here = signals_per_second(None);
