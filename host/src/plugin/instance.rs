@@ -9,11 +9,11 @@ use std::sync::Arc;
 
 use sha2::{Digest, Sha256};
 use wasmtime::component::{Func, ResourceTable, Val};
-use wasmtime::{Store, Trap, WasmBacktrace};
+use wasmtime::Store;
 
 use super::code::PluginCode;
 use super::limits::Limits;
-use super::remote::{Remote, RemoteInstance};
+use super::remote::{Opening, Remote, RemoteInstance};
 use super::store::PluginCtx;
 use crate::capability::clock::{ClockState, ClockView};
 use crate::capability::config::ConfigState;
@@ -24,6 +24,8 @@ use crate::capability::wasi::{WaitClock, WasiGrants, WasiSetup};
 use crate::clock::{ClockKind, StopFlag, TimeBase};
 use crate::limiter::{MemoryBudget, StoreLimiter};
 use crate::watchdog::{CallWatch, RunStopped, RunWatch};
+
+pub(crate) use super::call::{describe_fault, Export, Fault};
 
 /// The fuel an instantiation may use (its data copied into memory, a
 /// component's start function), whatever a plugin's budget per call.
@@ -61,47 +63,6 @@ pub(crate) struct InstanceSetup {
     pub remote: Option<Remote>,
 }
 
-/// How a call into a plugin ended badly.
-#[derive(Debug)]
-pub(crate) struct Fault {
-    /// What happened, in one line, for the trace and the `faulted` signal.
-    pub cause: String,
-    /// The wasm backtrace, when the engine captured one.
-    pub backtrace: Option<String>,
-    /// The call used up its fuel (rather than trapping on its own).
-    pub out_of_fuel: bool,
-    /// The call was ended because the run is being stopped (a signal, a
-    /// stall): not the plugin's fault, and not recorded as one.
-    pub run_stopped: bool,
-}
-
-impl Fault {
-    fn from_error(err: &wasmtime::Error) -> Self {
-        Self {
-            cause: describe_fault(err),
-            backtrace: err
-                .downcast_ref::<WasmBacktrace>()
-                .map(|b| b.to_string().trim_end().to_string()),
-            out_of_fuel: matches!(err.downcast_ref::<Trap>(), Some(Trap::OutOfFuel)),
-            run_stopped: err.downcast_ref::<RunStopped>().is_some(),
-        }
-    }
-
-    /// A fault with this cause and nothing else to say.
-    pub(crate) fn new(cause: impl Into<String>) -> Self {
-        Self {
-            cause: cause.into(),
-            backtrace: None,
-            out_of_fuel: false,
-            run_stopped: false,
-        }
-    }
-
-    pub(crate) fn missing(export: &str) -> Self {
-        Self::new(format!("plugin has no `{export}` export"))
-    }
-}
-
 /// One live instance of a plugin: in its own store here, or on an agent
 /// (`super::remote`), called alike.
 pub(crate) struct PluginInstance {
@@ -111,38 +72,6 @@ pub(crate) struct PluginInstance {
 enum Inner {
     Local(LocalInstance),
     Remote(RemoteInstance),
-}
-
-/// The functions Radar calls, as indexes into `PluginCode::exports`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Export {
-    Check = 0,
-    Start = 1,
-    Interrupt = 2,
-    Exit = 3,
-    Snapshot = 4,
-    Restore = 5,
-}
-
-impl Export {
-    /// The export's name.
-    pub(crate) fn name(self) -> &'static str {
-        super::code::EXPORTS[self as usize]
-    }
-
-    /// The export named `name`.
-    pub(crate) fn named(name: &str) -> Option<Self> {
-        [
-            Self::Check,
-            Self::Start,
-            Self::Interrupt,
-            Self::Exit,
-            Self::Snapshot,
-            Self::Restore,
-        ]
-        .into_iter()
-        .find(|e| e.name() == name)
-    }
 }
 
 /// One live instance of a plugin in its own store, in this process.
@@ -155,58 +84,27 @@ pub(crate) struct LocalInstance {
     funcs: [Option<Func>; 6],
 }
 
-/// One line: the trap or the error chain, without the wasm backtrace
-/// (which the engine attaches as context and [`Fault`] keeps apart).
-pub(crate) fn describe_fault(err: &wasmtime::Error) -> String {
-    if let Some(Trap::OutOfFuel) = err.downcast_ref::<Trap>() {
-        return "fuel exhausted (the call ran too long without returning)".into();
-    }
-    let chain: Vec<String> = err
-        .chain()
-        .map(|e| e.to_string())
-        .filter(|m| !m.starts_with("error while executing at wasm backtrace"))
-        .filter_map(|m| m.lines().next().map(|l| l.trim().to_string()))
-        .filter(|l| !l.is_empty())
-        .collect();
-    let text = if chain.is_empty() {
-        "the call failed".to_string()
-    } else {
-        chain.join(": ")
-    };
-    let text = match err.downcast_ref::<Trap>() {
-        Some(_) => format!("trapped: {}", text.trim_start_matches("wasm trap: ")),
-        None => text,
-    };
-    // wasmtime's counts of what a store may define (see `crate::limiter`):
-    // which limit, and its manifest key.
-    for (count, key) in [
-        ("memory count", "memories"),
-        ("table count", "tables"),
-        ("instance count", "instances"),
-    ] {
-        if text.contains(&format!("resource limit exceeded: {count} too high")) {
-            return format!("{text}: more than its limit (`{key}` in its manifest table)");
-        }
-    }
-    // wasmtime's own bound on what one value may take in the host as it
-    // is lifted (see `PluginCode::instantiate`).
-    if text.contains("fuel allocated for hostcalls has been exhausted") {
-        return "it handed the host a value (a payload, a result, a log line) larger than \
-                its `payload_bytes` allows"
-            .into();
-    }
-    match crate::limits::explain(&text) {
-        Some(limit) => format!("{text}: {limit}"),
-        None => text,
-    }
-}
-
 impl PluginCode {
     /// A new instance for `setup`: in this process, or on the agent the
     /// plugin is placed on.
     pub async fn instantiate(&self, setup: InstanceSetup) -> Result<PluginInstance, Fault> {
         let inner = match setup.remote.clone() {
-            Some(remote) => Inner::Remote(RemoteInstance::open(self, &setup, remote).await?),
+            Some(remote) => Inner::Remote(
+                RemoteInstance::open(
+                    self,
+                    Opening {
+                        name: setup.name.clone(),
+                        base: setup.base.clone(),
+                        stop: setup.stop.clone(),
+                        watch: setup.watch.clone(),
+                        config: (*setup.config).clone(),
+                        limits: setup.limits.clone(),
+                        seed: setup.seed,
+                    },
+                    remote,
+                )
+                .await?,
+            ),
             None => Inner::Local(self.instantiate_here(setup).await?),
         };
         Ok(PluginInstance { inner })

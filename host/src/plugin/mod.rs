@@ -11,6 +11,7 @@
 //! poisons a store for good.
 
 mod cache;
+mod call;
 mod code;
 mod instance;
 mod limits;

@@ -21,8 +21,8 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 use wasmtime::component::Val;
 
+use super::call::{Export, Fault};
 use super::code::PluginCode;
-use super::instance::{Export, Fault, InstanceSetup};
 use super::limits::Limits;
 use crate::capability::running::running;
 use crate::clock::{StopFlag, StopReason, TimeBase, YieldNow};
@@ -389,6 +389,18 @@ fn nonce() -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
 
+/// What an instance on an agent is made with (the parts of an instance's
+/// setup that concern it).
+pub(crate) struct Opening {
+    pub name: Arc<str>,
+    pub base: TimeBase,
+    pub stop: Arc<StopFlag>,
+    pub watch: Arc<crate::watchdog::RunWatch>,
+    pub config: BTreeMap<String, String>,
+    pub limits: Limits,
+    pub seed: u64,
+}
+
 /// A live instance on an agent, seen from the coordinator.
 pub(crate) struct RemoteInstance {
     remote: Remote,
@@ -407,7 +419,7 @@ impl RemoteInstance {
     /// Ships the component to the agent and has it make an instance.
     pub(super) async fn open(
         code: &PluginCode,
-        setup: &InstanceSetup,
+        setup: Opening,
         remote: Remote,
     ) -> Result<Self, Fault> {
         static INSTANCES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
@@ -431,8 +443,8 @@ impl RemoteInstance {
             name: this.plugin.to_string(),
             version: code.component_version.to_string(),
             script: code.script.as_deref().map(str::to_string),
-            config: (*setup.config).clone(),
-            limits: setup.limits.clone(),
+            config: setup.config,
+            limits: setup.limits,
             seed: setup.seed,
             fuel_per_second: setup.base.fuel_per_second(),
             now: setup.base.now(),
