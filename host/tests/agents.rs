@@ -15,14 +15,7 @@ use radar::testing::scenario::{discover, Scenario};
 
 mod common;
 
-use common::{lawful_trace, text};
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("a free port")
-}
+use common::{free_port, lawful_trace, text};
 
 /// A `radar agent` process, stopped when dropped.
 struct AgentProcess(Child);

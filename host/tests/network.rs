@@ -13,15 +13,7 @@ use zenoh::Wait;
 
 mod common;
 
-use common::{lawful_trace, radar, text};
-
-/// A port on 127.0.0.1 that nothing listens on now.
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("a free port")
-}
+use common::{free_port, lawful_trace, radar, text};
 
 /// A system run by `radar run` in another process.
 struct Running {

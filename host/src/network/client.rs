@@ -36,39 +36,32 @@ impl Client {
 
     /// The names of the systems that are alive, sorted.
     pub fn systems(&self) -> Result<Vec<String>, NetworkError> {
-        let replies = self
-            .session
-            .liveliness()
-            .get(keys::ALL_SYSTEMS)
-            .timeout(Duration::from_secs(2))
-            .wait()
-            .map_err(|e| NetworkError::Session(e.to_string()))?;
-        let mut names = Vec::new();
-        while let Ok(reply) = replies.recv() {
-            if let Ok(sample) = reply.result() {
-                if let Some(name) = keys::system_of(sample.key_expr().as_str()) {
-                    names.push(name.to_string());
-                }
-            }
-        }
-        names.sort();
-        names.dedup();
-        Ok(names)
+        self.alive(keys::ALL_SYSTEMS, keys::system_of)
     }
 
     /// The names of the agents that are alive, sorted.
     pub fn agents(&self) -> Result<Vec<String>, NetworkError> {
+        self.alive(keys::ALL_AGENTS, keys::agent_of)
+    }
+
+    /// The names, as `name_of` reads them, of the liveliness tokens that
+    /// `pattern` matches, sorted.
+    fn alive(
+        &self,
+        pattern: &str,
+        name_of: fn(&str) -> Option<&str>,
+    ) -> Result<Vec<String>, NetworkError> {
         let replies = self
             .session
             .liveliness()
-            .get(keys::ALL_AGENTS)
+            .get(pattern)
             .timeout(Duration::from_secs(2))
             .wait()
             .map_err(|e| NetworkError::Session(e.to_string()))?;
         let mut names = Vec::new();
         while let Ok(reply) = replies.recv() {
             if let Ok(sample) = reply.result() {
-                if let Some(name) = keys::agent_of(sample.key_expr().as_str()) {
+                if let Some(name) = name_of(sample.key_expr().as_str()) {
                     names.push(name.to_string());
                 }
             }

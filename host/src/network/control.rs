@@ -2,7 +2,6 @@
 //! and the control thread that carries out what `radar ctl` and puts ask,
 //! if `control` lets them in.
 
-use std::os::unix::fs::{DirBuilderExt, MetadataExt, OpenOptionsExt};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -459,28 +458,8 @@ impl Server {
             .filter(|e| e.chars().all(|c| c.is_ascii_alphanumeric()))
             .unwrap_or("wasm");
         // Only this user may write (or swap a file into) the folder.
-        std::fs::DirBuilder::new()
-            .recursive(true)
-            .mode(0o700)
-            .create(&self.swaps)?;
-        let meta = std::fs::symlink_metadata(&self.swaps)?;
-        if !meta.is_dir()
-            || meta.uid() != rustix::process::getuid().as_raw()
-            || meta.mode() & 0o077 != 0
-        {
-            return Err(std::io::Error::other(format!(
-                "{} is not a folder only this user can write",
-                self.swaps.display()
-            )));
-        }
         let path = self.swaps.join(format!("{hex}.{ext}"));
-        let _ = std::fs::remove_file(&path);
-        std::fs::OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .mode(0o600)
-            .open(&path)
-            .and_then(|mut f| std::io::Write::write_all(&mut f, bytes))?;
+        super::local_key::write_private(&path, bytes)?;
         Ok(path)
     }
 

@@ -9,7 +9,7 @@
 
 use std::io::{Read, Write};
 use std::os::unix::fs::{DirBuilderExt, OpenOptionsExt, PermissionsExt};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use super::error::NetworkError;
 
@@ -27,6 +27,34 @@ pub(super) fn path(system: &str) -> PathBuf {
     dir().join(format!("{system}.key"))
 }
 
+/// Writes `bytes` into a new file at `path` (mode 0600) in a folder only
+/// this user may use (made with mode 0700 if it is not there): a folder
+/// that someone else made (in /tmp) or others may read is refused.
+pub(super) fn write_private(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let dir = path.parent().map(PathBuf::from).unwrap_or_default();
+    std::fs::DirBuilder::new()
+        .recursive(true)
+        .mode(0o700)
+        .create(&dir)?;
+    let meta = std::fs::symlink_metadata(&dir)?;
+    if !meta.is_dir()
+        || std::os::unix::fs::MetadataExt::uid(&meta) != rustix::process::getuid().as_raw()
+        || meta.permissions().mode() & 0o077 != 0
+    {
+        return Err(std::io::Error::other(format!(
+            "{} belongs to another user or others can use it",
+            dir.display()
+        )));
+    }
+    let _ = std::fs::remove_file(path);
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .mode(0o600)
+        .open(path)
+        .and_then(|mut f| f.write_all(bytes))
+}
+
 /// A file holding a new random key for `system`, removed when dropped.
 pub(super) struct KeyFile {
     pub path: PathBuf,
@@ -40,35 +68,12 @@ impl KeyFile {
             path: path.clone(),
             cause,
         };
-        let dir = path.parent().map(PathBuf::from).unwrap_or_default();
-        std::fs::DirBuilder::new()
-            .recursive(true)
-            .mode(0o700)
-            .create(&dir)
-            .map_err(fail)?;
-        // A directory made by someone else (in /tmp) must not be trusted.
-        let meta = std::fs::metadata(&dir).map_err(fail)?;
-        if std::os::unix::fs::MetadataExt::uid(&meta) != rustix::process::getuid().as_raw()
-            || meta.permissions().mode() & 0o077 != 0
-        {
-            return Err(fail(std::io::Error::other(format!(
-                "{} belongs to another user or others can read it",
-                dir.display()
-            ))));
-        }
         let mut bytes = [0u8; 16];
         std::fs::File::open("/dev/urandom")
             .and_then(|mut f| f.read_exact(&mut bytes))
             .map_err(fail)?;
         let key: String = bytes.iter().map(|b| format!("{b:02x}")).collect();
-        let _ = std::fs::remove_file(&path);
-        std::fs::OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .mode(0o600)
-            .open(&path)
-            .and_then(|mut f| f.write_all(key.as_bytes()))
-            .map_err(fail)?;
+        write_private(&path, key.as_bytes()).map_err(fail)?;
         Ok(Self { path, key })
     }
 }

@@ -36,3 +36,12 @@ pub fn lawful_trace(path: &Path) -> (String, Vec<radar::trace::Record>) {
     );
     (text, records)
 }
+
+/// A port on 127.0.0.1 that nothing listens on now (network tests use
+/// loopback only, on ports they pick).
+pub fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free port")
+}
