@@ -310,6 +310,16 @@ to = "R.start"
         "{trace}"
     );
     // The watcher saw the run and ended with it.
+    // The watcher ends with the system; bounded, in case it does not.
+    let mut watcher = watcher;
+    let began = Instant::now();
+    while watcher.try_wait().expect("waitable").is_none() {
+        if began.elapsed() > Duration::from_secs(30) {
+            let _ = watcher.kill();
+            panic!("ctl watch did not end with the system");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
     let watched = watcher.wait_with_output().expect("watch ends");
     let timeline = text(&watched.stdout);
     assert!(watched.status.success(), "{}", text(&watched.stderr));

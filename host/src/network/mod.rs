@@ -18,6 +18,7 @@ mod agent;
 mod agents;
 pub mod client;
 mod control;
+mod coordinator;
 mod error;
 pub mod keys;
 mod local_key;
@@ -27,6 +28,6 @@ mod session;
 mod settings;
 
 pub use agent::Agent;
-pub use control::Network;
+pub use coordinator::Network;
 pub use error::NetworkError;
 pub use settings::{Control, NetworkSettings};
