@@ -39,6 +39,9 @@ enum Cmd {
     /// Runs the plugins coordinators place on this machine (manifests
     /// say `node = "NAME"`), until Ctrl-C.
     Agent(cli::agent::AgentArgs),
+    /// The ROS 2 message types Radar knows (`types`, `show TYPE`), and a
+    /// message's CDR bytes from JSON and back (`encode`, `decode`).
+    Ros2(cli::ros2::Ros2Args),
     /// Runs each plugin's `[plugins.X.build]` command.
     Build {
         /// The `radar.toml` (default: `radar.toml` here).
@@ -67,6 +70,7 @@ fn main() -> ExitCode {
         Some(Cmd::Test(args)) => cli::test::test(args),
         Some(Cmd::Ctl(args)) => cli::ctl::ctl(args),
         Some(Cmd::Agent(args)) => cli::agent::agent(args),
+        Some(Cmd::Ros2(args)) => cli::ros2::ros2(args),
         Some(Cmd::Build { manifest }) => cli::workspace::build_all(manifest),
         Some(Cmd::New {
             kind,

@@ -69,6 +69,8 @@ pub struct Manifest {
     /// How the system appears on the network (`docs/network.md`); without
     /// this table it listens on nothing.
     pub network: Option<crate::network::NetworkSettings>,
+    /// ROS 2 topics in and out (`docs/ros2.md`).
+    pub ros2: Option<crate::network::ros2::Ros2Settings>,
     #[serde(skip)]
     dir: PathBuf,
     /// Whether plugins go to the agents their `node` names (not in a
@@ -426,6 +428,9 @@ impl Manifest {
         }
         if let Some(network) = &manifest.network {
             network.validate().map_err(|e| bad(e.to_string()))?;
+        }
+        if let Some(ros2) = &manifest.ros2 {
+            ros2.validate().map_err(bad)?;
         }
         for c in &manifest.connect {
             manifest.link(c).map_err(bad)?;

@@ -8,6 +8,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result};
 use radar::manifest::{parse_duration, Manifest};
+use radar::network::ros2::Ros2;
 use radar::network::Network;
 use radar::timeline::Timeline;
 use radar::trace::compare::{compare, load_values, Comparison};
@@ -294,6 +295,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         anyhow::bail!("--watch goes with a manifest and --clock real");
     }
     let mut network: Option<Network> = None;
+    let mut ros2: Option<Ros2> = None;
     let report = match &args.manifest {
         None => {
             let limit = run_for.unwrap_or(Duration::from_secs(20));
@@ -362,7 +364,17 @@ pub fn run(args: RunArgs) -> Result<()> {
                 }
                 network = Some(net);
             }
+            // Like the network, ROS 2 is left out of a replay: the
+            // recording holds every message that came in.
+            if let Some(settings) = manifest.ros2.as_ref().filter(|_| replay.is_none()) {
+                let mut bridge = Ros2::open(settings, manifest.dir())?;
+                builder = builder.trace_to(bridge.tap());
+                ros2 = Some(bridge);
+            }
             let system = manifest.add_to(builder).build()?;
+            if let Some(bridge) = &mut ros2 {
+                bridge.start(&system, network.as_ref())?;
+            }
             warn_of_changed_plugins(replay.as_deref(), &system);
             stop_on_signals(&system);
             if !args.quiet {
@@ -380,6 +392,9 @@ pub fn run(args: RunArgs) -> Result<()> {
                     net.control().as_str()
                 ));
             }
+            if let Some(bridge) = &ros2 {
+                say(format_args!("{}", bridge.summary()));
+            }
             if !args.quiet {
                 say(format_args!(""));
             }
@@ -396,6 +411,16 @@ pub fn run(args: RunArgs) -> Result<()> {
             system.run(run_for)?
         }
     };
+    if let Some(bridge) = ros2.take() {
+        let left_out = bridge.left_out();
+        if left_out > 0 {
+            eprintln!(
+                "radar: ros2: {left_out} message(s) not published (the queue was full, or a \
+                 payload was over the trace's 16 KiB)"
+            );
+        }
+        drop(bridge);
+    }
     if let Some(net) = network.take() {
         let (left_out, dropped) = net.losses();
         if left_out > 0 || dropped > 0 {

@@ -76,6 +76,11 @@ impl Network {
         })
     }
 
+    /// The Zenoh session, for what else speaks on it (the ROS 2 bridge).
+    pub(crate) fn session(&self) -> Session {
+        self.session.clone()
+    }
+
     /// The system's name on the network.
     pub fn system(&self) -> &str {
         &self.settings.system

@@ -24,6 +24,7 @@ pub mod keys;
 mod local_key;
 pub mod protocol;
 mod publish;
+pub mod ros2;
 mod session;
 mod settings;
 

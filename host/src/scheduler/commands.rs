@@ -116,6 +116,8 @@ pub(crate) enum Command {
     BoardWrite {
         entry: String,
         value: Json,
+        /// Who wrote it (`None`: `(native)`).
+        by: Option<String>,
         /// From outside the run: recorded.
         external: bool,
         reply: Sender<Result<(), RadarError>>,

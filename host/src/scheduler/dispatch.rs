@@ -154,6 +154,7 @@ impl Scheduler {
             Command::BoardWrite {
                 entry,
                 value,
+                by,
                 external,
                 reply,
             } => {
@@ -165,9 +166,10 @@ impl Scheduler {
                         st.record_input(Input::BoardWrite {
                             entry: entry.clone(),
                             value,
+                            by: by.clone(),
                         });
                     }
-                    st.board_write("(native)", &entry, checked);
+                    st.board_write(by.as_deref().unwrap_or("(native)"), &entry, checked);
                     Ok(())
                 }));
             }

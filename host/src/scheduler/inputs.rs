@@ -57,6 +57,7 @@ pub(crate) enum StaticWhat {
     Write {
         entry: String,
         value: Json,
+        by: Option<String>,
     },
     /// The new version is loaded when the system is built (`code`).
     Swap {
@@ -88,6 +89,7 @@ enum Action {
         entry: String,
         json: Json,
         value: Val,
+        by: Option<String>,
     },
     Swap {
         plugin: String,
@@ -146,10 +148,11 @@ impl State {
                     injection.external = true;
                     Action::Inject(injection)
                 }
-                StaticWhat::Write { entry, value } => Action::Write {
+                StaticWhat::Write { entry, value, by } => Action::Write {
                     value: self.board.value(&entry, &value)?,
                     entry,
                     json: value,
+                    by,
                 },
                 StaticWhat::Swap {
                     plugin,
@@ -215,12 +218,19 @@ impl State {
     fn apply(&mut self, action: Action) {
         match action {
             Action::Inject(injection) => self.inject(injection),
-            Action::Write { entry, json, value } => {
+            Action::Write {
+                entry,
+                json,
+                value,
+                by,
+            } => {
+                let writer = by.as_deref().unwrap_or("(native)").to_string();
                 self.record_input(Input::BoardWrite {
                     entry: entry.clone(),
                     value: json,
+                    by,
                 });
-                self.board_write("(native)", &entry, value);
+                self.board_write(&writer, &entry, value);
             }
             Action::Swap {
                 plugin,

@@ -35,7 +35,7 @@ mod running;
 mod state;
 mod swap;
 mod turns;
-mod typing;
+pub(crate) mod typing;
 mod versions;
 
 pub(crate) use board::Grants;

@@ -8,7 +8,7 @@ use crate::ports::{Signal, Slot};
 
 /// The payload type of a plugin kind's signal (`None`: no such signal;
 /// `Some(None)`: a signal without payload).
-pub(super) fn signal_type(kind: &Kind, signal: Signal) -> Option<Option<PayloadType>> {
+pub(crate) fn signal_type(kind: &Kind, signal: Signal) -> Option<Option<PayloadType>> {
     match (kind, signal) {
         (_, Signal::Faulted) => Some(Some(PayloadType::String)),
         (_, Signal::Named(name)) => kind

@@ -159,7 +159,12 @@ impl SystemBuilder {
     /// fails the run before anything runs.
     pub fn write_at(self, at: Duration, entry: impl Into<String>, value: Json) -> Self {
         let entry = entry.into();
-        self.input(at, None, StaticWhat::Write { entry, value })
+        self.input(at, None, StaticWhat::Write {
+                entry,
+                value,
+                by: None,
+            },
+        )
     }
 
     /// Swaps `plugin` for the component at `path` at `at` of the run's time
@@ -231,9 +236,10 @@ impl SystemBuilder {
                     to: to.clone(),
                     payload: payload.clone(),
                 },
-                Input::BoardWrite { entry, value } => StaticWhat::Write {
+                Input::BoardWrite { entry, value, by } => StaticWhat::Write {
                     entry: entry.clone(),
                     value: value.clone(),
+                    by: by.clone(),
                 },
                 Input::Swap {
                     plugin,

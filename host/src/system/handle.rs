@@ -147,9 +147,21 @@ impl Radar {
     /// entry's type, recorded as a `board-write` by `(native)`): how a driver
     /// thread publishes a sensor reading.
     pub fn board_write(&self, entry: &str, value: Json) -> Result<(), RadarError> {
+        self.write_entry(entry, value, None)
+    }
+
+    /// [`Radar::board_write`] on behalf of `by` (`(ros2 /range)`): the
+    /// `board-write` record names it, and so does a recording, so that a
+    /// replay writes as it did.
+    pub fn board_write_by(&self, entry: &str, value: Json, by: &str) -> Result<(), RadarError> {
+        self.write_entry(entry, value, Some(by.to_string()))
+    }
+
+    fn write_entry(&self, entry: &str, value: Json, by: Option<String>) -> Result<(), RadarError> {
         self.ask(|reply| Command::BoardWrite {
             entry: entry.to_string(),
             value,
+            by,
             external: !self.lockstep(),
             reply,
         })?

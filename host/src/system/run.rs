@@ -114,6 +114,50 @@ impl System {
             .collect()
     }
 
+    /// The WIT type of blackboard entry `entry`, if a plugin declares it.
+    pub fn entry_type(&self, entry: &str) -> Option<&crate::payload::PayloadType> {
+        self.board.get(entry)
+    }
+
+    /// The blackboard's entries, by name.
+    pub fn entries(&self) -> impl Iterator<Item = &str> {
+        self.board.keys().map(String::as_str)
+    }
+
+    /// The payload type of signal `Plugin.signal` (`Ok(None)`: the signal
+    /// carries none); the error says what is missing.
+    pub fn signal_type(
+        &self,
+        spec: &str,
+    ) -> Result<Option<crate::payload::PayloadType>, String> {
+        use crate::ports::{split_port, Signal};
+        let (name, port) = split_port(spec);
+        let plugin = self
+            .plugins
+            .iter()
+            .find(|p| p.name == name)
+            .ok_or_else(|| format!("no plugin named `{name}`"))?;
+        let kind = &plugin.code.kind;
+        let port = port.unwrap_or(if matches!(kind, crate::plugin::Kind::Event { .. }) {
+            "triggered"
+        } else {
+            "exited"
+        });
+        let signal = match port {
+            "triggered" => Signal::Triggered,
+            "started" => Signal::Started,
+            "interrupted" => Signal::Interrupted,
+            "exited" => Signal::Exited,
+            "faulted" => Signal::Faulted,
+            other => match kind.signals().iter().find(|(n, _)| n.as_str() == other) {
+                Some((n, _)) => Signal::Named(*n),
+                None => return Err(format!("plugin `{name}` has no signal `{other}`")),
+            },
+        };
+        crate::scheduler::typing::signal_type(kind, signal)
+            .ok_or_else(|| format!("plugin `{name}` has no signal `{port}`"))
+    }
+
     /// An external handle: commands are applied as they arrive.
     pub fn handle(&self) -> Radar {
         Radar {

@@ -71,6 +71,10 @@ pub enum Input {
         entry: String,
         /// Its new value.
         value: Json,
+        /// Who wrote it, when not deliberative code or the command line
+        /// (`(ros2 /range)`): the trace's `board-write` says so.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        by: Option<String>,
     },
     /// A swap asked for (`--swap`, `--watch`, `Radar::swap`).
     Swap {

@@ -1,0 +1,99 @@
+//! `radar ros2`: the ROS 2 message types Radar knows, each as ROS 2 and
+//! Radar see it (type hash, key expression, WIT type), and a message's
+//! CDR bytes from its JSON value and back (`docs/ros2.md`).
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::{Args, Subcommand};
+use radar::network::ros2::{cdr, MessageTypes};
+
+use super::say;
+
+/// `radar ros2 ...`.
+#[derive(Args)]
+pub struct Ros2Args {
+    #[command(subcommand)]
+    command: Ros2Command,
+    /// A folder of `.msg` files (`<pkg>/msg/<Name>.msg`), read before the
+    /// built-in types (repeatable).
+    #[arg(long = "msg-path", global = true)]
+    msg_paths: Vec<PathBuf>,
+}
+
+#[derive(Subcommand)]
+enum Ros2Command {
+    /// Lists the built-in message types.
+    Types,
+    /// Shows a type: its RIHS01 hash, its key expression, its WIT type
+    /// and its fields.
+    Show {
+        /// `pkg/msg/Name`, e.g. `sensor_msgs/msg/Range`.
+        type_name: String,
+    },
+    /// Prints the CDR bytes (hex, little-endian) of a message given as
+    /// JSON; fields left out are zero.
+    Encode {
+        /// `pkg/msg/Name`.
+        type_name: String,
+        /// The message, as JSON with WIT field names (`{"range": 0.4}`).
+        json: String,
+    },
+    /// Prints the JSON of a message given as CDR bytes (hex, either
+    /// byte order).
+    Decode {
+        /// `pkg/msg/Name`.
+        type_name: String,
+        /// The CDR bytes, in hex.
+        hex: String,
+    },
+}
+
+/// Runs `radar ros2`.
+pub fn ros2(args: Ros2Args) -> Result<()> {
+    let types = MessageTypes::new(args.msg_paths);
+    match args.command {
+        Ros2Command::Types => {
+            for name in MessageTypes::builtin_names() {
+                say(format_args!("{name}"));
+            }
+        }
+        Ros2Command::Show { type_name } => {
+            let message = types.load(&type_name).map_err(anyhow::Error::msg)?;
+            say(format_args!("{}", message.name));
+            say(format_args!("  hash  {}", message.hash));
+            say(format_args!(
+                "  key   <domain>/<topic>/{}/{}",
+                radar::network::ros2::dds_type(&message.name),
+                message.hash
+            ));
+            say(format_args!("  wit   {}", message.payload_type()));
+            for field in &message.def().fields {
+                say(format_args!("  field {field} {}", field.name));
+            }
+        }
+        Ros2Command::Encode { type_name, json } => {
+            let message = types.load(&type_name).map_err(anyhow::Error::msg)?;
+            let value: serde_json::Value =
+                serde_json::from_str(&json).context("the message is not JSON")?;
+            let bytes = cdr::encode(&message, &value).map_err(anyhow::Error::msg)?;
+            let hex: String = bytes.iter().map(|b| format!("{b:02x}")).collect();
+            say(format_args!("{hex}"));
+        }
+        Ros2Command::Decode { type_name, hex } => {
+            let message = types.load(&type_name).map_err(anyhow::Error::msg)?;
+            let hex = hex.trim();
+            if hex.len() % 2 != 0 || !hex.chars().all(|c| c.is_ascii_hexdigit()) {
+                anyhow::bail!("`{hex}` is not hex bytes");
+            }
+            let bytes: Vec<u8> = (0..hex.len())
+                .step_by(2)
+                .map(|i| u8::from_str_radix(&hex[i..i + 2], 16).unwrap_or(0))
+                .collect();
+            let value = cdr::decode(&message, &bytes)
+                .map_err(|e| anyhow::anyhow!("not a {}: {e}", message.name))?;
+            say(format_args!("{value}"));
+        }
+    }
+    Ok(())
+}

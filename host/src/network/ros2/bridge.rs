@@ -1,0 +1,535 @@
+//! The ROS 2 bridge at run time: Radar as a node on rmw_zenoh, taking
+//! messages from topics into blackboard entries and publishing signals.
+//!
+//! Every message taken becomes a blackboard write by `(ros2 <topic>)`, an
+//! outside input like any other: in the trace, in `--record`, so a replay
+//! needs neither ROS nor the network. A message that cannot be read is
+//! dropped with a `refused` record. Signals reach the bridge as the trace
+//! does, through a sink that only queues them: the scheduler never waits
+//! for the network.
+
+use std::collections::HashMap;
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+use crossbeam_channel::{bounded, Receiver, Sender, TrySendError};
+use serde_json::Value as Json;
+use zenoh::handlers::RingChannel;
+use zenoh::qos::CongestionControl;
+use zenoh::{Session, Wait};
+
+use super::cdr;
+use super::fit::{self, FieldPath};
+use super::graph::{self, Endpoint, Node};
+use super::settings::{Qos, Ros2Settings};
+use super::types::{Message, MessageTypes};
+use super::Ros2Error;
+use crate::network::{session, Network};
+use crate::payload::PayloadType;
+use crate::system::{Radar, System};
+use crate::trace::{Entry, Record, TraceSink};
+
+/// Signals waiting to be published, at most.
+const QUEUE: usize = 65_536;
+
+/// The connect endpoint of rmw_zenoh's router (`ros2 run rmw_zenoh_cpp
+/// rmw_zenohd`) on this machine.
+const ROUTER: &str = "tcp/127.0.0.1:7447";
+
+struct Subscription {
+    topic: String,
+    message: Message,
+    entry: String,
+    field: Option<String>,
+    qos: Qos,
+}
+
+struct Publication {
+    signal: String,
+    topic: String,
+    message: Message,
+    field: Option<String>,
+    use_payload: bool,
+    values: Json,
+    qos: Qos,
+}
+
+/// A publication as the run uses it, once checked.
+struct Outgoing {
+    message: Message,
+    path: Option<FieldPath>,
+    base: Json,
+    unwrap_ok: bool,
+    publisher: zenoh::pubsub::Publisher<'static>,
+    gid: [u8; 16],
+    sequence: i64,
+}
+
+/// Radar's ROS 2 node (see the module docs).
+pub struct Ros2 {
+    settings: Ros2Settings,
+    /// Once started: the session and the node on it.
+    joined: Option<(Session, Node)>,
+    subscriptions: Vec<Subscription>,
+    publications: Vec<Publication>,
+    /// Emissions the tap queued, taken by the publishing thread.
+    queued: Option<Receiver<(usize, Json)>>,
+    tap: Option<Sender<(usize, Json)>>,
+    tokens: Vec<zenoh::liveliness::LivelinessToken>,
+    threads: Vec<JoinHandle<()>>,
+    stop: Arc<AtomicBool>,
+    /// Emissions not published: the queue was full, the payload was cut
+    /// from the trace, or it did not encode.
+    left_out: Arc<AtomicU64>,
+}
+
+impl Ros2 {
+    /// Reads the routes and their message types (`base`: the manifest's
+    /// folder); nothing is on the network until [`Ros2::start`].
+    pub fn open(settings: &Ros2Settings, base: &Path) -> Result<Self, Ros2Error> {
+        settings.validate().map_err(Ros2Error::Settings)?;
+        let types = MessageTypes::new(settings.msg_paths.iter().map(|p| base.join(p)).collect());
+        let load = |topic: &str, type_name: &str| {
+            types
+                .load(type_name)
+                .map_err(|e| Ros2Error::Settings(format!("topic `{topic}`: {e}")))
+        };
+        let mut subscriptions = Vec::new();
+        for s in &settings.subscribe {
+            subscriptions.push(Subscription {
+                topic: settings.full_topic(&s.topic),
+                message: load(&s.topic, &s.type_name)?,
+                entry: s.entry.clone(),
+                field: s.field.clone(),
+                qos: Qos::parse(s.qos.as_deref(), s.depth).map_err(Ros2Error::Settings)?,
+            });
+        }
+        let mut publications = Vec::new();
+        for p in &settings.publish {
+            let values = match &p.values {
+                Some(table) => serde_json::to_value(table)
+                    .map_err(|e| Ros2Error::Settings(format!("topic `{}`: values: {e}", p.topic)))?,
+                None => Json::Object(Default::default()),
+            };
+            publications.push(Publication {
+                signal: p.signal.clone(),
+                topic: settings.full_topic(&p.topic),
+                message: load(&p.topic, &p.type_name)?,
+                field: p.field.clone(),
+                use_payload: p.use_payload,
+                values,
+                qos: Qos::parse(p.qos.as_deref(), p.depth).map_err(Ros2Error::Settings)?,
+            });
+        }
+        let (tap, queued) = bounded(QUEUE);
+        Ok(Self {
+            settings: settings.clone(),
+            subscriptions,
+            publications,
+            joined: None,
+            queued: Some(queued),
+            tap: Some(tap),
+            tokens: Vec::new(),
+            threads: Vec::new(),
+            stop: Arc::new(AtomicBool::new(false)),
+            left_out: Arc::new(AtomicU64::new(0)),
+        })
+    }
+
+    /// The trace sink that hands the published signals' emissions to the
+    /// bridge: give it to the system's builder.
+    pub fn tap(&mut self) -> impl TraceSink + 'static {
+        let mut routes: HashMap<String, Vec<(String, usize)>> = HashMap::new();
+        for (i, p) in self.publications.iter().enumerate() {
+            if let Some((plugin, signal)) = p.signal.split_once('.') {
+                let signals = routes.entry(plugin.to_string()).or_default();
+                signals.push((signal.to_string(), i));
+            }
+        }
+        Tap {
+            routes,
+            tx: self.tap.take(),
+            left_out: self.left_out.clone(),
+        }
+    }
+
+    /// One line on what the node does, once started.
+    pub fn summary(&self) -> String {
+        let (name, domain) = match &self.joined {
+            Some((_, node)) => (
+                format!("{}/{}", node.namespace.trim_end_matches('/'), node.name),
+                node.domain,
+            ),
+            None => ("(not started)".to_string(), self.settings.domain),
+        };
+        format!(
+            "ros2: node {name} on domain {domain}: {} subscription(s), {} publication(s)",
+            self.subscriptions.len(),
+            self.publications.len()
+        )
+    }
+
+    /// Joins the ROS 2 graph: on `network`'s session if the system has
+    /// one, else on a session of its own (`[ros2] listen` and `connect`,
+    /// by default rmw_zenoh's router on this machine).
+    fn join(&self, network: Option<&Network>) -> Result<(Session, Node), Ros2Error> {
+        let settings = &self.settings;
+        let (session, system) = match network {
+            Some(network) => {
+                if !settings.listen.is_empty() || !settings.connect.is_empty() {
+                    return Err(Ros2Error::Settings(
+                        "[ros2] listen and connect go with a system without [network]; with \
+                         one, ROS 2 speaks on the [network] endpoints"
+                            .into(),
+                    ));
+                }
+                (network.session(), Some(network.system().to_string()))
+            }
+            None => {
+                let connect = if settings.listen.is_empty() && settings.connect.is_empty() {
+                    vec![ROUTER.to_string()]
+                } else {
+                    settings.connect.clone()
+                };
+                let session = session::peer(&settings.listen, &connect, None)
+                    .map_err(|e| Ros2Error::Session(e.to_string()))?;
+                (session, None)
+            }
+        };
+        let node = Node {
+            domain: settings.domain,
+            zid: session.zid().to_string(),
+            namespace: settings.namespace.clone(),
+            name: settings.node_name(system.as_deref()),
+        };
+        Ok((session, node))
+    }
+
+    /// Emissions not published (see [`Ros2`]'s fields).
+    pub fn left_out(&self) -> u64 {
+        self.left_out.load(Ordering::Relaxed)
+    }
+
+    /// Checks every route against the built system's entries and signals
+    /// (a mismatch names the topic, the message type, the field and both
+    /// types), then joins the graph (see [`Ros2::join`]), declares the
+    /// node, its subscriptions and publishers, and starts taking and
+    /// publishing messages.
+    pub fn start(&mut self, system: &System, network: Option<&Network>) -> Result<(), Ros2Error> {
+        let checked_in = self.check_subscriptions(system)?;
+        let outgoing = self.check_publications(system)?;
+        let (session, node) = self.join(network)?;
+        let declare = |e: zenoh::Error| Ros2Error::Session(e.to_string());
+        let liveliness = session.liveliness();
+        self.tokens
+            .push(liveliness.declare_token(node.token()).wait().map_err(declare)?);
+        let radar = system.handle();
+        let mut entity = 1;
+        for (sub, (path, ty)) in self.subscriptions.iter().zip(checked_in) {
+            let m = &sub.message;
+            let token = node.endpoint_token(
+                Endpoint::Subscription,
+                entity,
+                &sub.topic,
+                &m.name,
+                &m.hash,
+                &sub.qos,
+            );
+            entity += 1;
+            self.tokens
+                .push(liveliness.declare_token(token).wait().map_err(declare)?);
+            // Any type hash: a publisher of another definition is heard,
+            // and its messages refused if they do not read.
+            let key = graph::topic_key(node.domain, &sub.topic, &m.name, "*");
+            let inbox = session
+                .declare_subscriber(key)
+                .with(RingChannel::new(sub.qos.depth as usize))
+                .wait()
+                .map_err(declare)?;
+            let taker = Taker {
+                topic: sub.topic.clone(),
+                message: m.clone(),
+                entry: sub.entry.clone(),
+                path,
+                ty,
+                radar: radar.clone(),
+            };
+            let stop = self.stop.clone();
+            let thread = std::thread::Builder::new()
+                .name("radar-ros2-in".into())
+                .spawn(move || {
+                    while !stop.load(Ordering::Relaxed) {
+                        match inbox.recv_timeout(Duration::from_millis(100)) {
+                            Ok(Some(sample)) => {
+                                let bytes = sample.payload().to_bytes();
+                                let attachment = sample.attachment().map(|a| a.to_bytes());
+                                if !taker.take(&bytes, attachment.as_deref()) {
+                                    break;
+                                }
+                            }
+                            Ok(None) => {}
+                            Err(_) => break,
+                        }
+                    }
+                })
+                .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
+            self.threads.push(thread);
+        }
+        let mut out = Vec::new();
+        for (publication, checked) in self.publications.iter().zip(outgoing) {
+            let m = &publication.message;
+            let token = node.endpoint_token(
+                Endpoint::Publisher,
+                entity,
+                &publication.topic,
+                &m.name,
+                &m.hash,
+                &publication.qos,
+            );
+            self.tokens
+                .push(liveliness.declare_token(token).wait().map_err(declare)?);
+            let key = graph::topic_key(node.domain, &publication.topic, &m.name, &m.hash);
+            let publisher = session
+                .declare_publisher(key)
+                .congestion_control(CongestionControl::Drop)
+                // Sent at once, not batched: a reaction is late otherwise.
+                .express(true)
+                .wait()
+                .map_err(declare)?;
+            out.push(Outgoing {
+                message: m.clone(),
+                path: checked.path,
+                base: checked.base,
+                unwrap_ok: checked.unwrap_ok,
+                publisher,
+                gid: node.gid(entity),
+                sequence: 0,
+            });
+            entity += 1;
+        }
+        if let Some(queued) = self.queued.take() {
+            let left_out = self.left_out.clone();
+            let thread = std::thread::Builder::new()
+                .name("radar-ros2-out".into())
+                .spawn(move || publish(out, queued, left_out))
+                .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
+            self.threads.push(thread);
+        }
+        self.joined = Some((session, node));
+        Ok(())
+    }
+
+    fn check_subscriptions(
+        &self,
+        system: &System,
+    ) -> Result<Vec<(FieldPath, PayloadType)>, Ros2Error> {
+        let mut checked = Vec::new();
+        for sub in &self.subscriptions {
+            let route = format!(
+                "[[ros2.subscribe]] topic `{}` ({})",
+                sub.topic, sub.message.name
+            );
+            let ty = system.entry_type(&sub.entry).ok_or_else(|| {
+                let entries: Vec<&str> = system.entries().collect();
+                Ros2Error::Mismatch(format!(
+                    "{route}: no blackboard entry `{}` (entries: {}; an entry exists when a \
+                     plugin's world reads or writes it)",
+                    sub.entry,
+                    if entries.is_empty() { "none".to_string() } else { entries.join(", ") }
+                ))
+            })?;
+            let path = fit::place(&sub.message, sub.field.as_deref(), ty).map_err(|e| {
+                Ros2Error::Mismatch(format!(
+                    "{route} does not fit entry `{}`: {}",
+                    sub.entry,
+                    e.describe(&sub.message, &format!("entry `{}` is", sub.entry))
+                ))
+            })?;
+            checked.push((path, ty.clone()));
+        }
+        Ok(checked)
+    }
+
+    fn check_publications(&self, system: &System) -> Result<Vec<Checked>, Ros2Error> {
+        let mut checked = Vec::new();
+        for p in &self.publications {
+            let route = format!(
+                "[[ros2.publish]] signal `{}` to topic `{}` ({})",
+                p.signal, p.topic, p.message.name
+            );
+            let payload = system
+                .signal_type(&p.signal)
+                .map_err(|e| Ros2Error::Mismatch(format!("{route}: {e}")))?;
+            // A result publishes what it holds when it is `ok`.
+            let (payload, unwrap_ok) = match payload {
+                Some(PayloadType::Result { ok: Some(ok), .. }) => (Some(*ok), true),
+                other => (other, false),
+            };
+            let path = match payload.filter(|_| p.use_payload) {
+                None => None,
+                Some(ty) => Some(fit::place(&p.message, p.field.as_deref(), &ty).map_err(|e| {
+                    let hint = if p.field.is_none() {
+                        " (name the field it fills, e.g. `field = \"data\"`, or publish \
+                         `values` alone with `use_payload = false`)"
+                    } else {
+                        ""
+                    };
+                    Ros2Error::Mismatch(format!(
+                        "{route} does not fit: {}{hint}",
+                        e.describe(&p.message, &format!("`{}` carries", p.signal))
+                    ))
+                })?),
+            };
+            let base = fit::values(&p.message, &p.values)
+                .map_err(|e| Ros2Error::Mismatch(format!("{route}: {e}")))?;
+            cdr::encode(&p.message, &base)
+                .map_err(|e| Ros2Error::Mismatch(format!("{route}: values: {e}")))?;
+            checked.push(Checked {
+                path,
+                base,
+                unwrap_ok,
+            });
+        }
+        Ok(checked)
+    }
+}
+
+/// A publication checked against the system.
+struct Checked {
+    /// Where the payload goes (`None`: it is not used).
+    path: Option<FieldPath>,
+    /// The message before the payload: the route's values.
+    base: Json,
+    /// The payload is a result, published only when `ok`, as what it holds.
+    unwrap_ok: bool,
+}
+
+impl Drop for Ros2 {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        self.tap = None;
+        for thread in self.threads.drain(..) {
+            let _ = thread.join();
+        }
+    }
+}
+
+/// Takes one topic's messages into its entry.
+struct Taker {
+    topic: String,
+    message: Message,
+    entry: String,
+    path: FieldPath,
+    ty: PayloadType,
+    radar: Radar,
+}
+
+impl Taker {
+    /// Writes one message's value, or records why not; `false` once the
+    /// run has ended.
+    fn take(&self, bytes: &[u8], attachment: Option<&[u8]>) -> bool {
+        let done = match cdr::decode(&self.message, bytes) {
+            Ok(value) => {
+                let value = fit::take(&value, &self.path, &self.ty);
+                let by = format!("(ros2 {})", self.topic);
+                self.radar.board_write_by(&self.entry, value, &by)
+            }
+            Err(e) => self.radar.refused(
+                format!("ros2 {}", self.topic),
+                self.sender(attachment),
+                format!("a malformed {} ({} bytes): {e}", self.message.name, bytes.len()),
+            ),
+        };
+        match done {
+            Ok(()) => true,
+            Err(crate::RadarError::Stopped) => false,
+            Err(e) => self
+                .radar
+                .refused(format!("ros2 {}", self.topic), self.sender(attachment), e.to_string())
+                .is_ok(),
+        }
+    }
+
+    fn sender(&self, attachment: Option<&[u8]>) -> String {
+        match attachment.and_then(graph::sender) {
+            Some(gid) => format!("a ROS 2 publisher (gid {gid})"),
+            None => "a ROS 2 publisher".to_string(),
+        }
+    }
+}
+
+/// The publishing thread: each queued emission as a message, until the
+/// run ends.
+fn publish(mut out: Vec<Outgoing>, queued: Receiver<(usize, Json)>, left_out: Arc<AtomicU64>) {
+    for (route, payload) in queued {
+        let Some(o) = out.get_mut(route) else { continue };
+        if payload.get("$cut").is_some() {
+            // Too large for the trace, which is all the bridge sees.
+            left_out.fetch_add(1, Ordering::Relaxed);
+            continue;
+        }
+        let payload = match (o.unwrap_ok, payload) {
+            (false, payload) => payload,
+            (true, Json::Object(mut result)) => match result.remove("ok") {
+                Some(ok) => ok,
+                // An `err` is not published.
+                None => continue,
+            },
+            (true, _) => continue,
+        };
+        let value = match &o.path {
+            Some(path) => fit::fill(&o.base, path, payload),
+            None => o.base.clone(),
+        };
+        let Ok(bytes) = cdr::encode(&o.message, &value) else {
+            left_out.fetch_add(1, Ordering::Relaxed);
+            continue;
+        };
+        o.sequence += 1;
+        let now = SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX));
+        let attachment = graph::attachment(o.sequence, now, &o.gid);
+        if o.publisher.put(bytes).attachment(attachment).wait().is_err() {
+            left_out.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+}
+
+/// The sink that queues the emissions of published signals.
+struct Tap {
+    /// Plugin → its published signals, each with its publication.
+    routes: HashMap<String, Vec<(String, usize)>>,
+    tx: Option<Sender<(usize, Json)>>,
+    left_out: Arc<AtomicU64>,
+}
+
+impl TraceSink for Tap {
+    fn record(&mut self, record: &Record) {
+        let Entry::Signal {
+            plugin,
+            signal,
+            payload,
+        } = &record.entry
+        else {
+            return;
+        };
+        let (Some(tx), Some(routes)) = (&self.tx, self.routes.get(&**plugin)) else {
+            return;
+        };
+        for (_, route) in routes.iter().filter(|(s, _)| s == signal) {
+            if let Err(TrySendError::Full(_)) = tx.try_send((*route, payload.clone())) {
+                self.left_out.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+    }
+
+    fn finish(&mut self) -> std::io::Result<()> {
+        // The publishing thread ends once what is queued is out.
+        self.tx = None;
+        Ok(())
+    }
+}

@@ -1,0 +1,41 @@
+//! ROS 2 topics in and out (`docs/ros2.md`), wire-compatible with
+//! rmw_zenoh, ROS 2's Zenoh middleware: a ROS 2 topic feeds a blackboard
+//! entry, a signal is published on a topic, and Radar is a node that ROS 2's
+//! graph tools list, with no ROS installation.
+//!
+//! The floors of this module, bottom up: `.msg` definitions (`msg`, the
+//! built-in ones in `builtin`, where they come from in `types`), their
+//! type hash (`hash`) and wire form (`cdr`), how a message fits an entry
+//! or a signal (`fit`), rmw_zenoh's names (`graph`), and the bridge that
+//! runs them (`bridge`).
+
+mod bridge;
+mod builtin;
+pub mod cdr;
+mod fit;
+mod graph;
+mod hash;
+pub mod msg;
+mod settings;
+mod types;
+
+pub use bridge::Ros2;
+pub use graph::dds_type;
+pub use settings::{Publish, Qos, Ros2Settings, Subscribe};
+pub use types::{wit_name, Message, MessageTypes};
+
+/// Why the ROS 2 bridge cannot run as its manifest says.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Ros2Error {
+    /// The `[ros2]` table is wrong (a name, a route, an unknown type).
+    #[error("ros2: {0}")]
+    Settings(String),
+    /// A route does not fit the system: an entry or signal that is not
+    /// there, or of another type than the message.
+    #[error("ros2: {0}")]
+    Mismatch(String),
+    /// Zenoh refused a session or a declaration.
+    #[error("ros2: {0}")]
+    Session(String),
+}

@@ -1,0 +1,210 @@
+//! The manifest's `[ros2]` table and its `[[ros2.subscribe]]` and
+//! `[[ros2.publish]]` routes.
+
+use std::path::PathBuf;
+
+use serde::Deserialize;
+
+/// The `[ros2]` table: Radar as a node of a ROS 2 graph that runs on
+/// rmw_zenoh.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Ros2Settings {
+    /// The ROS 2 domain (`ROS_DOMAIN_ID`), 0 by default.
+    #[serde(default)]
+    pub domain: u32,
+    /// The node's name (default: `radar_<system>`, or `radar`).
+    #[serde(default)]
+    pub node: Option<String>,
+    /// The node's namespace (default `/`).
+    #[serde(default = "root")]
+    pub namespace: String,
+    /// Folders of `.msg` files (`<pkg>/msg/<Name>.msg`, as a ROS 2 install's
+    /// `share`), relative to the manifest, read before the built-in types.
+    #[serde(default)]
+    pub msg_paths: Vec<PathBuf>,
+    /// Zenoh endpoints to listen on, when there is no `[network]` table.
+    #[serde(default)]
+    pub listen: Vec<String>,
+    /// Zenoh endpoints to connect to (a `rmw_zenohd` router), when there is
+    /// no `[network]` table; default `tcp/127.0.0.1:7447`, rmw_zenoh's.
+    #[serde(default)]
+    pub connect: Vec<String>,
+    /// Topics into blackboard entries.
+    #[serde(default)]
+    pub subscribe: Vec<Subscribe>,
+    /// Signals out to topics.
+    #[serde(default)]
+    pub publish: Vec<Publish>,
+}
+
+fn root() -> String {
+    "/".to_string()
+}
+
+/// `[[ros2.subscribe]]`: every message on `topic` is written into `entry`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Subscribe {
+    /// The topic (`/range`; relative names are in the node's namespace).
+    pub topic: String,
+    /// `pkg/msg/Name`.
+    #[serde(rename = "type")]
+    pub type_name: String,
+    /// The blackboard entry each message is written into.
+    pub entry: String,
+    /// One field of the message (`range`, `header.stamp`) instead of all.
+    #[serde(default)]
+    pub field: Option<String>,
+    /// `reliable` (default) or `best_effort`.
+    #[serde(default)]
+    pub qos: Option<String>,
+    /// Keep last: how many messages wait at most (default 10).
+    #[serde(default)]
+    pub depth: Option<u32>,
+}
+
+/// `[[ros2.publish]]`: every emission of `signal` is published on `topic`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Publish {
+    /// `Plugin.signal`.
+    pub signal: String,
+    /// The topic it is published on.
+    pub topic: String,
+    /// `pkg/msg/Name`.
+    #[serde(rename = "type")]
+    pub type_name: String,
+    /// The field the payload fills (`angular.z`) instead of the whole
+    /// message.
+    #[serde(default)]
+    pub field: Option<String>,
+    /// Whether the payload fills the message at all (default: yes); with
+    /// `false` every message is `values`.
+    #[serde(default = "yes")]
+    pub use_payload: bool,
+    /// Fixed values for fields the payload does not fill.
+    #[serde(default)]
+    pub values: Option<toml::Table>,
+    /// `reliable` (default) or `best_effort`.
+    #[serde(default)]
+    pub qos: Option<String>,
+    /// Keep last: how many messages wait at most (default 10).
+    #[serde(default)]
+    pub depth: Option<u32>,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// A route's quality of service: rmw_zenoh's default (reliable, keep the
+/// last 10) or best effort.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Qos {
+    /// Best effort rather than reliable.
+    pub best_effort: bool,
+    /// How many messages wait, at most, for the run to take them (keep
+    /// last): older ones give way to newer.
+    pub depth: u32,
+}
+
+impl Qos {
+    /// From a route's `qos` and `depth`.
+    pub fn parse(qos: Option<&str>, depth: Option<u32>) -> Result<Self, String> {
+        let best_effort = match qos {
+            None | Some("reliable") => false,
+            Some("best_effort" | "best-effort") => true,
+            Some(other) => {
+                return Err(format!(
+                    "unknown qos `{other}` (expected `reliable` or `best_effort`)"
+                ))
+            }
+        };
+        let depth = depth.unwrap_or(10);
+        if depth == 0 {
+            return Err("depth = 0: a topic keeps one message at least".into());
+        }
+        Ok(Self { best_effort, depth })
+    }
+}
+
+impl Ros2Settings {
+    /// The node's name, from the system's name if not given.
+    pub fn node_name(&self, system: Option<&str>) -> String {
+        match (&self.node, system) {
+            (Some(node), _) => node.clone(),
+            (None, Some(system)) if system != "radar" => {
+                format!("radar_{}", system.replace('-', "_"))
+            }
+            (None, _) => "radar".to_string(),
+        }
+    }
+
+    /// A topic's full name: relative ones are in the node's namespace.
+    pub fn full_topic(&self, topic: &str) -> String {
+        if topic.starts_with('/') {
+            topic.to_string()
+        } else {
+            format!("{}/{topic}", self.namespace.trim_end_matches('/'))
+        }
+    }
+
+    /// Checks what can be checked without the system: names and routes.
+    pub fn validate(&self) -> Result<(), String> {
+        if !is_ros_name(&self.namespace) || !self.namespace.starts_with('/') {
+            return Err(format!(
+                "[ros2] namespace `{}` is not a ROS 2 namespace (e.g. `/` or `/robot1`)",
+                self.namespace
+            ));
+        }
+        let node = self.node_name(None);
+        if node.contains('/') || !is_ros_name(&node) {
+            return Err(format!(
+                "[ros2] node `{node}` is not a ROS 2 node name (letters, digits and `_`)"
+            ));
+        }
+        let topics = self
+            .subscribe
+            .iter()
+            .map(|s| &s.topic)
+            .chain(self.publish.iter().map(|p| &p.topic));
+        for topic in topics {
+            if !is_ros_name(topic) || topic.ends_with('/') && topic != "/" || topic == "/" {
+                return Err(format!(
+                    "[ros2] topic `{topic}` is not a ROS 2 topic name (letters, digits, `_` \
+                     and `/`, e.g. `/range`)"
+                ));
+            }
+        }
+        for (qos, depth) in self
+            .subscribe
+            .iter()
+            .map(|s| (&s.qos, s.depth))
+            .chain(self.publish.iter().map(|p| (&p.qos, p.depth)))
+        {
+            Qos::parse(qos.as_deref(), depth).map_err(|e| format!("[ros2]: {e}"))?;
+        }
+        for p in &self.publish {
+            if !p.signal.contains('.') {
+                return Err(format!(
+                    "[[ros2.publish]] signal `{}`: expected `Plugin.signal` (e.g. `Avoid.started`)",
+                    p.signal
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Letters, digits, `_` and `/`, no `//`, not starting with a digit.
+fn is_ros_name(name: &str) -> bool {
+    !name.is_empty()
+        && !name.contains("//")
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '/')
+        && name
+            .split('/')
+            .all(|part| !part.starts_with(|c: char| c.is_ascii_digit()))
+}

@@ -1,0 +1,291 @@
+//! ROS 2 topics in and out (`docs/ros2.md`), tested against ROS 2 code
+//! nobody here wrote: rosbags' CDR serializer and RIHS01 hashes for every
+//! built-in type, zenoh-ros2-sdk as the publisher and subscriber the
+//! obstacle example meets (both from PyPI, pinned in
+//! `tests/clients/ros2/requirements.txt`), a plain Zenoh session for
+//! malformed messages. Loopback only, on ports picked free.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::sync::mpsc::Receiver;
+use std::time::{Duration, Instant};
+
+use radar::network::ros2::{cdr, MessageTypes};
+use serde_json::Value as Json;
+use zenoh::Wait;
+
+mod common;
+
+use common::{free_port, lawful_trace, radar, text, write_manifest};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// The Python that has zenoh-ros2-sdk and rosbags, installed by the
+/// project's own set-up script.
+fn python() -> String {
+    let out = Command::new(root().join("tests/clients/ros2/setup"))
+        .output()
+        .expect("setup runs");
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    text(&out.stdout).trim().to_string()
+}
+
+fn script(name: &str) -> PathBuf {
+    root().join("tests/clients/ros2").join(name)
+}
+
+fn hex(text: &str) -> Vec<u8> {
+    (0..text.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&text[i..i + 2], 16).expect("hex"))
+        .collect()
+}
+
+#[test]
+fn every_builtin_type_round_trips_byte_for_byte_against_rosbags() {
+    let out = Command::new(python())
+        .arg(script("fixtures.py"))
+        .arg("--all")
+        .output()
+        .expect("fixtures.py runs");
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let types = MessageTypes::default();
+    let mut checked = Vec::new();
+    for line in text(&out.stdout).lines() {
+        let fixture: Json = serde_json::from_str(line).expect("a JSON line");
+        let name = fixture["type"].as_str().expect("type");
+        let message = types.load(name).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(message.hash, fixture["hash"], "{name}: type hash");
+        let le = hex(fixture["le"].as_str().expect("le"));
+        let be = hex(fixture["be"].as_str().expect("be"));
+        let value = &fixture["value"];
+        assert_eq!(&cdr::decode(&message, &le).expect(name), value, "{name}: reading little-endian");
+        assert_eq!(&cdr::decode(&message, &be).expect(name), value, "{name}: reading big-endian");
+        assert_eq!(cdr::encode(&message, value).expect(name), le, "{name}: writing");
+        checked.push(name.to_string());
+    }
+    let builtin: Vec<String> = MessageTypes::builtin_names().map(str::to_string).collect();
+    for name in &builtin {
+        assert!(checked.contains(name), "rosbags gave no fixture for {name}");
+    }
+    for listed in [
+        "std_msgs/msg/Bool", "std_msgs/msg/Float32", "std_msgs/msg/Float64", "std_msgs/msg/Int32",
+        "std_msgs/msg/UInt32", "std_msgs/msg/String", "std_msgs/msg/Header",
+        "builtin_interfaces/msg/Time", "geometry_msgs/msg/Vector3", "geometry_msgs/msg/Twist",
+        "geometry_msgs/msg/Pose", "geometry_msgs/msg/PoseStamped", "sensor_msgs/msg/Range",
+        "sensor_msgs/msg/BatteryState", "sensor_msgs/msg/Imu", "sensor_msgs/msg/LaserScan",
+        "nav_msgs/msg/Odometry",
+    ] {
+        assert!(checked.iter().any(|c| c == listed), "{listed} not checked");
+    }
+}
+
+/// The obstacle example, listening on `endpoint` instead of joining a
+/// router, with `extra` lines appended.
+fn obstacle_manifest(endpoint: &str, extra: &str) -> String {
+    let example = std::fs::read_to_string(root().join("docs/examples/ros2-obstacle/radar.toml"))
+        .expect("the example");
+    let example = example.replace(
+        "node = \"radar_obstacle\"",
+        &format!("node = \"radar_obstacle\"\nlisten = [\"{endpoint}\"]"),
+    );
+    format!("{example}\n{extra}")
+}
+
+/// `radar run` in another process, ready once it has joined the graph.
+struct Running {
+    child: Child,
+    dir: tempfile::TempDir,
+    endpoint: String,
+    port: u16,
+    _lines: Receiver<String>,
+}
+
+impl Running {
+    fn start(manifest: impl Fn(&str) -> String, args: &[&str]) -> Self {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let port = free_port();
+        let endpoint = format!("tcp/127.0.0.1:{port}");
+        let path = write_manifest(dir.path(), &manifest(&endpoint));
+        let mut child = Command::new(env!("CARGO_BIN_EXE_radar"))
+            .args(["run", &path, "-q", "--trace"])
+            .arg(dir.path().join("trace.jsonl"))
+            .arg("--record")
+            .arg(dir.path().join("inputs.jsonl"))
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("radar run starts");
+        let stdout = child.stdout.take().expect("stdout");
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                let _ = tx.send(line);
+            }
+        });
+        loop {
+            match rx.recv_timeout(Duration::from_secs(60)) {
+                Ok(line) if line.starts_with("ros2: node") => break,
+                Ok(_) => {}
+                Err(_) => {
+                    let _ = child.kill();
+                    let out = child.wait_with_output().expect("output");
+                    panic!("radar run never joined the graph: {}", text(&out.stderr));
+                }
+            }
+        }
+        Self {
+            child,
+            dir,
+            endpoint,
+            port,
+            _lines: rx,
+        }
+    }
+
+    /// Waits for the run to end by itself (at most `limit`).
+    fn finish(mut self, limit: Duration) -> (Output, tempfile::TempDir) {
+        let began = Instant::now();
+        while self.child.try_wait().expect("waitable").is_none() {
+            if began.elapsed() > limit {
+                let _ = self.child.kill();
+                panic!("the run did not end within {limit:?}");
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let status = self.child.wait().expect("status");
+        let mut stderr = Vec::new();
+        if let Some(mut pipe) = self.child.stderr.take() {
+            std::io::Read::read_to_end(&mut pipe, &mut stderr).expect("stderr");
+        }
+        let dir = std::mem::replace(&mut self.dir, tempfile::tempdir().expect("temp dir"));
+        (
+            Output {
+                status,
+                stdout: Vec::new(),
+                stderr,
+            },
+            dir,
+        )
+    }
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+#[test]
+fn type_mismatches_are_refused_when_the_system_is_built() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let cases = [
+        (
+            "[[ros2.subscribe]]\ntopic = \"/stamp\"\ntype = \"std_msgs/msg/Header\"\n\
+             entry = \"range\"\nfield = \"stamp.sec\"\n",
+            "radar: ros2: [[ros2.subscribe]] topic `/stamp` (std_msgs/msg/Header) does not fit \
+             entry `range`: field `stamp.sec` is int32, s32 in WIT, but entry `range` is f32",
+        ),
+        (
+            "[[ros2.subscribe]]\ntopic = \"/battery\"\ntype = \"sensor_msgs/msg/BatteryState\"\n\
+             entry = \"range\"\n",
+            "radar: ros2: [[ros2.subscribe]] topic `/battery` (sensor_msgs/msg/BatteryState) does \
+             not fit entry `range`: the message is record {",
+        ),
+        (
+            "[[ros2.subscribe]]\ntopic = \"/range2\"\ntype = \"sensor_msgs/msg/Range\"\n\
+             entry = \"distance\"\nfield = \"range\"\n",
+            "no blackboard entry `distance` (entries: avoided, range;",
+        ),
+        (
+            "[[ros2.publish]]\nsignal = \"Avoid.started\"\ntopic = \"/count\"\n\
+             type = \"std_msgs/msg/UInt32\"\n",
+            "radar: ros2: [[ros2.publish]] signal `Avoid.started` to topic `/count` \
+             (std_msgs/msg/UInt32) does not fit: field `data` is uint32, u32 in WIT, but \
+             `Avoid.started` carries f32",
+        ),
+        (
+            "[[ros2.publish]]\nsignal = \"Avoid.finished\"\ntopic = \"/count\"\n\
+             type = \"std_msgs/msg/UInt32\"\n",
+            "plugin `Avoid` has no signal `finished`",
+        ),
+        (
+            "[[ros2.publish]]\nsignal = \"Avoid.exited\"\ntopic = \"/count\"\n\
+             type = \"std_msgs/msg/UInt32\"\nvalues = { data = \"many\" }\n",
+            "values: field `data`: expected uint32, found \"many\"",
+        ),
+        (
+            "[[ros2.subscribe]]\ntopic = \"/x\"\ntype = \"my_msgs/msg/Unknown\"\nentry = \"range\"\n",
+            "radar: ros2: topic `/x`: unknown message type `my_msgs/msg/Unknown`",
+        ),
+    ];
+    for (extra, needle) in cases {
+        // Nothing is listened on or connected to: the check comes first.
+        let manifest = obstacle_manifest("tcp/127.0.0.1:1", extra);
+        let path = write_manifest(dir.path(), &manifest);
+        let out = radar(&["run", &path, "--for", "1s"]);
+        let stderr = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{extra}: {stderr}");
+        assert!(stderr.contains(needle), "{extra}\nexpected: {needle}\nfound: {stderr}");
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    }
+}
+
+/// The key a `sensor_msgs/msg/Range` on `/range` travels on, on domain 0.
+fn range_key() -> String {
+    let range = MessageTypes::default().load("sensor_msgs/msg/Range").expect("Range");
+    format!("0/range/sensor_msgs::msg::dds_::Range_/{}", range.hash)
+}
+
+fn range_bytes(range: f32) -> Vec<u8> {
+    let message = MessageTypes::default().load("sensor_msgs/msg/Range").expect("Range");
+    cdr::encode(&message, &serde_json::json!({"range": range, "header": {"frame-id": "sonar"}}))
+        .expect("encodes")
+}
+
+#[test]
+fn a_malformed_message_is_dropped_with_a_record_and_the_run_goes_on() {
+    let run = Running::start(|ep| obstacle_manifest(ep, ""), &["--clock", "real", "--for", "4s"]);
+    let mut config = zenoh::Config::default();
+    for (key, value) in [
+        ("mode", "\"peer\"".to_string()),
+        ("connect/endpoints", format!("[\"{}\"]", run.endpoint)),
+        ("scouting/multicast/enabled", "false".to_string()),
+        ("scouting/gossip/enabled", "false".to_string()),
+    ] {
+        config.insert_json5(key, &value).expect("config");
+    }
+    let session = zenoh::open(config).wait().expect("session");
+    std::thread::sleep(Duration::from_millis(500));
+    let key = range_key();
+    for garbage in [&b""[..], b"\x00\x01\x00\x00\x01", b"\x07\x07\x07\x07", &[0xff; 300]] {
+        session.put(&key, garbage).wait().expect("put");
+    }
+    // A message of another type's hash, on the same topic.
+    session
+        .put("0/range/sensor_msgs::msg::dds_::Range_/RIHS01_00", b"\x00\x01\x00\x00".to_vec())
+        .wait()
+        .expect("put");
+    std::thread::sleep(Duration::from_millis(300));
+    session.put(&key, range_bytes(0.3)).wait().expect("put");
+    drop(session);
+    let (out, dir) = run.finish(Duration::from_secs(30));
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let (trace, _) = lawful_trace(&dir.path().join("trace.jsonl"));
+    let refused = trace
+        .lines()
+        .filter(|l| l.contains(r#""kind":"refused","command":"ros2 /range""#))
+        .count();
+    assert_eq!(refused, 5, "{trace}");
+    assert!(trace.contains("a malformed sensor_msgs/msg/Range (0 bytes)"), "{trace}");
+    assert!(
+        trace.contains(r#""kind":"board-write","entry":"range","by":"(ros2 /range)","value":0.3"#),
+        "{trace}"
+    );
+    assert!(trace.contains(r#""kind":"slot-begin","plugin":"Avoid","slot":"start""#), "{trace}");
+}
