@@ -102,7 +102,6 @@ values = {{ angular = {{ z = 0.8 }} }}
 
 /// Interleaved samples of both ways in, in µs; stops the run at the end.
 fn sample(radar: &radar::Radar, endpoint: &str, samples: usize) -> (Vec<f64>, Vec<f64>) {
-
     let mut config = zenoh::Config::default();
     for (key, value) in [
         ("mode", "\"peer\"".to_string()),
@@ -142,7 +141,9 @@ fn sample(radar: &radar::Radar, endpoint: &str, samples: usize) -> (Vec<f64>, Ve
             if ros {
                 publisher.put(reading(metres)).wait().expect("put");
             } else {
-                radar.board_write("range", serde_json::json!(metres)).expect("write");
+                radar
+                    .board_write("range", serde_json::json!(metres))
+                    .expect("write");
             }
         };
         write(1.0);
@@ -155,7 +156,11 @@ fn sample(radar: &radar::Radar, endpoint: &str, samples: usize) -> (Vec<f64>, Ve
             continue;
         };
         let us = arrived.duration_since(began).as_secs_f64() * 1e6;
-        if ros { via_ros2.push(us) } else { native.push(us) }
+        if ros {
+            via_ros2.push(us)
+        } else {
+            native.push(us)
+        }
     }
     radar.stop();
     (via_ros2, native)

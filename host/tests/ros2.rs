@@ -62,9 +62,21 @@ fn every_builtin_type_round_trips_byte_for_byte_against_rosbags() {
         let le = hex(fixture["le"].as_str().expect("le"));
         let be = hex(fixture["be"].as_str().expect("be"));
         let value = &fixture["value"];
-        assert_eq!(&cdr::decode(&message, &le).expect(name), value, "{name}: reading little-endian");
-        assert_eq!(&cdr::decode(&message, &be).expect(name), value, "{name}: reading big-endian");
-        assert_eq!(cdr::encode(&message, value).expect(name), le, "{name}: writing");
+        assert_eq!(
+            &cdr::decode(&message, &le).expect(name),
+            value,
+            "{name}: reading little-endian"
+        );
+        assert_eq!(
+            &cdr::decode(&message, &be).expect(name),
+            value,
+            "{name}: reading big-endian"
+        );
+        assert_eq!(
+            cdr::encode(&message, value).expect(name),
+            le,
+            "{name}: writing"
+        );
         checked.push(name.to_string());
     }
     let builtin: Vec<String> = MessageTypes::builtin_names().map(str::to_string).collect();
@@ -72,11 +84,22 @@ fn every_builtin_type_round_trips_byte_for_byte_against_rosbags() {
         assert!(checked.contains(name), "rosbags gave no fixture for {name}");
     }
     for listed in [
-        "std_msgs/msg/Bool", "std_msgs/msg/Float32", "std_msgs/msg/Float64", "std_msgs/msg/Int32",
-        "std_msgs/msg/UInt32", "std_msgs/msg/String", "std_msgs/msg/Header",
-        "builtin_interfaces/msg/Time", "geometry_msgs/msg/Vector3", "geometry_msgs/msg/Twist",
-        "geometry_msgs/msg/Pose", "geometry_msgs/msg/PoseStamped", "sensor_msgs/msg/Range",
-        "sensor_msgs/msg/BatteryState", "sensor_msgs/msg/Imu", "sensor_msgs/msg/LaserScan",
+        "std_msgs/msg/Bool",
+        "std_msgs/msg/Float32",
+        "std_msgs/msg/Float64",
+        "std_msgs/msg/Int32",
+        "std_msgs/msg/UInt32",
+        "std_msgs/msg/String",
+        "std_msgs/msg/Header",
+        "builtin_interfaces/msg/Time",
+        "geometry_msgs/msg/Vector3",
+        "geometry_msgs/msg/Twist",
+        "geometry_msgs/msg/Pose",
+        "geometry_msgs/msg/PoseStamped",
+        "sensor_msgs/msg/Range",
+        "sensor_msgs/msg/BatteryState",
+        "sensor_msgs/msg/Imu",
+        "sensor_msgs/msg/LaserScan",
         "nav_msgs/msg/Odometry",
     ] {
         assert!(checked.iter().any(|c| c == listed), "{listed} not checked");
@@ -231,26 +254,39 @@ fn type_mismatches_are_refused_when_the_system_is_built() {
         let out = radar(&["run", &path, "--for", "1s"]);
         let stderr = text(&out.stderr);
         assert_eq!(out.status.code(), Some(1), "{extra}: {stderr}");
-        assert!(stderr.contains(needle), "{extra}\nexpected: {needle}\nfound: {stderr}");
+        assert!(
+            stderr.contains(needle),
+            "{extra}\nexpected: {needle}\nfound: {stderr}"
+        );
         assert_eq!(stderr.lines().count(), 1, "{stderr}");
     }
 }
 
 /// The key a `sensor_msgs/msg/Range` on `/range` travels on, on domain 0.
 fn range_key() -> String {
-    let range = MessageTypes::default().load("sensor_msgs/msg/Range").expect("Range");
+    let range = MessageTypes::default()
+        .load("sensor_msgs/msg/Range")
+        .expect("Range");
     format!("0/range/sensor_msgs::msg::dds_::Range_/{}", range.hash)
 }
 
 fn range_bytes(range: f32) -> Vec<u8> {
-    let message = MessageTypes::default().load("sensor_msgs/msg/Range").expect("Range");
-    cdr::encode(&message, &serde_json::json!({"range": range, "header": {"frame-id": "sonar"}}))
-        .expect("encodes")
+    let message = MessageTypes::default()
+        .load("sensor_msgs/msg/Range")
+        .expect("Range");
+    cdr::encode(
+        &message,
+        &serde_json::json!({"range": range, "header": {"frame-id": "sonar"}}),
+    )
+    .expect("encodes")
 }
 
 #[test]
 fn a_malformed_message_is_dropped_with_a_record_and_the_run_goes_on() {
-    let run = Running::start(|ep| obstacle_manifest(ep, ""), &["--clock", "real", "--for", "4s"]);
+    let run = Running::start(
+        |ep| obstacle_manifest(ep, ""),
+        &["--clock", "real", "--for", "4s"],
+    );
     let mut config = zenoh::Config::default();
     for (key, value) in [
         ("mode", "\"peer\"".to_string()),
@@ -263,12 +299,20 @@ fn a_malformed_message_is_dropped_with_a_record_and_the_run_goes_on() {
     let session = zenoh::open(config).wait().expect("session");
     std::thread::sleep(Duration::from_millis(500));
     let key = range_key();
-    for garbage in [&b""[..], b"\x00\x01\x00\x00\x01", b"\x07\x07\x07\x07", &[0xff; 300]] {
+    for garbage in [
+        &b""[..],
+        b"\x00\x01\x00\x00\x01",
+        b"\x07\x07\x07\x07",
+        &[0xff; 300],
+    ] {
         session.put(&key, garbage).wait().expect("put");
     }
     // A message of another type's hash, on the same topic.
     session
-        .put("0/range/sensor_msgs::msg::dds_::Range_/RIHS01_00", b"\x00\x01\x00\x00".to_vec())
+        .put(
+            "0/range/sensor_msgs::msg::dds_::Range_/RIHS01_00",
+            b"\x00\x01\x00\x00".to_vec(),
+        )
         .wait()
         .expect("put");
     std::thread::sleep(Duration::from_millis(300));
@@ -282,10 +326,206 @@ fn a_malformed_message_is_dropped_with_a_record_and_the_run_goes_on() {
         .filter(|l| l.contains(r#""kind":"refused","command":"ros2 /range""#))
         .count();
     assert_eq!(refused, 5, "{trace}");
-    assert!(trace.contains("a malformed sensor_msgs/msg/Range (0 bytes)"), "{trace}");
+    assert!(
+        trace.contains("a malformed sensor_msgs/msg/Range (0 bytes)"),
+        "{trace}"
+    );
     assert!(
         trace.contains(r#""kind":"board-write","entry":"range","by":"(ros2 /range)","value":0.3"#),
         "{trace}"
     );
-    assert!(trace.contains(r#""kind":"slot-begin","plugin":"Avoid","slot":"start""#), "{trace}");
+    assert!(
+        trace.contains(r#""kind":"slot-begin","plugin":"Avoid","slot":"start""#),
+        "{trace}"
+    );
+}
+
+/// A ROS 2 client script started against `port`, its stdout read line by
+/// line.
+struct Client {
+    child: Child,
+    lines: Receiver<String>,
+}
+
+impl Client {
+    fn start(python: &str, name: &str, args: &[&str]) -> Self {
+        let mut child = Command::new(python)
+            .arg(script(name))
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("the client starts");
+        let stdout = child.stdout.take().expect("stdout");
+        let (tx, lines) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                let _ = tx.send(line);
+            }
+        });
+        Self { child, lines }
+    }
+
+    /// The next line, within `limit`.
+    fn line(&self, limit: Duration) -> String {
+        self.lines
+            .recv_timeout(limit)
+            .unwrap_or_else(|_| panic!("no line within {limit:?}"))
+    }
+
+    /// Waits for the client to end (it bounds itself): its status, the
+    /// lines not read yet, and its stderr.
+    fn finish(mut self) -> (bool, Vec<String>, String) {
+        let status = self.child.wait().expect("status");
+        let mut stderr = String::new();
+        if let Some(mut pipe) = self.child.stderr.take() {
+            std::io::Read::read_to_string(&mut pipe, &mut stderr).expect("stderr");
+        }
+        let mut rest = Vec::new();
+        while let Ok(line) = self.lines.recv_timeout(Duration::from_millis(200)) {
+            rest.push(line);
+        }
+        (status.success(), rest, stderr)
+    }
+}
+
+#[test]
+fn the_obstacle_example_runs_against_zenoh_ros2_sdks_publisher_and_subscriber() {
+    let python = python();
+    let run = Running::start(
+        |ep| obstacle_manifest(ep, ""),
+        &["--clock", "real", "--for", "14s"],
+    );
+    let port = run.port.to_string();
+    let subscribe = |topic: &str, ty: &str, count: &str| {
+        let client = Client::start(
+            &python,
+            "subscribe.py",
+            &[
+                "--port",
+                &port,
+                "--topic",
+                topic,
+                "--type",
+                ty,
+                "--count",
+                count,
+                "--timeout",
+                "12",
+            ],
+        );
+        assert_eq!(client.line(Duration::from_secs(20)), "ready");
+        client
+    };
+    let twists = subscribe("/cmd_vel", "geometry_msgs/msg/Twist", "2");
+    let counts = subscribe("/avoided", "std_msgs/msg/UInt32", "1");
+
+    // ROS 2's graph, as `ros2 node list` and `ros2 topic list -t` see it.
+    let graph = Command::new(&python)
+        .arg(script("graph.py"))
+        .args([
+            "--port",
+            &port,
+            "--timeout",
+            "10",
+            "--expect-node",
+            "radar_obstacle",
+        ])
+        .args([
+            "--expect-topic",
+            "/range",
+            "--expect-topic",
+            "/cmd_vel",
+            "--expect-topic",
+            "/avoided",
+        ])
+        .output()
+        .expect("graph.py runs");
+    let listed = text(&graph.stdout);
+    assert!(graph.status.success(), "{listed}{}", text(&graph.stderr));
+    for line in [
+        "node /radar_obstacle",
+        "topic /range sensor_msgs/msg/Range sub",
+        "topic /cmd_vel geometry_msgs/msg/Twist pub",
+        "topic /avoided std_msgs/msg/UInt32 pub",
+    ] {
+        assert!(
+            listed.lines().any(|l| l == line),
+            "`{line}` not in:\n{listed}"
+        );
+    }
+
+    // A range sensor: clear, an obstacle (twice), clear again.
+    let published = Command::new(&python)
+        .arg(script("publish.py"))
+        .args(["--port", &port, "--topic", "/range", "--type", "sensor_msgs/msg/Range"])
+        .args(["--wait-subscriber", "--timeout", "10", "--interval", "0.3"])
+        .arg(r#"[{"range": 1.0, "header": {"frame-id": "sonar"}}, {"range": 0.3}, {"range": 0.3}, {"range": 1.0}]"#)
+        .output()
+        .expect("publish.py runs");
+    assert!(published.status.success(), "{}", text(&published.stderr));
+    assert!(text(&published.stdout).contains("subscriber: radar_obstacle /range"));
+
+    let (ok, lines, stderr) = twists.finish();
+    assert!(ok, "{stderr}");
+    let messages: Vec<Json> = lines
+        .iter()
+        .filter(|l| l.starts_with('{'))
+        .map(|l| serde_json::from_str(l).expect("JSON"))
+        .collect();
+    // Turning as Avoid starts, stopped when it is done.
+    assert_eq!(messages[0]["angular"]["z"], 0.8, "{lines:?}");
+    assert_eq!(messages[0]["linear"]["x"], 0.0, "{lines:?}");
+    assert_eq!(messages[1]["angular"]["z"], 0.0, "{lines:?}");
+    let attachments: Vec<Json> = lines
+        .iter()
+        .filter_map(|l| l.strip_prefix("attachment "))
+        .map(|l| serde_json::from_str(l).expect("JSON"))
+        .collect();
+    assert_eq!(attachments.len(), 2, "{lines:?}");
+    for a in &attachments {
+        assert_eq!(
+            a["seq"], 1,
+            "each publisher numbers its own messages from 1: {a}"
+        );
+        assert_eq!(a["gid"].as_str().map(str::len), Some(32), "{a}");
+        assert!(
+            a["ts"].as_i64().unwrap_or(0) > 1_700_000_000_000_000_000,
+            "{a}"
+        );
+    }
+    assert_ne!(attachments[0]["gid"], attachments[1]["gid"]);
+    let (ok, lines, stderr) = counts.finish();
+    assert!(ok, "{stderr}");
+    assert!(lines.iter().any(|l| l == r#"{"data": 1}"#), "{lines:?}");
+
+    let (out, dir) = run.finish(Duration::from_secs(30));
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let (trace, _) = lawful_trace(&dir.path().join("trace.jsonl"));
+    let from_ros = trace
+        .lines()
+        .filter(|l| l.contains(r#""kind":"board-write","entry":"range","by":"(ros2 /range)""#))
+        .count();
+    assert_eq!(from_ros, 4, "{trace}");
+
+    // The recording replays with neither ROS nor the network.
+    let replayed = dir.path().join("replay.jsonl");
+    let out = radar(&[
+        "run",
+        dir.path().join("radar.toml").to_str().expect("utf-8"),
+        "-q",
+        "--replay",
+        dir.path().join("inputs.jsonl").to_str().expect("utf-8"),
+        "--trace",
+        replayed.to_str().expect("utf-8"),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let (replay, _) = lawful_trace(&replayed);
+    let kept = |t: &str| -> Vec<String> {
+        t.lines()
+            .filter(|l| l.contains(r#""kind":"board-write""#) || l.contains(r#""kind":"signal""#))
+            .map(|l| l.split_once(',').map_or(l, |(_, rest)| rest).to_string())
+            .collect()
+    };
+    assert_eq!(kept(&replay), kept(&trace));
 }

@@ -159,7 +159,10 @@ impl SystemBuilder {
     /// fails the run before anything runs.
     pub fn write_at(self, at: Duration, entry: impl Into<String>, value: Json) -> Self {
         let entry = entry.into();
-        self.input(at, None, StaticWhat::Write {
+        self.input(
+            at,
+            None,
+            StaticWhat::Write {
                 entry,
                 value,
                 by: None,

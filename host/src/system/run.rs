@@ -126,10 +126,7 @@ impl System {
 
     /// The payload type of signal `Plugin.signal` (`Ok(None)`: the signal
     /// carries none); the error says what is missing.
-    pub fn signal_type(
-        &self,
-        spec: &str,
-    ) -> Result<Option<crate::payload::PayloadType>, String> {
+    pub fn signal_type(&self, spec: &str) -> Result<Option<crate::payload::PayloadType>, String> {
         use crate::ports::{split_port, Signal};
         let (name, port) = split_port(spec);
         let plugin = self

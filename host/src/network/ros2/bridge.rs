@@ -22,11 +22,11 @@ use zenoh::qos::CongestionControl;
 use zenoh::{Session, Wait};
 
 use super::cdr;
+use super::error::Ros2Error;
 use super::fit::{self, FieldPath};
 use super::graph::{self, Endpoint, Node};
 use super::settings::{Qos, Ros2Settings};
 use super::types::{Message, MessageTypes};
-use super::Ros2Error;
 use crate::network::{session, Network};
 use crate::payload::PayloadType;
 use crate::system::{Radar, System};
@@ -110,8 +110,9 @@ impl Ros2 {
         let mut publications = Vec::new();
         for p in &settings.publish {
             let values = match &p.values {
-                Some(table) => serde_json::to_value(table)
-                    .map_err(|e| Ros2Error::Settings(format!("topic `{}`: values: {e}", p.topic)))?,
+                Some(table) => serde_json::to_value(table).map_err(|e| {
+                    Ros2Error::Settings(format!("topic `{}`: values: {e}", p.topic))
+                })?,
                 None => Json::Object(Default::default()),
             };
             publications.push(Publication {
@@ -224,8 +225,12 @@ impl Ros2 {
         let (session, node) = self.join(network)?;
         let declare = |e: zenoh::Error| Ros2Error::Session(e.to_string());
         let liveliness = session.liveliness();
-        self.tokens
-            .push(liveliness.declare_token(node.token()).wait().map_err(declare)?);
+        self.tokens.push(
+            liveliness
+                .declare_token(node.token())
+                .wait()
+                .map_err(declare)?,
+        );
         let radar = system.handle();
         let mut entity = 1;
         for (sub, (path, ty)) in self.subscriptions.iter().zip(checked_in) {
@@ -338,7 +343,11 @@ impl Ros2 {
                     "{route}: no blackboard entry `{}` (entries: {}; an entry exists when a \
                      plugin's world reads or writes it)",
                     sub.entry,
-                    if entries.is_empty() { "none".to_string() } else { entries.join(", ") }
+                    if entries.is_empty() {
+                        "none".to_string()
+                    } else {
+                        entries.join(", ")
+                    }
                 ))
             })?;
             let path = fit::place(&sub.message, sub.field.as_deref(), ty).map_err(|e| {
@@ -370,18 +379,20 @@ impl Ros2 {
             };
             let path = match payload.filter(|_| p.use_payload) {
                 None => None,
-                Some(ty) => Some(fit::place(&p.message, p.field.as_deref(), &ty).map_err(|e| {
-                    let hint = if p.field.is_none() {
-                        " (name the field it fills, e.g. `field = \"data\"`, or publish \
+                Some(ty) => Some(
+                    fit::place(&p.message, p.field.as_deref(), &ty).map_err(|e| {
+                        let hint = if p.field.is_none() {
+                            " (name the field it fills, e.g. `field = \"data\"`, or publish \
                          `values` alone with `use_payload = false`)"
-                    } else {
-                        ""
-                    };
-                    Ros2Error::Mismatch(format!(
-                        "{route} does not fit: {}{hint}",
-                        e.describe(&p.message, &format!("`{}` carries", p.signal))
-                    ))
-                })?),
+                        } else {
+                            ""
+                        };
+                        Ros2Error::Mismatch(format!(
+                            "{route} does not fit: {}{hint}",
+                            e.describe(&p.message, &format!("`{}` carries", p.signal))
+                        ))
+                    })?,
+                ),
             };
             let base = fit::values(&p.message, &p.values)
                 .map_err(|e| Ros2Error::Mismatch(format!("{route}: {e}")))?;
@@ -440,15 +451,23 @@ impl Taker {
             Err(e) => self.radar.refused(
                 format!("ros2 {}", self.topic),
                 self.sender(attachment),
-                format!("a malformed {} ({} bytes): {e}", self.message.name, bytes.len()),
+                format!(
+                    "a malformed {} ({} bytes): {e}",
+                    self.message.name,
+                    bytes.len()
+                ),
             ),
         };
         match done {
             Ok(()) => true,
-            Err(crate::RadarError::Stopped) => false,
+            Err(crate::error::RadarError::Stopped) => false,
             Err(e) => self
                 .radar
-                .refused(format!("ros2 {}", self.topic), self.sender(attachment), e.to_string())
+                .refused(
+                    format!("ros2 {}", self.topic),
+                    self.sender(attachment),
+                    e.to_string(),
+                )
                 .is_ok(),
         }
     }
@@ -465,7 +484,9 @@ impl Taker {
 /// run ends.
 fn publish(mut out: Vec<Outgoing>, queued: Receiver<(usize, Json)>, left_out: Arc<AtomicU64>) {
     for (route, payload) in queued {
-        let Some(o) = out.get_mut(route) else { continue };
+        let Some(o) = out.get_mut(route) else {
+            continue;
+        };
         if payload.get("$cut").is_some() {
             // Too large for the trace, which is all the bridge sees.
             left_out.fetch_add(1, Ordering::Relaxed);
@@ -484,19 +505,52 @@ fn publish(mut out: Vec<Outgoing>, queued: Receiver<(usize, Json)>, left_out: Ar
             Some(path) => fit::fill(&o.base, path, payload),
             None => o.base.clone(),
         };
+        let now = SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .unwrap_or_default();
+        let value = stamped(&o.message, value, now);
         let Ok(bytes) = cdr::encode(&o.message, &value) else {
             left_out.fetch_add(1, Ordering::Relaxed);
             continue;
         };
         o.sequence += 1;
-        let now = SystemTime::now()
-            .duration_since(UNIX_EPOCH)
-            .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX));
-        let attachment = graph::attachment(o.sequence, now, &o.gid);
-        if o.publisher.put(bytes).attachment(attachment).wait().is_err() {
+        let nanos = i64::try_from(now.as_nanos()).unwrap_or(i64::MAX);
+        let attachment = graph::attachment(o.sequence, nanos, &o.gid);
+        if o.publisher
+            .put(bytes)
+            .attachment(attachment)
+            .wait()
+            .is_err()
+        {
             left_out.fetch_add(1, Ordering::Relaxed);
         }
     }
+}
+
+/// A message whose `header` (a `std_msgs/msg/Header`) has no stamp gets
+/// `now`, as a ROS 2 node stamps what it publishes.
+fn stamped(message: &Message, mut value: Json, now: Duration) -> Json {
+    let has_header = message.def().fields.iter().any(|f| {
+        f.name == "header" && f.base == super::msg::Base::Nested("std_msgs/msg/Header".into())
+    });
+    if !has_header {
+        return value;
+    }
+    if let Some(object) = value.as_object_mut() {
+        let header = object
+            .entry("header")
+            .or_insert_with(|| Json::Object(Default::default()));
+        if let Some(header) = header.as_object_mut() {
+            let stamp = header.entry("stamp").or_insert(Json::Null);
+            if stamp.is_null() {
+                *stamp = serde_json::json!({
+                    "sec": i32::try_from(now.as_secs()).unwrap_or(i32::MAX),
+                    "nanosec": now.subsec_nanos(),
+                });
+            }
+        }
+    }
+    value
 }
 
 /// The sink that queues the emissions of published signals.

@@ -4,100 +4,388 @@
 
 /// `(pkg/msg/Name, .msg text)`, sorted by name.
 pub(super) const BUILTIN: &[(&str, &str)] = &[
-    ("builtin_interfaces/msg/Duration", include_str!("msg/builtin_interfaces/msg/Duration.msg")),
-    ("builtin_interfaces/msg/Time", include_str!("msg/builtin_interfaces/msg/Time.msg")),
-    ("geometry_msgs/msg/Accel", include_str!("msg/geometry_msgs/msg/Accel.msg")),
-    ("geometry_msgs/msg/AccelStamped", include_str!("msg/geometry_msgs/msg/AccelStamped.msg")),
-    ("geometry_msgs/msg/AccelWithCovariance", include_str!("msg/geometry_msgs/msg/AccelWithCovariance.msg")),
-    ("geometry_msgs/msg/AccelWithCovarianceStamped", include_str!("msg/geometry_msgs/msg/AccelWithCovarianceStamped.msg")),
-    ("geometry_msgs/msg/Inertia", include_str!("msg/geometry_msgs/msg/Inertia.msg")),
-    ("geometry_msgs/msg/InertiaStamped", include_str!("msg/geometry_msgs/msg/InertiaStamped.msg")),
-    ("geometry_msgs/msg/Point", include_str!("msg/geometry_msgs/msg/Point.msg")),
-    ("geometry_msgs/msg/Point32", include_str!("msg/geometry_msgs/msg/Point32.msg")),
-    ("geometry_msgs/msg/PointStamped", include_str!("msg/geometry_msgs/msg/PointStamped.msg")),
-    ("geometry_msgs/msg/Polygon", include_str!("msg/geometry_msgs/msg/Polygon.msg")),
-    ("geometry_msgs/msg/PolygonInstance", include_str!("msg/geometry_msgs/msg/PolygonInstance.msg")),
-    ("geometry_msgs/msg/PolygonInstanceStamped", include_str!("msg/geometry_msgs/msg/PolygonInstanceStamped.msg")),
-    ("geometry_msgs/msg/PolygonStamped", include_str!("msg/geometry_msgs/msg/PolygonStamped.msg")),
-    ("geometry_msgs/msg/Pose", include_str!("msg/geometry_msgs/msg/Pose.msg")),
-    ("geometry_msgs/msg/Pose2D", include_str!("msg/geometry_msgs/msg/Pose2D.msg")),
-    ("geometry_msgs/msg/PoseArray", include_str!("msg/geometry_msgs/msg/PoseArray.msg")),
-    ("geometry_msgs/msg/PoseStamped", include_str!("msg/geometry_msgs/msg/PoseStamped.msg")),
-    ("geometry_msgs/msg/PoseWithCovariance", include_str!("msg/geometry_msgs/msg/PoseWithCovariance.msg")),
-    ("geometry_msgs/msg/PoseWithCovarianceStamped", include_str!("msg/geometry_msgs/msg/PoseWithCovarianceStamped.msg")),
-    ("geometry_msgs/msg/Quaternion", include_str!("msg/geometry_msgs/msg/Quaternion.msg")),
-    ("geometry_msgs/msg/QuaternionStamped", include_str!("msg/geometry_msgs/msg/QuaternionStamped.msg")),
-    ("geometry_msgs/msg/Transform", include_str!("msg/geometry_msgs/msg/Transform.msg")),
-    ("geometry_msgs/msg/TransformStamped", include_str!("msg/geometry_msgs/msg/TransformStamped.msg")),
-    ("geometry_msgs/msg/Twist", include_str!("msg/geometry_msgs/msg/Twist.msg")),
-    ("geometry_msgs/msg/TwistStamped", include_str!("msg/geometry_msgs/msg/TwistStamped.msg")),
-    ("geometry_msgs/msg/TwistWithCovariance", include_str!("msg/geometry_msgs/msg/TwistWithCovariance.msg")),
-    ("geometry_msgs/msg/TwistWithCovarianceStamped", include_str!("msg/geometry_msgs/msg/TwistWithCovarianceStamped.msg")),
-    ("geometry_msgs/msg/Vector3", include_str!("msg/geometry_msgs/msg/Vector3.msg")),
-    ("geometry_msgs/msg/Vector3Stamped", include_str!("msg/geometry_msgs/msg/Vector3Stamped.msg")),
-    ("geometry_msgs/msg/VelocityStamped", include_str!("msg/geometry_msgs/msg/VelocityStamped.msg")),
-    ("geometry_msgs/msg/Wrench", include_str!("msg/geometry_msgs/msg/Wrench.msg")),
-    ("geometry_msgs/msg/WrenchStamped", include_str!("msg/geometry_msgs/msg/WrenchStamped.msg")),
-    ("nav_msgs/msg/GridCells", include_str!("msg/nav_msgs/msg/GridCells.msg")),
-    ("nav_msgs/msg/MapMetaData", include_str!("msg/nav_msgs/msg/MapMetaData.msg")),
-    ("nav_msgs/msg/OccupancyGrid", include_str!("msg/nav_msgs/msg/OccupancyGrid.msg")),
-    ("nav_msgs/msg/Odometry", include_str!("msg/nav_msgs/msg/Odometry.msg")),
-    ("nav_msgs/msg/Path", include_str!("msg/nav_msgs/msg/Path.msg")),
-    ("sensor_msgs/msg/BatteryState", include_str!("msg/sensor_msgs/msg/BatteryState.msg")),
-    ("sensor_msgs/msg/CameraInfo", include_str!("msg/sensor_msgs/msg/CameraInfo.msg")),
-    ("sensor_msgs/msg/ChannelFloat32", include_str!("msg/sensor_msgs/msg/ChannelFloat32.msg")),
-    ("sensor_msgs/msg/CompressedImage", include_str!("msg/sensor_msgs/msg/CompressedImage.msg")),
-    ("sensor_msgs/msg/FluidPressure", include_str!("msg/sensor_msgs/msg/FluidPressure.msg")),
-    ("sensor_msgs/msg/Illuminance", include_str!("msg/sensor_msgs/msg/Illuminance.msg")),
-    ("sensor_msgs/msg/Image", include_str!("msg/sensor_msgs/msg/Image.msg")),
-    ("sensor_msgs/msg/Imu", include_str!("msg/sensor_msgs/msg/Imu.msg")),
-    ("sensor_msgs/msg/JointState", include_str!("msg/sensor_msgs/msg/JointState.msg")),
-    ("sensor_msgs/msg/Joy", include_str!("msg/sensor_msgs/msg/Joy.msg")),
-    ("sensor_msgs/msg/JoyFeedback", include_str!("msg/sensor_msgs/msg/JoyFeedback.msg")),
-    ("sensor_msgs/msg/JoyFeedbackArray", include_str!("msg/sensor_msgs/msg/JoyFeedbackArray.msg")),
-    ("sensor_msgs/msg/LaserEcho", include_str!("msg/sensor_msgs/msg/LaserEcho.msg")),
-    ("sensor_msgs/msg/LaserScan", include_str!("msg/sensor_msgs/msg/LaserScan.msg")),
-    ("sensor_msgs/msg/MagneticField", include_str!("msg/sensor_msgs/msg/MagneticField.msg")),
-    ("sensor_msgs/msg/MultiDOFJointState", include_str!("msg/sensor_msgs/msg/MultiDOFJointState.msg")),
-    ("sensor_msgs/msg/MultiEchoLaserScan", include_str!("msg/sensor_msgs/msg/MultiEchoLaserScan.msg")),
-    ("sensor_msgs/msg/NavSatFix", include_str!("msg/sensor_msgs/msg/NavSatFix.msg")),
-    ("sensor_msgs/msg/NavSatStatus", include_str!("msg/sensor_msgs/msg/NavSatStatus.msg")),
-    ("sensor_msgs/msg/PointCloud", include_str!("msg/sensor_msgs/msg/PointCloud.msg")),
-    ("sensor_msgs/msg/PointCloud2", include_str!("msg/sensor_msgs/msg/PointCloud2.msg")),
-    ("sensor_msgs/msg/PointField", include_str!("msg/sensor_msgs/msg/PointField.msg")),
-    ("sensor_msgs/msg/Range", include_str!("msg/sensor_msgs/msg/Range.msg")),
-    ("sensor_msgs/msg/RegionOfInterest", include_str!("msg/sensor_msgs/msg/RegionOfInterest.msg")),
-    ("sensor_msgs/msg/RelativeHumidity", include_str!("msg/sensor_msgs/msg/RelativeHumidity.msg")),
-    ("sensor_msgs/msg/Temperature", include_str!("msg/sensor_msgs/msg/Temperature.msg")),
-    ("sensor_msgs/msg/TimeReference", include_str!("msg/sensor_msgs/msg/TimeReference.msg")),
-    ("std_msgs/msg/Bool", include_str!("msg/std_msgs/msg/Bool.msg")),
-    ("std_msgs/msg/Byte", include_str!("msg/std_msgs/msg/Byte.msg")),
-    ("std_msgs/msg/ByteMultiArray", include_str!("msg/std_msgs/msg/ByteMultiArray.msg")),
-    ("std_msgs/msg/Char", include_str!("msg/std_msgs/msg/Char.msg")),
-    ("std_msgs/msg/ColorRGBA", include_str!("msg/std_msgs/msg/ColorRGBA.msg")),
-    ("std_msgs/msg/Empty", include_str!("msg/std_msgs/msg/Empty.msg")),
-    ("std_msgs/msg/Float32", include_str!("msg/std_msgs/msg/Float32.msg")),
-    ("std_msgs/msg/Float32MultiArray", include_str!("msg/std_msgs/msg/Float32MultiArray.msg")),
-    ("std_msgs/msg/Float64", include_str!("msg/std_msgs/msg/Float64.msg")),
-    ("std_msgs/msg/Float64MultiArray", include_str!("msg/std_msgs/msg/Float64MultiArray.msg")),
-    ("std_msgs/msg/Header", include_str!("msg/std_msgs/msg/Header.msg")),
-    ("std_msgs/msg/Int16", include_str!("msg/std_msgs/msg/Int16.msg")),
-    ("std_msgs/msg/Int16MultiArray", include_str!("msg/std_msgs/msg/Int16MultiArray.msg")),
-    ("std_msgs/msg/Int32", include_str!("msg/std_msgs/msg/Int32.msg")),
-    ("std_msgs/msg/Int32MultiArray", include_str!("msg/std_msgs/msg/Int32MultiArray.msg")),
-    ("std_msgs/msg/Int64", include_str!("msg/std_msgs/msg/Int64.msg")),
-    ("std_msgs/msg/Int64MultiArray", include_str!("msg/std_msgs/msg/Int64MultiArray.msg")),
-    ("std_msgs/msg/Int8", include_str!("msg/std_msgs/msg/Int8.msg")),
-    ("std_msgs/msg/Int8MultiArray", include_str!("msg/std_msgs/msg/Int8MultiArray.msg")),
-    ("std_msgs/msg/MultiArrayDimension", include_str!("msg/std_msgs/msg/MultiArrayDimension.msg")),
-    ("std_msgs/msg/MultiArrayLayout", include_str!("msg/std_msgs/msg/MultiArrayLayout.msg")),
-    ("std_msgs/msg/String", include_str!("msg/std_msgs/msg/String.msg")),
-    ("std_msgs/msg/UInt16", include_str!("msg/std_msgs/msg/UInt16.msg")),
-    ("std_msgs/msg/UInt16MultiArray", include_str!("msg/std_msgs/msg/UInt16MultiArray.msg")),
-    ("std_msgs/msg/UInt32", include_str!("msg/std_msgs/msg/UInt32.msg")),
-    ("std_msgs/msg/UInt32MultiArray", include_str!("msg/std_msgs/msg/UInt32MultiArray.msg")),
-    ("std_msgs/msg/UInt64", include_str!("msg/std_msgs/msg/UInt64.msg")),
-    ("std_msgs/msg/UInt64MultiArray", include_str!("msg/std_msgs/msg/UInt64MultiArray.msg")),
-    ("std_msgs/msg/UInt8", include_str!("msg/std_msgs/msg/UInt8.msg")),
-    ("std_msgs/msg/UInt8MultiArray", include_str!("msg/std_msgs/msg/UInt8MultiArray.msg")),
+    (
+        "builtin_interfaces/msg/Duration",
+        include_str!("msg/builtin_interfaces/msg/Duration.msg"),
+    ),
+    (
+        "builtin_interfaces/msg/Time",
+        include_str!("msg/builtin_interfaces/msg/Time.msg"),
+    ),
+    (
+        "geometry_msgs/msg/Accel",
+        include_str!("msg/geometry_msgs/msg/Accel.msg"),
+    ),
+    (
+        "geometry_msgs/msg/AccelStamped",
+        include_str!("msg/geometry_msgs/msg/AccelStamped.msg"),
+    ),
+    (
+        "geometry_msgs/msg/AccelWithCovariance",
+        include_str!("msg/geometry_msgs/msg/AccelWithCovariance.msg"),
+    ),
+    (
+        "geometry_msgs/msg/AccelWithCovarianceStamped",
+        include_str!("msg/geometry_msgs/msg/AccelWithCovarianceStamped.msg"),
+    ),
+    (
+        "geometry_msgs/msg/Inertia",
+        include_str!("msg/geometry_msgs/msg/Inertia.msg"),
+    ),
+    (
+        "geometry_msgs/msg/InertiaStamped",
+        include_str!("msg/geometry_msgs/msg/InertiaStamped.msg"),
+    ),
+    (
+        "geometry_msgs/msg/Point",
+        include_str!("msg/geometry_msgs/msg/Point.msg"),
+    ),
+    (
+        "geometry_msgs/msg/Point32",
+        include_str!("msg/geometry_msgs/msg/Point32.msg"),
+    ),
+    (
+        "geometry_msgs/msg/PointStamped",
+        include_str!("msg/geometry_msgs/msg/PointStamped.msg"),
+    ),
+    (
+        "geometry_msgs/msg/Polygon",
+        include_str!("msg/geometry_msgs/msg/Polygon.msg"),
+    ),
+    (
+        "geometry_msgs/msg/PolygonInstance",
+        include_str!("msg/geometry_msgs/msg/PolygonInstance.msg"),
+    ),
+    (
+        "geometry_msgs/msg/PolygonInstanceStamped",
+        include_str!("msg/geometry_msgs/msg/PolygonInstanceStamped.msg"),
+    ),
+    (
+        "geometry_msgs/msg/PolygonStamped",
+        include_str!("msg/geometry_msgs/msg/PolygonStamped.msg"),
+    ),
+    (
+        "geometry_msgs/msg/Pose",
+        include_str!("msg/geometry_msgs/msg/Pose.msg"),
+    ),
+    (
+        "geometry_msgs/msg/Pose2D",
+        include_str!("msg/geometry_msgs/msg/Pose2D.msg"),
+    ),
+    (
+        "geometry_msgs/msg/PoseArray",
+        include_str!("msg/geometry_msgs/msg/PoseArray.msg"),
+    ),
+    (
+        "geometry_msgs/msg/PoseStamped",
+        include_str!("msg/geometry_msgs/msg/PoseStamped.msg"),
+    ),
+    (
+        "geometry_msgs/msg/PoseWithCovariance",
+        include_str!("msg/geometry_msgs/msg/PoseWithCovariance.msg"),
+    ),
+    (
+        "geometry_msgs/msg/PoseWithCovarianceStamped",
+        include_str!("msg/geometry_msgs/msg/PoseWithCovarianceStamped.msg"),
+    ),
+    (
+        "geometry_msgs/msg/Quaternion",
+        include_str!("msg/geometry_msgs/msg/Quaternion.msg"),
+    ),
+    (
+        "geometry_msgs/msg/QuaternionStamped",
+        include_str!("msg/geometry_msgs/msg/QuaternionStamped.msg"),
+    ),
+    (
+        "geometry_msgs/msg/Transform",
+        include_str!("msg/geometry_msgs/msg/Transform.msg"),
+    ),
+    (
+        "geometry_msgs/msg/TransformStamped",
+        include_str!("msg/geometry_msgs/msg/TransformStamped.msg"),
+    ),
+    (
+        "geometry_msgs/msg/Twist",
+        include_str!("msg/geometry_msgs/msg/Twist.msg"),
+    ),
+    (
+        "geometry_msgs/msg/TwistStamped",
+        include_str!("msg/geometry_msgs/msg/TwistStamped.msg"),
+    ),
+    (
+        "geometry_msgs/msg/TwistWithCovariance",
+        include_str!("msg/geometry_msgs/msg/TwistWithCovariance.msg"),
+    ),
+    (
+        "geometry_msgs/msg/TwistWithCovarianceStamped",
+        include_str!("msg/geometry_msgs/msg/TwistWithCovarianceStamped.msg"),
+    ),
+    (
+        "geometry_msgs/msg/Vector3",
+        include_str!("msg/geometry_msgs/msg/Vector3.msg"),
+    ),
+    (
+        "geometry_msgs/msg/Vector3Stamped",
+        include_str!("msg/geometry_msgs/msg/Vector3Stamped.msg"),
+    ),
+    (
+        "geometry_msgs/msg/VelocityStamped",
+        include_str!("msg/geometry_msgs/msg/VelocityStamped.msg"),
+    ),
+    (
+        "geometry_msgs/msg/Wrench",
+        include_str!("msg/geometry_msgs/msg/Wrench.msg"),
+    ),
+    (
+        "geometry_msgs/msg/WrenchStamped",
+        include_str!("msg/geometry_msgs/msg/WrenchStamped.msg"),
+    ),
+    (
+        "nav_msgs/msg/GridCells",
+        include_str!("msg/nav_msgs/msg/GridCells.msg"),
+    ),
+    (
+        "nav_msgs/msg/MapMetaData",
+        include_str!("msg/nav_msgs/msg/MapMetaData.msg"),
+    ),
+    (
+        "nav_msgs/msg/OccupancyGrid",
+        include_str!("msg/nav_msgs/msg/OccupancyGrid.msg"),
+    ),
+    (
+        "nav_msgs/msg/Odometry",
+        include_str!("msg/nav_msgs/msg/Odometry.msg"),
+    ),
+    (
+        "nav_msgs/msg/Path",
+        include_str!("msg/nav_msgs/msg/Path.msg"),
+    ),
+    (
+        "sensor_msgs/msg/BatteryState",
+        include_str!("msg/sensor_msgs/msg/BatteryState.msg"),
+    ),
+    (
+        "sensor_msgs/msg/CameraInfo",
+        include_str!("msg/sensor_msgs/msg/CameraInfo.msg"),
+    ),
+    (
+        "sensor_msgs/msg/ChannelFloat32",
+        include_str!("msg/sensor_msgs/msg/ChannelFloat32.msg"),
+    ),
+    (
+        "sensor_msgs/msg/CompressedImage",
+        include_str!("msg/sensor_msgs/msg/CompressedImage.msg"),
+    ),
+    (
+        "sensor_msgs/msg/FluidPressure",
+        include_str!("msg/sensor_msgs/msg/FluidPressure.msg"),
+    ),
+    (
+        "sensor_msgs/msg/Illuminance",
+        include_str!("msg/sensor_msgs/msg/Illuminance.msg"),
+    ),
+    (
+        "sensor_msgs/msg/Image",
+        include_str!("msg/sensor_msgs/msg/Image.msg"),
+    ),
+    (
+        "sensor_msgs/msg/Imu",
+        include_str!("msg/sensor_msgs/msg/Imu.msg"),
+    ),
+    (
+        "sensor_msgs/msg/JointState",
+        include_str!("msg/sensor_msgs/msg/JointState.msg"),
+    ),
+    (
+        "sensor_msgs/msg/Joy",
+        include_str!("msg/sensor_msgs/msg/Joy.msg"),
+    ),
+    (
+        "sensor_msgs/msg/JoyFeedback",
+        include_str!("msg/sensor_msgs/msg/JoyFeedback.msg"),
+    ),
+    (
+        "sensor_msgs/msg/JoyFeedbackArray",
+        include_str!("msg/sensor_msgs/msg/JoyFeedbackArray.msg"),
+    ),
+    (
+        "sensor_msgs/msg/LaserEcho",
+        include_str!("msg/sensor_msgs/msg/LaserEcho.msg"),
+    ),
+    (
+        "sensor_msgs/msg/LaserScan",
+        include_str!("msg/sensor_msgs/msg/LaserScan.msg"),
+    ),
+    (
+        "sensor_msgs/msg/MagneticField",
+        include_str!("msg/sensor_msgs/msg/MagneticField.msg"),
+    ),
+    (
+        "sensor_msgs/msg/MultiDOFJointState",
+        include_str!("msg/sensor_msgs/msg/MultiDOFJointState.msg"),
+    ),
+    (
+        "sensor_msgs/msg/MultiEchoLaserScan",
+        include_str!("msg/sensor_msgs/msg/MultiEchoLaserScan.msg"),
+    ),
+    (
+        "sensor_msgs/msg/NavSatFix",
+        include_str!("msg/sensor_msgs/msg/NavSatFix.msg"),
+    ),
+    (
+        "sensor_msgs/msg/NavSatStatus",
+        include_str!("msg/sensor_msgs/msg/NavSatStatus.msg"),
+    ),
+    (
+        "sensor_msgs/msg/PointCloud",
+        include_str!("msg/sensor_msgs/msg/PointCloud.msg"),
+    ),
+    (
+        "sensor_msgs/msg/PointCloud2",
+        include_str!("msg/sensor_msgs/msg/PointCloud2.msg"),
+    ),
+    (
+        "sensor_msgs/msg/PointField",
+        include_str!("msg/sensor_msgs/msg/PointField.msg"),
+    ),
+    (
+        "sensor_msgs/msg/Range",
+        include_str!("msg/sensor_msgs/msg/Range.msg"),
+    ),
+    (
+        "sensor_msgs/msg/RegionOfInterest",
+        include_str!("msg/sensor_msgs/msg/RegionOfInterest.msg"),
+    ),
+    (
+        "sensor_msgs/msg/RelativeHumidity",
+        include_str!("msg/sensor_msgs/msg/RelativeHumidity.msg"),
+    ),
+    (
+        "sensor_msgs/msg/Temperature",
+        include_str!("msg/sensor_msgs/msg/Temperature.msg"),
+    ),
+    (
+        "sensor_msgs/msg/TimeReference",
+        include_str!("msg/sensor_msgs/msg/TimeReference.msg"),
+    ),
+    (
+        "std_msgs/msg/Bool",
+        include_str!("msg/std_msgs/msg/Bool.msg"),
+    ),
+    (
+        "std_msgs/msg/Byte",
+        include_str!("msg/std_msgs/msg/Byte.msg"),
+    ),
+    (
+        "std_msgs/msg/ByteMultiArray",
+        include_str!("msg/std_msgs/msg/ByteMultiArray.msg"),
+    ),
+    (
+        "std_msgs/msg/Char",
+        include_str!("msg/std_msgs/msg/Char.msg"),
+    ),
+    (
+        "std_msgs/msg/ColorRGBA",
+        include_str!("msg/std_msgs/msg/ColorRGBA.msg"),
+    ),
+    (
+        "std_msgs/msg/Empty",
+        include_str!("msg/std_msgs/msg/Empty.msg"),
+    ),
+    (
+        "std_msgs/msg/Float32",
+        include_str!("msg/std_msgs/msg/Float32.msg"),
+    ),
+    (
+        "std_msgs/msg/Float32MultiArray",
+        include_str!("msg/std_msgs/msg/Float32MultiArray.msg"),
+    ),
+    (
+        "std_msgs/msg/Float64",
+        include_str!("msg/std_msgs/msg/Float64.msg"),
+    ),
+    (
+        "std_msgs/msg/Float64MultiArray",
+        include_str!("msg/std_msgs/msg/Float64MultiArray.msg"),
+    ),
+    (
+        "std_msgs/msg/Header",
+        include_str!("msg/std_msgs/msg/Header.msg"),
+    ),
+    (
+        "std_msgs/msg/Int16",
+        include_str!("msg/std_msgs/msg/Int16.msg"),
+    ),
+    (
+        "std_msgs/msg/Int16MultiArray",
+        include_str!("msg/std_msgs/msg/Int16MultiArray.msg"),
+    ),
+    (
+        "std_msgs/msg/Int32",
+        include_str!("msg/std_msgs/msg/Int32.msg"),
+    ),
+    (
+        "std_msgs/msg/Int32MultiArray",
+        include_str!("msg/std_msgs/msg/Int32MultiArray.msg"),
+    ),
+    (
+        "std_msgs/msg/Int64",
+        include_str!("msg/std_msgs/msg/Int64.msg"),
+    ),
+    (
+        "std_msgs/msg/Int64MultiArray",
+        include_str!("msg/std_msgs/msg/Int64MultiArray.msg"),
+    ),
+    (
+        "std_msgs/msg/Int8",
+        include_str!("msg/std_msgs/msg/Int8.msg"),
+    ),
+    (
+        "std_msgs/msg/Int8MultiArray",
+        include_str!("msg/std_msgs/msg/Int8MultiArray.msg"),
+    ),
+    (
+        "std_msgs/msg/MultiArrayDimension",
+        include_str!("msg/std_msgs/msg/MultiArrayDimension.msg"),
+    ),
+    (
+        "std_msgs/msg/MultiArrayLayout",
+        include_str!("msg/std_msgs/msg/MultiArrayLayout.msg"),
+    ),
+    (
+        "std_msgs/msg/String",
+        include_str!("msg/std_msgs/msg/String.msg"),
+    ),
+    (
+        "std_msgs/msg/UInt16",
+        include_str!("msg/std_msgs/msg/UInt16.msg"),
+    ),
+    (
+        "std_msgs/msg/UInt16MultiArray",
+        include_str!("msg/std_msgs/msg/UInt16MultiArray.msg"),
+    ),
+    (
+        "std_msgs/msg/UInt32",
+        include_str!("msg/std_msgs/msg/UInt32.msg"),
+    ),
+    (
+        "std_msgs/msg/UInt32MultiArray",
+        include_str!("msg/std_msgs/msg/UInt32MultiArray.msg"),
+    ),
+    (
+        "std_msgs/msg/UInt64",
+        include_str!("msg/std_msgs/msg/UInt64.msg"),
+    ),
+    (
+        "std_msgs/msg/UInt64MultiArray",
+        include_str!("msg/std_msgs/msg/UInt64MultiArray.msg"),
+    ),
+    (
+        "std_msgs/msg/UInt8",
+        include_str!("msg/std_msgs/msg/UInt8.msg"),
+    ),
+    (
+        "std_msgs/msg/UInt8MultiArray",
+        include_str!("msg/std_msgs/msg/UInt8MultiArray.msg"),
+    ),
 ];

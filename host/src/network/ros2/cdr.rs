@@ -27,7 +27,12 @@ pub fn decode(message: &Message, bytes: &[u8]) -> Result<Json, String> {
                 "encapsulation {a:#04x} {b:#04x} is not plain CDR (expected 0x00 0x00 or 0x00 0x01)"
             ))
         }
-        _ => return Err(format!("{} bytes, shorter than the CDR header", bytes.len())),
+        _ => {
+            return Err(format!(
+                "{} bytes, shorter than the CDR header",
+                bytes.len()
+            ))
+        }
     };
     let mut reader = Reader {
         data: &bytes[4..],
@@ -310,7 +315,11 @@ impl Writer {
                 .or_else(|| value.as_u64().map(i128::from))
                 .ok_or_else(wrong)?;
             if n < lo || n > hi {
-                return Err(format!("{}: {n} is out of range for {}", at(path), p.name()));
+                return Err(format!(
+                    "{}: {n} is out of range for {}",
+                    at(path),
+                    p.name()
+                ));
             }
             Ok(n)
         };
@@ -334,11 +343,17 @@ impl Writer {
                 self.put(&[int(0, 255)? as u8]);
             }
             Primitive::I8 => self.put(&(int(-128, 127)? as i8).to_le_bytes()),
-            Primitive::I16 => self.put(&(int(i16::MIN.into(), i16::MAX.into())? as i16).to_le_bytes()),
+            Primitive::I16 => {
+                self.put(&(int(i16::MIN.into(), i16::MAX.into())? as i16).to_le_bytes())
+            }
             Primitive::U16 => self.put(&(int(0, u16::MAX.into())? as u16).to_le_bytes()),
-            Primitive::I32 => self.put(&(int(i32::MIN.into(), i32::MAX.into())? as i32).to_le_bytes()),
+            Primitive::I32 => {
+                self.put(&(int(i32::MIN.into(), i32::MAX.into())? as i32).to_le_bytes())
+            }
             Primitive::U32 => self.put(&(int(0, u32::MAX.into())? as u32).to_le_bytes()),
-            Primitive::I64 => self.put(&(int(i64::MIN.into(), i64::MAX.into())? as i64).to_le_bytes()),
+            Primitive::I64 => {
+                self.put(&(int(i64::MIN.into(), i64::MAX.into())? as i64).to_le_bytes())
+            }
             Primitive::U64 => self.put(&(int(0, u64::MAX.into())? as u64).to_le_bytes()),
             Primitive::F32 => self.put(&(real()? as f32).to_le_bytes()),
             Primitive::F64 => self.put(&real()?.to_le_bytes()),
@@ -366,7 +381,7 @@ mod tests {
     use serde_json::json;
 
     fn load(name: &str) -> Message {
-        MessageTypes::default().load(name).unwrap()
+        MessageTypes::default().load(name).expect("works")
     }
 
     #[test]
@@ -377,18 +392,18 @@ mod tests {
             "radiation-type": 1, "field-of-view": 0.5, "min-range": 0.25,
             "max-range": 4.0, "range": 0.375, "variance": 0.0
         });
-        let bytes = encode(&range, &value).unwrap();
+        let bytes = encode(&range, &value).expect("works");
         // header 4; sec 4, nanosec 4; "sonar\0" len 4 + 6; radiation-type 1
         // at 22; padding to 24; six float32 after it.
         assert_eq!(bytes.len(), 4 + 4 + 4 + 4 + 6 + 1 + 1 + 5 * 4);
-        assert_eq!(decode(&range, &bytes).unwrap(), value);
+        assert_eq!(decode(&range, &bytes).expect("works"), value);
     }
 
     #[test]
     fn fills_left_out_fields_with_zero_values() {
         let twist = load("geometry_msgs/msg/Twist");
-        let bytes = encode(&twist, &json!({"angular": {"z": 0.8}})).unwrap();
-        let back = decode(&twist, &bytes).unwrap();
+        let bytes = encode(&twist, &json!({"angular": {"z": 0.8}})).expect("works");
+        let back = decode(&twist, &bytes).expect("works");
         assert_eq!(back["angular"]["z"], json!(0.8));
         assert_eq!(back["linear"], json!({"x": 0.0, "y": 0.0, "z": 0.0}));
     }
@@ -396,28 +411,31 @@ mod tests {
     #[test]
     fn malformed_bytes_are_errors_not_panics() {
         let scan = load("sensor_msgs/msg/LaserScan");
-        let good = encode(&scan, &json!({"ranges": [1.0, 2.0]})).unwrap();
+        let good = encode(&scan, &json!({"ranges": [1.0, 2.0]})).expect("works");
         for cut in 0..good.len() {
             assert!(decode(&scan, &good[..cut]).is_err(), "cut at {cut}");
         }
         // A sequence claiming four billion elements.
-        let mut huge = encode(&load("std_msgs/msg/Float32MultiArray"), &json!({})).unwrap();
+        let mut huge = encode(&load("std_msgs/msg/Float32MultiArray"), &json!({})).expect("works");
         let at = huge.len() - 4;
         huge[at..].copy_from_slice(&u32::MAX.to_le_bytes());
-        let e = decode(&load("std_msgs/msg/Float32MultiArray"), &huge).unwrap_err();
+        let e = decode(&load("std_msgs/msg/Float32MultiArray"), &huge).expect_err("is refused");
         assert!(e.contains("past the end"), "{e}");
-        let e = decode(&load("std_msgs/msg/Bool"), &[0, 1, 0, 0, 7]).unwrap_err();
+        let e = decode(&load("std_msgs/msg/Bool"), &[0, 1, 0, 0, 7]).expect_err("is refused");
         assert!(e.contains("a bool of 7"), "{e}");
-        let e = decode(&load("std_msgs/msg/Bool"), &[0, 7, 0, 0, 1]).unwrap_err();
+        let e = decode(&load("std_msgs/msg/Bool"), &[0, 7, 0, 0, 1]).expect_err("is refused");
         assert!(e.contains("encapsulation"), "{e}");
     }
 
     #[test]
     fn refuses_values_that_do_not_fit_naming_the_field() {
         let imu = load("sensor_msgs/msg/Imu");
-        let e = encode(&imu, &json!({"orientation-covariance": [1.0]})).unwrap_err();
-        assert!(e.contains("orientation-covariance") && e.contains("has 9"), "{e}");
-        let e = encode(&load("std_msgs/msg/UInt32"), &json!({"data": -1})).unwrap_err();
+        let e = encode(&imu, &json!({"orientation-covariance": [1.0]})).expect_err("is refused");
+        assert!(
+            e.contains("orientation-covariance") && e.contains("has 9"),
+            "{e}"
+        );
+        let e = encode(&load("std_msgs/msg/UInt32"), &json!({"data": -1})).expect_err("is refused");
         assert!(e.contains("out of range for uint32"), "{e}");
     }
 }

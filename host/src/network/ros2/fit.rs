@@ -119,8 +119,15 @@ pub fn fits(ours: &PayloadType, theirs: &PayloadType, path: &[String]) -> Result
                         return Err(Mismatch::Field(format!(
                             "field `{}` is not in the message (at `{}` it has: {})",
                             inner.join("."),
-                            if path.is_empty() { "the top".to_string() } else { path.join(".") },
-                            have.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(", ")
+                            if path.is_empty() {
+                                "the top".to_string()
+                            } else {
+                                path.join(".")
+                            },
+                            have.iter()
+                                .map(|(n, _)| n.as_str())
+                                .collect::<Vec<_>>()
+                                .join(", ")
                         )))
                     }
                 }
@@ -235,9 +242,15 @@ pub fn values(message: &Message, table: &Json) -> Result<Json, String> {
                 let mut out = Map::new();
                 for (key, v) in object {
                     let name = wit_name(key);
-                    let inner = if path.is_empty() { name.clone() } else { format!("{path}.{name}") };
+                    let inner = if path.is_empty() {
+                        name.clone()
+                    } else {
+                        format!("{path}.{name}")
+                    };
                     let Some((_, t)) = fields.iter().find(|(n, _)| *n == name) else {
-                        return Err(format!("`values` names field `{inner}`, which the message does not have"));
+                        return Err(format!(
+                            "`values` names field `{inner}`, which the message does not have"
+                        ));
                     };
                     out.insert(name, walk(t, v, &inner)?);
                 }
@@ -259,51 +272,77 @@ mod tests {
     use serde_json::json;
 
     fn load(name: &str) -> Message {
-        MessageTypes::default().load(name).unwrap()
+        MessageTypes::default().load(name).expect("works")
     }
 
     fn record(fields: &[(&str, PayloadType)]) -> PayloadType {
-        PayloadType::Record(fields.iter().map(|(n, t)| (n.to_string(), t.clone())).collect())
+        PayloadType::Record(
+            fields
+                .iter()
+                .map(|(n, t)| (n.to_string(), t.clone()))
+                .collect(),
+        )
     }
 
     #[test]
     fn an_entry_takes_a_field_some_fields_or_the_only_field() {
         let battery = load("sensor_msgs/msg/BatteryState");
-        assert_eq!(place(&battery, Some("percentage"), &PayloadType::F32).unwrap(), ["percentage"]);
-        let some = record(&[("percentage", PayloadType::F32), ("present", PayloadType::Bool)]);
-        assert!(place(&battery, None, &some).unwrap().is_empty());
+        assert_eq!(
+            place(&battery, Some("percentage"), &PayloadType::F32).expect("works"),
+            ["percentage"]
+        );
+        let some = record(&[
+            ("percentage", PayloadType::F32),
+            ("present", PayloadType::Bool),
+        ]);
+        assert!(place(&battery, None, &some).expect("works").is_empty());
         let stamp = record(&[("sec", PayloadType::S32)]);
-        assert_eq!(place(&battery, Some("header.stamp"), &stamp).unwrap(), ["header", "stamp"]);
+        assert_eq!(
+            place(&battery, Some("header.stamp"), &stamp).expect("works"),
+            ["header", "stamp"]
+        );
         let float = load("std_msgs/msg/Float32");
-        assert_eq!(place(&float, None, &PayloadType::F32).unwrap(), ["data"]);
+        assert_eq!(
+            place(&float, None, &PayloadType::F32).expect("works"),
+            ["data"]
+        );
 
         let value = json!({"header": {"stamp": {"sec": 1, "nanosec": 2}, "frame-id": "b"},
                            "percentage": 0.5, "present": true, "voltage": 12.0});
-        assert_eq!(take(&value, &[], &some), json!({"percentage": 0.5, "present": true}));
-        assert_eq!(take(&value, &["header".into(), "stamp".into()], &stamp), json!({"sec": 1}));
+        assert_eq!(
+            take(&value, &[], &some),
+            json!({"percentage": 0.5, "present": true})
+        );
+        assert_eq!(
+            take(&value, &["header".into(), "stamp".into()], &stamp),
+            json!({"sec": 1})
+        );
     }
 
     #[test]
     fn a_mismatch_names_the_field_and_both_types() {
         let range = load("sensor_msgs/msg/Range");
-        let e = place(&range, Some("range"), &PayloadType::F64).unwrap_err();
+        let e = place(&range, Some("range"), &PayloadType::F64).expect_err("is refused");
         assert_eq!(
             e.describe(&range, "entry `range` is"),
             "field `range` is float32, f32 in WIT, but entry `range` is f64"
         );
-        let e = place(&range, None, &record(&[("rang", PayloadType::F32)])).unwrap_err();
-        assert!(e.describe(&range, "x").contains("field `rang` is not in the message"));
-        let e = place(&range, Some("header.nope"), &PayloadType::F32).unwrap_err();
+        let e =
+            place(&range, None, &record(&[("rang", PayloadType::F32)])).expect_err("is refused");
+        assert!(e
+            .describe(&range, "x")
+            .contains("field `rang` is not in the message"));
+        let e = place(&range, Some("header.nope"), &PayloadType::F32).expect_err("is refused");
         assert!(e.describe(&range, "x").contains("has no field `nope`"));
     }
 
     #[test]
     fn a_signal_fills_a_message_over_fixed_values() {
         let twist = load("geometry_msgs/msg/Twist");
-        let base = values(&twist, &json!({"angular": {"z": 0.8}})).unwrap();
+        let base = values(&twist, &json!({"angular": {"z": 0.8}})).expect("works");
         let filled = fill(&base, &["linear".into()], json!({"x": 0.2}));
         assert_eq!(filled, json!({"angular": {"z": 0.8}, "linear": {"x": 0.2}}));
-        let e = values(&twist, &json!({"angular": {"w": 1}})).unwrap_err();
+        let e = values(&twist, &json!({"angular": {"w": 1}})).expect_err("is refused");
         assert!(e.contains("angular.w"), "{e}");
     }
 }

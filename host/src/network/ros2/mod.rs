@@ -12,6 +12,7 @@
 mod bridge;
 mod builtin;
 pub mod cdr;
+mod error;
 mod fit;
 mod graph;
 mod hash;
@@ -20,22 +21,7 @@ mod settings;
 mod types;
 
 pub use bridge::Ros2;
+pub use error::Ros2Error;
 pub use graph::dds_type;
 pub use settings::{Publish, Qos, Ros2Settings, Subscribe};
 pub use types::{wit_name, Message, MessageTypes};
-
-/// Why the ROS 2 bridge cannot run as its manifest says.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum Ros2Error {
-    /// The `[ros2]` table is wrong (a name, a route, an unknown type).
-    #[error("ros2: {0}")]
-    Settings(String),
-    /// A route does not fit the system: an entry or signal that is not
-    /// there, or of another type than the message.
-    #[error("ros2: {0}")]
-    Mismatch(String),
-    /// Zenoh refused a session or a declaration.
-    #[error("ros2: {0}")]
-    Session(String),
-}

@@ -296,7 +296,7 @@ mod tests {
              Point[] points\n\
              int32 count 7\n",
         )
-        .unwrap();
+        .expect("works");
         let shown: Vec<String> = def
             .fields
             .iter()
@@ -317,18 +317,21 @@ mod tests {
 
     #[test]
     fn an_empty_message_has_ros_2s_one_member() {
-        let def = parse("std_msgs/msg/Empty", "# nothing\n").unwrap();
+        let def = parse("std_msgs/msg/Empty", "# nothing\n").expect("works");
         assert_eq!(def.fields.len(), 1);
         assert_eq!(def.fields[0].name, EMPTY_MEMBER);
     }
 
     #[test]
     fn refuses_what_it_cannot_read_naming_the_line() {
-        let e = parse("a/msg/B", "int32 x\nfloat32[x] y\n").unwrap_err();
-        assert!(e.contains("a/msg/B, line 2") && e.contains("not a size"), "{e}");
-        let e = parse("a/msg/B", "wstring w\n").unwrap_err();
+        let e = parse("a/msg/B", "int32 x\nfloat32[x] y\n").expect_err("is refused");
+        assert!(
+            e.contains("a/msg/B, line 2") && e.contains("not a size"),
+            "{e}"
+        );
+        let e = parse("a/msg/B", "wstring w\n").expect_err("is refused");
         assert!(e.contains("wide strings"), "{e}");
-        let e = parse("a/msg/B", "int32 Bad\n").unwrap_err();
+        let e = parse("a/msg/B", "int32 Bad\n").expect_err("is refused");
         assert!(e.contains("not a field name"), "{e}");
     }
 }

@@ -170,7 +170,7 @@ impl Ros2Settings {
             .map(|s| &s.topic)
             .chain(self.publish.iter().map(|p| &p.topic));
         for topic in topics {
-            if !is_ros_name(topic) || topic.ends_with('/') && topic != "/" || topic == "/" {
+            if !is_ros_name(topic) || topic.ends_with('/') {
                 return Err(format!(
                     "[ros2] topic `{topic}` is not a ROS 2 topic name (letters, digits, `_` \
                      and `/`, e.g. `/range`)"

@@ -194,7 +194,7 @@ mod tests {
             let message = types.load(name).unwrap_or_else(|e| panic!("{name}: {e}"));
             assert!(message.hash.starts_with("RIHS01_") && message.hash.len() == 71);
         }
-        let range = types.load("sensor_msgs/msg/Range").unwrap();
+        let range = types.load("sensor_msgs/msg/Range").expect("works");
         assert!(range.defs.contains_key("builtin_interfaces/msg/Time"));
         assert_eq!(
             range.payload_type().to_string(),
@@ -207,15 +207,19 @@ mod tests {
     #[test]
     fn names_a_missing_type_and_who_uses_it() {
         let dir = std::env::temp_dir().join(format!("radar-msg-{}", std::process::id()));
-        std::fs::create_dir_all(dir.join("my_msgs/msg")).unwrap();
-        std::fs::write(dir.join("my_msgs/msg/Probe.msg"), "Missing thing\nfloat32 x\n").unwrap();
+        std::fs::create_dir_all(dir.join("my_msgs/msg")).expect("works");
+        std::fs::write(
+            dir.join("my_msgs/msg/Probe.msg"),
+            "Missing thing\nfloat32 x\n",
+        )
+        .expect("works");
         let types = MessageTypes::new(vec![dir.clone()]);
-        let e = types.load("my_msgs/msg/Probe").unwrap_err();
+        let e = types.load("my_msgs/msg/Probe").expect_err("is refused");
         assert!(
             e.contains("unknown message type `my_msgs/msg/Missing`") && e.contains("used by"),
             "{e}"
         );
-        let e = types.load("nope").unwrap_err();
+        let e = types.load("nope").expect_err("is refused");
         assert!(e.contains("not a message type"), "{e}");
         let _ = std::fs::remove_dir_all(dir);
     }
