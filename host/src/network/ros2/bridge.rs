@@ -216,7 +216,8 @@ impl Ros2 {
 
     /// Checks every route against the built system's entries and signals
     /// (a mismatch names the topic, the message type, the field and both
-    /// types), then joins the graph (see [`Ros2::join`]), declares the
+    /// types), then joins the graph (on the network's session, or one of its
+    /// own: `[ros2] listen` and `connect`), declares the
     /// node, its subscriptions and publishers, and starts taking and
     /// publishing messages.
     pub fn start(&mut self, system: &System, network: Option<&Network>) -> Result<(), Ros2Error> {
