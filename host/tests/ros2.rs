@@ -243,6 +243,11 @@ fn type_mismatches_are_refused_when_the_system_is_built() {
             "values: field `data`: expected uint32, found \"many\"",
         ),
         (
+            "[[ros2.subscribe]]\ntopic = \"/d\"\ntype = \"std_msgs/msg/Float32\"\n\
+             entry = \"range\"\ndepth = 4000000000\n",
+            "depth = 4000000000: a topic keeps from 1 to 10000 messages",
+        ),
+        (
             "[[ros2.subscribe]]\ntopic = \"/x\"\ntype = \"my_msgs/msg/Unknown\"\nentry = \"range\"\n",
             "radar: ros2: topic `/x`: unknown message type `my_msgs/msg/Unknown`",
         ),
@@ -283,10 +288,10 @@ fn range_bytes(range: f32) -> Vec<u8> {
 
 #[test]
 fn a_malformed_message_is_dropped_with_a_record_and_the_run_goes_on() {
-    let run = Running::start(
-        |ep| obstacle_manifest(ep, ""),
-        &["--clock", "real", "--for", "4s"],
-    );
+    let small = |ep: &str| {
+        obstacle_manifest(ep, "").replace("field = \"range\"", "field = \"range\"\nmax_bytes = 200")
+    };
+    let run = Running::start(small, &["--clock", "real", "--for", "4s"]);
     let mut config = zenoh::Config::default();
     for (key, value) in [
         ("mode", "\"peer\"".to_string()),
@@ -328,6 +333,10 @@ fn a_malformed_message_is_dropped_with_a_record_and_the_run_goes_on() {
     assert_eq!(refused, 5, "{trace}");
     assert!(
         trace.contains("a malformed sensor_msgs/msg/Range (0 bytes)"),
+        "{trace}"
+    );
+    assert!(
+        trace.contains("a message of 300 bytes, over the subscription's max_bytes (200)"),
         "{trace}"
     );
     assert!(

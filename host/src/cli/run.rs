@@ -415,8 +415,8 @@ pub fn run(args: RunArgs) -> Result<()> {
         let left_out = bridge.left_out();
         if left_out > 0 {
             eprintln!(
-                "radar: ros2: {left_out} message(s) not published (the queue was full, or a \
-                 payload was over the trace's 16 KiB)"
+                "radar: ros2: {left_out} message(s) not published (the queue was full, or as \
+                 said above)"
             );
         }
         drop(bridge);

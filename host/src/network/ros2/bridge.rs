@@ -41,6 +41,7 @@ const ROUTER: &str = "tcp/127.0.0.1:7447";
 
 struct Subscription {
     topic: String,
+    max_bytes: usize,
     message: Message,
     entry: String,
     field: Option<String>,
@@ -63,6 +64,9 @@ struct Outgoing {
     path: Option<FieldPath>,
     base: Json,
     unwrap_ok: bool,
+    topic: String,
+    /// Whether a message not published has been reported.
+    warned: bool,
     publisher: zenoh::pubsub::Publisher<'static>,
     gid: [u8; 16],
     sequence: i64,
@@ -101,6 +105,7 @@ impl Ros2 {
         for s in &settings.subscribe {
             subscriptions.push(Subscription {
                 topic: settings.full_topic(&s.topic),
+                max_bytes: s.max_bytes.unwrap_or(super::settings::MAX_BYTES),
                 message: load(&s.topic, &s.type_name)?,
                 entry: s.entry.clone(),
                 field: s.field.clone(),
@@ -255,7 +260,9 @@ impl Ros2 {
                 .with(RingChannel::new(sub.qos.depth as usize))
                 .wait()
                 .map_err(declare)?;
-            let taker = Taker {
+            let mut taker = Taker {
+                max_bytes: sub.max_bytes,
+                refusals: 0,
                 topic: sub.topic.clone(),
                 message: m.clone(),
                 entry: sub.entry.clone(),
@@ -310,6 +317,8 @@ impl Ros2 {
                 path: checked.path,
                 base: checked.base,
                 unwrap_ok: checked.unwrap_ok,
+                topic: publication.topic.clone(),
+                warned: false,
                 publisher,
                 gid: node.gid(entity),
                 sequence: 0,
@@ -318,9 +327,10 @@ impl Ros2 {
         }
         if let Some(queued) = self.queued.take() {
             let left_out = self.left_out.clone();
+            let stop = self.stop.clone();
             let thread = std::thread::Builder::new()
                 .name("radar-ros2-out".into())
-                .spawn(move || publish(out, queued, left_out))
+                .spawn(move || publish(out, queued, left_out, stop))
                 .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
             self.threads.push(thread);
         }
@@ -429,8 +439,15 @@ impl Drop for Ros2 {
     }
 }
 
+/// Refusals of one topic recorded one by one; past them, every
+/// [`REFUSALS_EVERY`]th, with the count (a flood must not flood the trace).
+const REFUSALS_RECORDED: u64 = 100;
+const REFUSALS_EVERY: u64 = 1000;
+
 /// Takes one topic's messages into its entry.
 struct Taker {
+    max_bytes: usize,
+    refusals: u64,
     topic: String,
     message: Message,
     entry: String,
@@ -442,35 +459,54 @@ struct Taker {
 impl Taker {
     /// Writes one message's value, or records why not; `false` once the
     /// run has ended.
-    fn take(&self, bytes: &[u8], attachment: Option<&[u8]>) -> bool {
-        let done = match cdr::decode(&self.message, bytes) {
-            Ok(value) => {
-                let value = fit::take(&value, &self.path, &self.ty);
-                let by = format!("(ros2 {})", self.topic);
-                self.radar.board_write_by(&self.entry, value, &by)
-            }
-            Err(e) => self.radar.refused(
-                format!("ros2 {}", self.topic),
-                self.sender(attachment),
-                format!(
+    fn take(&mut self, bytes: &[u8], attachment: Option<&[u8]>) -> bool {
+        if bytes.len() > self.max_bytes {
+            let reason = format!(
+                "a message of {} bytes, over the subscription's max_bytes ({})",
+                bytes.len(),
+                self.max_bytes
+            );
+            return self.refuse(attachment, reason);
+        }
+        let value = match cdr::decode(&self.message, bytes) {
+            Ok(value) => fit::take(&value, &self.path, &self.ty),
+            Err(e) => {
+                let reason = format!(
                     "a malformed {} ({} bytes): {e}",
                     self.message.name,
                     bytes.len()
-                ),
-            ),
+                );
+                return self.refuse(attachment, reason);
+            }
         };
-        match done {
+        let by = format!("(ros2 {})", self.topic);
+        match self.radar.board_write_by(&self.entry, value, &by) {
             Ok(()) => true,
             Err(crate::error::RadarError::Stopped) => false,
-            Err(e) => self
-                .radar
-                .refused(
-                    format!("ros2 {}", self.topic),
-                    self.sender(attachment),
-                    e.to_string(),
-                )
-                .is_ok(),
+            Err(e) => self.refuse(attachment, e.to_string()),
         }
+    }
+
+    /// Records a refused message (see [`REFUSALS_RECORDED`]); `false` once
+    /// the run has ended.
+    fn refuse(&mut self, attachment: Option<&[u8]>, reason: String) -> bool {
+        self.refusals += 1;
+        let n = self.refusals;
+        if n > REFUSALS_RECORDED && n % REFUSALS_EVERY != 0 {
+            return true;
+        }
+        let reason = if n > REFUSALS_RECORDED {
+            format!("{reason} ({n} refused on this topic so far)")
+        } else {
+            reason
+        };
+        self.radar
+            .refused(
+                format!("ros2 {}", self.topic),
+                self.sender(attachment),
+                reason,
+            )
+            .is_ok()
     }
 
     fn sender(&self, attachment: Option<&[u8]>) -> String {
@@ -483,14 +519,27 @@ impl Taker {
 
 /// The publishing thread: each queued emission as a message, until the
 /// run ends.
-fn publish(mut out: Vec<Outgoing>, queued: Receiver<(usize, Json)>, left_out: Arc<AtomicU64>) {
-    for (route, payload) in queued {
+fn publish(
+    mut out: Vec<Outgoing>,
+    queued: Receiver<(usize, Json)>,
+    left_out: Arc<AtomicU64>,
+    stop: Arc<AtomicBool>,
+) {
+    use crossbeam_channel::RecvTimeoutError;
+    loop {
+        // Everything queued goes out; the bridge's end stops the wait even
+        // if the run's sinks are still alive.
+        let (route, payload) = match queued.recv_timeout(Duration::from_millis(100)) {
+            Ok(next) => next,
+            Err(RecvTimeoutError::Timeout) if !stop.load(Ordering::Relaxed) => continue,
+            Err(_) => break,
+        };
         let Some(o) = out.get_mut(route) else {
             continue;
         };
         if payload.get("$cut").is_some() {
             // Too large for the trace, which is all the bridge sees.
-            left_out.fetch_add(1, Ordering::Relaxed);
+            o.not_published("its payload is over the trace's 16 KiB", &left_out);
             continue;
         }
         let payload = match (o.unwrap_ok, payload) {
@@ -510,20 +559,32 @@ fn publish(mut out: Vec<Outgoing>, queued: Receiver<(usize, Json)>, left_out: Ar
             .duration_since(UNIX_EPOCH)
             .unwrap_or_default();
         let value = stamped(&o.message, value, now);
-        let Ok(bytes) = cdr::encode(&o.message, &value) else {
-            left_out.fetch_add(1, Ordering::Relaxed);
-            continue;
+        let bytes = match cdr::encode(&o.message, &value) {
+            Ok(bytes) => bytes,
+            Err(e) => {
+                o.not_published(&e.to_string(), &left_out);
+                continue;
+            }
         };
         o.sequence += 1;
         let nanos = i64::try_from(now.as_nanos()).unwrap_or(i64::MAX);
         let attachment = graph::attachment(o.sequence, nanos, &o.gid);
-        if o.publisher
-            .put(bytes)
-            .attachment(attachment)
-            .wait()
-            .is_err()
-        {
-            left_out.fetch_add(1, Ordering::Relaxed);
+        if let Err(e) = o.publisher.put(bytes).attachment(attachment).wait() {
+            o.not_published(&e.to_string(), &left_out);
+        }
+    }
+}
+
+impl Outgoing {
+    /// Counts an emission not published, and says why the first time.
+    fn not_published(&mut self, why: &str, left_out: &AtomicU64) {
+        left_out.fetch_add(1, Ordering::Relaxed);
+        if !self.warned {
+            self.warned = true;
+            eprintln!(
+                "radar: ros2: a message on {} not published ({why}); later ones are counted",
+                self.topic
+            );
         }
     }
 }

@@ -11,6 +11,7 @@
 
 use serde_json::{Map, Number, Value as Json};
 
+use super::error::CdrError;
 use super::msg::{Base, Field, Primitive, Shape};
 use super::types::{wit_name, Message};
 
@@ -18,7 +19,11 @@ use super::types::{wit_name, Message};
 const CDR_LE: [u8; 4] = [0, 1, 0, 0];
 
 /// Reads a message's CDR bytes into its JSON value.
-pub fn decode(message: &Message, bytes: &[u8]) -> Result<Json, String> {
+pub fn decode(message: &Message, bytes: &[u8]) -> Result<Json, CdrError> {
+    decode_bytes(message, bytes).map_err(CdrError)
+}
+
+fn decode_bytes(message: &Message, bytes: &[u8]) -> Result<Json, String> {
     let little = match bytes {
         [0, 1, _, _, ..] => true,
         [0, 0, _, _, ..] => false,
@@ -43,7 +48,11 @@ pub fn decode(message: &Message, bytes: &[u8]) -> Result<Json, String> {
 }
 
 /// Writes a message's JSON value as little-endian CDR.
-pub fn encode(message: &Message, value: &Json) -> Result<Vec<u8>, String> {
+pub fn encode(message: &Message, value: &Json) -> Result<Vec<u8>, CdrError> {
+    encode_value(message, value).map_err(CdrError)
+}
+
+fn encode_value(message: &Message, value: &Json) -> Result<Vec<u8>, String> {
     let mut writer = Writer {
         out: CDR_LE.to_vec(),
     };
@@ -151,9 +160,10 @@ impl Reader<'_> {
 
     fn string(&mut self) -> Result<String, String> {
         let len = self.length()?;
+        let end = self.pos.checked_add(len).unwrap_or(usize::MAX);
         let bytes = self
             .data
-            .get(self.pos..self.pos + len)
+            .get(self.pos..end)
             .ok_or_else(|| format!("a string of {len} bytes, past the end of the message"))?;
         self.pos += len;
         // The length counts the terminating NUL.
@@ -420,11 +430,11 @@ mod tests {
         let at = huge.len() - 4;
         huge[at..].copy_from_slice(&u32::MAX.to_le_bytes());
         let e = decode(&load("std_msgs/msg/Float32MultiArray"), &huge).expect_err("is refused");
-        assert!(e.contains("past the end"), "{e}");
+        assert!(e.0.contains("past the end"), "{e}");
         let e = decode(&load("std_msgs/msg/Bool"), &[0, 1, 0, 0, 7]).expect_err("is refused");
-        assert!(e.contains("a bool of 7"), "{e}");
+        assert!(e.0.contains("a bool of 7"), "{e}");
         let e = decode(&load("std_msgs/msg/Bool"), &[0, 7, 0, 0, 1]).expect_err("is refused");
-        assert!(e.contains("encapsulation"), "{e}");
+        assert!(e.0.contains("encapsulation"), "{e}");
     }
 
     #[test]
@@ -432,10 +442,10 @@ mod tests {
         let imu = load("sensor_msgs/msg/Imu");
         let e = encode(&imu, &json!({"orientation-covariance": [1.0]})).expect_err("is refused");
         assert!(
-            e.contains("orientation-covariance") && e.contains("has 9"),
+            e.0.contains("orientation-covariance") && e.0.contains("has 9"),
             "{e}"
         );
         let e = encode(&load("std_msgs/msg/UInt32"), &json!({"data": -1})).expect_err("is refused");
-        assert!(e.contains("out of range for uint32"), "{e}");
+        assert!(e.0.contains("out of range for uint32"), "{e}");
     }
 }

@@ -15,3 +15,15 @@ pub enum Ros2Error {
     #[error("ros2: {0}")]
     Session(String),
 }
+
+/// Why bytes are not a message of a type, or a value cannot be written as
+/// one: one line naming the field (`field `header`: field `stamp`: …`).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct CdrError(pub String);
+
+/// Why a message type cannot be had: unknown, unreadable, or containing
+/// itself; one line naming the type.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct TypeError(pub String);

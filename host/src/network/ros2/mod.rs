@@ -21,7 +21,7 @@ mod settings;
 mod types;
 
 pub use bridge::Ros2;
-pub use error::Ros2Error;
+pub use error::{CdrError, Ros2Error, TypeError};
 pub use graph::dds_type;
 pub use settings::{Publish, Qos, Ros2Settings, Subscribe};
 pub use types::{wit_name, Message, MessageTypes};

@@ -9,6 +9,9 @@
 
 use std::fmt;
 
+/// The largest fixed array or sequence bound a definition may give.
+pub const MAX_ARRAY: u32 = 1 << 24;
+
 /// The name ROS 2 gives the member of an otherwise empty message.
 pub const EMPTY_MEMBER: &str = "structure_needs_at_least_one_member";
 
@@ -222,6 +225,17 @@ fn parse_type(text: &str, package: &str) -> Result<(Base, Shape), String> {
                     .trim()
                     .parse::<u32>()
                     .map_err(|_| format!("`{text}`: `{digits}` is not a size"))
+            };
+            let count = |digits: &str| {
+                count(digits).and_then(|n| {
+                    if n > MAX_ARRAY {
+                        Err(format!(
+                            "`{text}`: {n} elements, more than Radar takes ({MAX_ARRAY})"
+                        ))
+                    } else {
+                        Ok(n)
+                    }
+                })
             };
             let shape = if inner.is_empty() {
                 Shape::Sequence

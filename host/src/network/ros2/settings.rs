@@ -62,6 +62,9 @@ pub struct Subscribe {
     /// Keep last: how many messages wait at most (default 10).
     #[serde(default)]
     pub depth: Option<u32>,
+    /// The largest message read, in bytes (default [`MAX_BYTES`]).
+    #[serde(default)]
+    pub max_bytes: Option<usize>,
 }
 
 /// `[[ros2.publish]]`: every emission of `signal` is published on `topic`.
@@ -98,6 +101,13 @@ fn yes() -> bool {
     true
 }
 
+/// The most messages a subscription keeps waiting.
+pub const MAX_DEPTH: u32 = 10_000;
+
+/// The largest message a subscription reads, unless its `max_bytes` says
+/// otherwise: a larger one is refused (and recorded) without being read.
+pub const MAX_BYTES: usize = 4 << 20;
+
 /// A route's quality of service: rmw_zenoh's default (reliable, keep the
 /// last 10) or best effort.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -122,8 +132,10 @@ impl Qos {
             }
         };
         let depth = depth.unwrap_or(10);
-        if depth == 0 {
-            return Err("depth = 0: a topic keeps one message at least".into());
+        if !(1..=MAX_DEPTH).contains(&depth) {
+            return Err(format!(
+                "depth = {depth}: a topic keeps from 1 to {MAX_DEPTH} messages"
+            ));
         }
         Ok(Self { best_effort, depth })
     }

@@ -8,6 +8,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use super::builtin::BUILTIN;
+use super::error::TypeError;
 use super::hash::rihs01;
 use super::msg::{self, Base, MessageDef, Primitive, Shape};
 use crate::payload::PayloadType;
@@ -44,7 +45,11 @@ impl MessageTypes {
 
     /// Type `name` (`pkg/msg/Name`) with everything it refers to; the
     /// error names the type that is missing or cannot be read.
-    pub fn load(&self, name: &str) -> Result<Message, String> {
+    pub fn load(&self, name: &str) -> Result<Message, TypeError> {
+        self.load_type(name).map_err(TypeError)
+    }
+
+    fn load_type(&self, name: &str) -> Result<Message, String> {
         if !msg::is_type_name(name) {
             return Err(format!(
                 "`{name}` is not a message type (expected `package/msg/Name`, e.g. \
@@ -71,6 +76,7 @@ impl MessageTypes {
             }
             defs.insert(next, def);
         }
+        refuse_cycles(name, &defs, &mut Vec::new())?;
         Ok(Message {
             name: name.to_string(),
             hash: rihs01(name, &defs),
@@ -114,6 +120,30 @@ impl MessageTypes {
             )),
         }
     }
+}
+
+/// A type that contains itself, through any number of others, has no
+/// finite form: refused, naming the loop.
+fn refuse_cycles(
+    name: &str,
+    defs: &BTreeMap<String, MessageDef>,
+    path: &mut Vec<String>,
+) -> Result<(), String> {
+    if path.iter().any(|p| p == name) {
+        path.push(name.to_string());
+        return Err(format!(
+            "message types that contain themselves: {}",
+            path.join(" → ")
+        ));
+    }
+    path.push(name.to_string());
+    for field in &defs[name].fields {
+        if let Base::Nested(nested) = &field.base {
+            refuse_cycles(nested, defs, path)?;
+        }
+    }
+    path.pop();
+    Ok(())
 }
 
 /// `<dir>/<pkg>/msg/<Name>.msg` (a `share` folder), or `<dir>/msg/<Name>.msg`
@@ -216,11 +246,17 @@ mod tests {
         let types = MessageTypes::new(vec![dir.clone()]);
         let e = types.load("my_msgs/msg/Probe").expect_err("is refused");
         assert!(
-            e.contains("unknown message type `my_msgs/msg/Missing`") && e.contains("used by"),
+            e.0.contains("unknown message type `my_msgs/msg/Missing`") && e.0.contains("used by"),
+            "{e}"
+        );
+        std::fs::write(dir.join("my_msgs/msg/Loop.msg"), "Loop[] more\n").expect("works");
+        let e = types.load("my_msgs/msg/Loop").expect_err("is refused");
+        assert!(
+            e.0.contains("contain themselves: my_msgs/msg/Loop → my_msgs/msg/Loop"),
             "{e}"
         );
         let e = types.load("nope").expect_err("is refused");
-        assert!(e.contains("not a message type"), "{e}");
+        assert!(e.0.contains("not a message type"), "{e}");
         let _ = std::fs::remove_dir_all(dir);
     }
 }
