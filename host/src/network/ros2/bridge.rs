@@ -492,7 +492,7 @@ impl Taker {
     fn refuse(&mut self, attachment: Option<&[u8]>, reason: String) -> bool {
         self.refusals += 1;
         let n = self.refusals;
-        if n > REFUSALS_RECORDED && n % REFUSALS_EVERY != 0 {
+        if n > REFUSALS_RECORDED && !n.is_multiple_of(REFUSALS_EVERY) {
             return true;
         }
         let reason = if n > REFUSALS_RECORDED {

@@ -160,7 +160,7 @@ impl Reader<'_> {
 
     fn string(&mut self) -> Result<String, String> {
         let len = self.length()?;
-        let end = self.pos.checked_add(len).unwrap_or(usize::MAX);
+        let end = self.pos.saturating_add(len);
         let bytes = self
             .data
             .get(self.pos..end)

@@ -62,7 +62,7 @@ pub struct Subscribe {
     /// Keep last: how many messages wait at most (default 10).
     #[serde(default)]
     pub depth: Option<u32>,
-    /// The largest message read, in bytes (default [`MAX_BYTES`]).
+    /// The largest message read, in bytes (default 4 MiB).
     #[serde(default)]
     pub max_bytes: Option<usize>,
 }
