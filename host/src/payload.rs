@@ -286,7 +286,7 @@ pub fn val_to_json(val: &Val) -> Json {
 /// JSON has no NaN or infinities: they are written as the strings `"NaN"`,
 /// `"Infinity"` and `"-Infinity"` (as JavaScript's `Number()` reads them),
 /// and read back as such for `f32` and `f64`.
-fn non_finite(x: f64) -> Json {
+pub(crate) fn non_finite(x: f64) -> Json {
     Json::String(
         if x.is_nan() {
             "NaN"
@@ -300,7 +300,7 @@ fn non_finite(x: f64) -> Json {
 }
 
 /// A float from JSON: a number, or one of [`non_finite`]'s strings.
-fn float(json: &Json) -> Option<f64> {
+pub(crate) fn float(json: &Json) -> Option<f64> {
     match json {
         Json::String(s) => match s.as_str() {
             "NaN" => Some(f64::NAN),

@@ -13,7 +13,7 @@ use zenoh::Wait;
 
 mod common;
 
-use common::{free_port, lawful_trace, radar, text};
+use common::{free_port, lawful_trace, radar, text, wait_within};
 
 /// A system run by `radar run` in another process.
 struct Running {
@@ -125,25 +125,8 @@ impl Running {
 
     /// Waits for the run to end by itself (at most `limit`): its output.
     fn finish(mut self, limit: Duration) -> (Output, tempfile::TempDir) {
-        let began = Instant::now();
-        while self.child.try_wait().expect("waitable").is_none() {
-            if began.elapsed() > limit {
-                let _ = self.child.kill();
-                panic!("the run did not end within {limit:?}");
-            }
-            std::thread::sleep(Duration::from_millis(50));
-        }
-        let status = self.child.wait().expect("status");
-        let mut stderr = Vec::new();
-        if let Some(mut pipe) = self.child.stderr.take() {
-            std::io::Read::read_to_end(&mut pipe, &mut stderr).expect("stderr");
-        }
+        let out = wait_within(&mut self.child, limit);
         let dir = std::mem::replace(&mut self.dir, tempfile::tempdir().expect("temp dir"));
-        let out = Output {
-            status,
-            stdout: Vec::new(),
-            stderr,
-        };
         (out, dir)
     }
 }

@@ -9,7 +9,7 @@ use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::sync::mpsc::Receiver;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use radar::network::ros2::{cdr, MessageTypes};
 use serde_json::Value as Json;
@@ -17,7 +17,7 @@ use zenoh::Wait;
 
 mod common;
 
-use common::{free_port, lawful_trace, radar, text, write_manifest};
+use common::{free_port, lawful_trace, radar, text, wait_within, write_manifest};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
@@ -172,28 +172,9 @@ impl Running {
 
     /// Waits for the run to end by itself (at most `limit`).
     fn finish(mut self, limit: Duration) -> (Output, tempfile::TempDir) {
-        let began = Instant::now();
-        while self.child.try_wait().expect("waitable").is_none() {
-            if began.elapsed() > limit {
-                let _ = self.child.kill();
-                panic!("the run did not end within {limit:?}");
-            }
-            std::thread::sleep(Duration::from_millis(50));
-        }
-        let status = self.child.wait().expect("status");
-        let mut stderr = Vec::new();
-        if let Some(mut pipe) = self.child.stderr.take() {
-            std::io::Read::read_to_end(&mut pipe, &mut stderr).expect("stderr");
-        }
+        let out = wait_within(&mut self.child, limit);
         let dir = std::mem::replace(&mut self.dir, tempfile::tempdir().expect("temp dir"));
-        (
-            Output {
-                status,
-                stdout: Vec::new(),
-                stderr,
-            },
-            dir,
-        )
+        (out, dir)
     }
 }
 

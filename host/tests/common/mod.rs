@@ -2,7 +2,8 @@
 #![allow(dead_code)]
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::{Child, Command, Output};
+use std::time::{Duration, Instant};
 
 /// Runs `radar` with `args`, to the end.
 pub fn radar(args: &[&str]) -> Output {
@@ -44,4 +45,28 @@ pub fn free_port() -> u16 {
         .and_then(|l| l.local_addr())
         .map(|a| a.port())
         .expect("a free port")
+}
+
+/// Waits for `child` to end by itself, at most `limit` (past it the child
+/// is killed and the test fails): its status and stderr (stdout is the
+/// caller's to read).
+pub fn wait_within(child: &mut Child, limit: Duration) -> Output {
+    let began = Instant::now();
+    while child.try_wait().expect("waitable").is_none() {
+        if began.elapsed() > limit {
+            let _ = child.kill();
+            panic!("the process did not end within {limit:?}");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let status = child.wait().expect("status");
+    let mut stderr = Vec::new();
+    if let Some(mut pipe) = child.stderr.take() {
+        std::io::Read::read_to_end(&mut pipe, &mut stderr).expect("stderr");
+    }
+    Output {
+        status,
+        stdout: Vec::new(),
+        stderr,
+    }
 }

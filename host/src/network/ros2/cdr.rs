@@ -14,6 +14,7 @@ use serde_json::{Map, Number, Value as Json};
 use super::error::CdrError;
 use super::msg::{Base, Field, Primitive, Shape};
 use super::types::{wit_name, Message};
+use crate::payload;
 
 /// The encapsulation header of little-endian CDR.
 const CDR_LE: [u8; 4] = [0, 1, 0, 0];
@@ -175,24 +176,7 @@ impl Reader<'_> {
 /// A float as payloads write it: a number, or `"NaN"`, `"Infinity"`,
 /// `"-Infinity"`.
 fn float(x: f64) -> Json {
-    match Number::from_f64(x) {
-        Some(n) => Json::Number(n),
-        None if x.is_nan() => "NaN".into(),
-        None if x > 0.0 => "Infinity".into(),
-        None => "-Infinity".into(),
-    }
-}
-
-fn read_float(json: &Json) -> Option<f64> {
-    match json {
-        Json::String(s) => match s.as_str() {
-            "NaN" => Some(f64::NAN),
-            "Infinity" => Some(f64::INFINITY),
-            "-Infinity" => Some(f64::NEG_INFINITY),
-            _ => None,
-        },
-        other => other.as_f64(),
-    }
+    Number::from_f64(x).map_or_else(|| payload::non_finite(x), Json::Number)
 }
 
 struct Writer {
@@ -337,7 +321,7 @@ impl Writer {
             if value.is_null() {
                 return Ok(0.0);
             }
-            read_float(value).ok_or_else(wrong)
+            payload::float(value).ok_or_else(wrong)
         };
         // Range-checked just above, so the narrowing casts cannot wrap.
         match p {
