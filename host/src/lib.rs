@@ -33,6 +33,7 @@ pub mod system;
 pub mod testing;
 pub mod timeline;
 pub mod trace;
+pub mod view;
 mod watchdog;
 pub mod workspace;
 

@@ -42,6 +42,8 @@ enum Cmd {
     /// The ROS 2 message types Radar knows (`types`, `show TYPE`), and a
     /// message's CDR bytes from JSON and back (`encode`, `decode`).
     Ros2(cli::ros2::Ros2Args),
+    /// Converts a trace between JSON Lines and MCAP (`convert IN OUT`).
+    Trace(cli::trace::TraceArgs),
     /// Runs each plugin's `[plugins.X.build]` command.
     Build {
         /// The `radar.toml` (default: `radar.toml` here).
@@ -71,6 +73,7 @@ fn main() -> ExitCode {
         Some(Cmd::Ctl(args)) => cli::ctl::ctl(args),
         Some(Cmd::Agent(args)) => cli::agent::agent(args),
         Some(Cmd::Ros2(args)) => cli::ros2::ros2(args),
+        Some(Cmd::Trace(args)) => cli::trace::trace(args),
         Some(Cmd::Build { manifest }) => cli::workspace::build_all(manifest),
         Some(Cmd::New {
             kind,

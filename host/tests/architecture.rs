@@ -45,6 +45,7 @@ const FLOORS: &[(&str, u8, &str)] = &[
     ("network", 6, "edges"),
     ("testing", 6, "edges"),
     ("timeline", 6, "edges"),
+    ("view", 6, "edges"),
     ("workspace", 6, "edges"),
     // 7. The command line (the `radar` binary's own crate).
     ("cli", 7, "command line"),

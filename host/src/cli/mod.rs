@@ -7,6 +7,7 @@ pub mod ctl;
 pub mod ros2;
 pub mod run;
 pub mod test;
+pub mod trace;
 pub mod workspace;
 
 /// Prints a line; a closed stdout (`radar run | head`) is not an error.

@@ -250,7 +250,17 @@ pub fn run(args: RunArgs) -> Result<()> {
     if let Some(path) = &args.trace {
         let file = File::create(path)
             .with_context(|| format!("cannot create trace file {}", path.display()))?;
-        builder = builder.trace_to(JsonLines::new(BufWriter::new(file)));
+        // By the extension: `.mcap` is MCAP, anything else JSON Lines.
+        if path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("mcap"))
+        {
+            let trace = radar::view::McapTrace::new(BufWriter::new(file))
+                .with_context(|| format!("cannot write trace file {}", path.display()))?;
+            builder = builder.trace_to(trace);
+        } else {
+            builder = builder.trace_to(JsonLines::new(BufWriter::new(file)));
+        }
     }
     if let Some(path) = &args.record {
         builder = builder.record_to(path);
