@@ -44,6 +44,9 @@ enum Cmd {
     Ros2(cli::ros2::Ros2Args),
     /// Converts a trace between JSON Lines and MCAP (`convert IN OUT`).
     Trace(cli::trace::TraceArgs),
+    /// The connection graph at one instant of a trace (`--at 4s`), as
+    /// Graphviz DOT or SVG: the paper's Fig. 3.
+    Graph(cli::graph::GraphArgs),
     /// Runs each plugin's `[plugins.X.build]` command.
     Build {
         /// The `radar.toml` (default: `radar.toml` here).
@@ -74,6 +77,7 @@ fn main() -> ExitCode {
         Some(Cmd::Agent(args)) => cli::agent::agent(args),
         Some(Cmd::Ros2(args)) => cli::ros2::ros2(args),
         Some(Cmd::Trace(args)) => cli::trace::trace(args),
+        Some(Cmd::Graph(args)) => cli::graph::graph(args),
         Some(Cmd::Build { manifest }) => cli::workspace::build_all(manifest),
         Some(Cmd::New {
             kind,
