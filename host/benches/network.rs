@@ -26,32 +26,9 @@ use radar::{ClockKind, Link, Plugin, System};
 use radar_fixtures::plugins;
 use zenoh::Wait;
 
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("a free port")
-}
+mod common;
 
-fn percentile(sorted: &[f64], p: f64) -> f64 {
-    if sorted.is_empty() {
-        return f64::NAN;
-    }
-    let i = ((sorted.len() - 1) as f64 * p).round() as usize;
-    sorted[i]
-}
-
-fn summary(name: &str, mut us: Vec<f64>) -> f64 {
-    us.sort_by(f64::total_cmp);
-    let p50 = percentile(&us, 0.5);
-    println!(
-        "{name:<44} n={:<6} p50 {:>8.1} µs  p99 {:>8.1} µs",
-        us.len(),
-        p50,
-        percentile(&us, 0.99)
-    );
-    p50
-}
+use common::{free_port, summary};
 
 /// A `radar agent` process (`how`: `--listen` or `--connect`).
 fn agent(name: &str, how: &str, endpoint: &str) -> Child {

@@ -21,6 +21,10 @@ use radar::trace::{Entry, JsonLines, Record, TraceSink};
 use radar::{ClockKind, Limits, Link, Plugin, System, SystemBuilder};
 use radar_fixtures::plugins;
 
+mod common;
+
+use common::percentile;
+
 const PERIOD_MS: u64 = 10;
 
 /// What a run measured: the sleeper's lateness (µs) and how many payloads
@@ -141,10 +145,6 @@ fn measure(builder: SystemBuilder, secs: u64) -> Result<(Vec<f64>, usize), Strin
         .run(Some(Duration::from_secs(secs)))
         .map_err(|e| e.to_string())?;
     measured.take()
-}
-
-fn percentile(sorted: &[f64], p: f64) -> f64 {
-    sorted[((sorted.len() - 1) as f64 * p).round() as usize]
 }
 
 fn main() {

@@ -22,29 +22,9 @@ use radar::network::ros2::{cdr, MessageTypes, Ros2, Ros2Settings};
 use radar::{ClockKind, Link, Plugin, System};
 use zenoh::Wait;
 
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("a free port")
-}
+mod common;
 
-fn percentile(sorted: &[f64], p: f64) -> f64 {
-    let i = ((sorted.len() - 1) as f64 * p).round() as usize;
-    sorted[i]
-}
-
-fn summary(name: &str, mut us: Vec<f64>) -> f64 {
-    us.sort_by(f64::total_cmp);
-    let p50 = percentile(&us, 0.5);
-    println!(
-        "{name:<52} n={:<5} p50 {:>8.1} µs  p99 {:>8.1} µs",
-        us.len(),
-        p50,
-        percentile(&us, 0.99)
-    );
-    p50
-}
+use common::{free_port, summary};
 
 fn main() {
     let samples: usize = std::env::var("RADAR_ROS2_SAMPLES")

@@ -186,6 +186,18 @@ pub(crate) enum Signal {
 }
 
 impl Signal {
+    /// The built-in signal of that name (`triggered`, ...), if any.
+    pub fn builtin(name: &str) -> Option<Self> {
+        Some(match name {
+            "triggered" => Signal::Triggered,
+            "started" => Signal::Started,
+            "interrupted" => Signal::Interrupted,
+            "exited" => Signal::Exited,
+            "faulted" => Signal::Faulted,
+            _ => return None,
+        })
+    }
+
     /// The signal's name (`triggered`, ...).
     pub fn as_str(self) -> &'static str {
         match self {

@@ -3,7 +3,6 @@
 //! plain Zenoh clients (Rust, Python) in others, on loopback only, on
 //! ports picked free.
 
-use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
@@ -13,7 +12,7 @@ use zenoh::Wait;
 
 mod common;
 
-use common::{free_port, lawful_trace, radar, text, wait_within};
+use common::{free_port, lawful_trace, lines, radar, text, wait_within};
 
 /// A system run by `radar run` in another process.
 struct Running {
@@ -70,12 +69,7 @@ impl Running {
             .expect("radar run starts");
         // Ready once it says where it listens.
         let stdout = child.stdout.take().expect("stdout");
-        let (tx, rx) = std::sync::mpsc::channel();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                let _ = tx.send(line);
-            }
-        });
+        let rx = lines(stdout);
         let began = Instant::now();
         loop {
             match rx.recv_timeout(Duration::from_secs(60)) {

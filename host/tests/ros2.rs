@@ -5,7 +5,6 @@
 //! `tests/clients/ros2/requirements.txt`), a plain Zenoh session for
 //! malformed messages. Loopback only, on ports picked free.
 
-use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::sync::mpsc::Receiver;
@@ -17,7 +16,7 @@ use zenoh::Wait;
 
 mod common;
 
-use common::{free_port, lawful_trace, radar, text, wait_within, write_manifest};
+use common::{free_port, lawful_trace, lines, radar, text, wait_within, write_manifest};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
@@ -144,12 +143,7 @@ impl Running {
             .spawn()
             .expect("radar run starts");
         let stdout = child.stdout.take().expect("stdout");
-        let (tx, rx) = std::sync::mpsc::channel();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                let _ = tx.send(line);
-            }
-        });
+        let rx = lines(stdout);
         loop {
             match rx.recv_timeout(Duration::from_secs(60)) {
                 Ok(line) if line.starts_with("ros2: node") => break,
@@ -347,12 +341,7 @@ impl Client {
             .spawn()
             .expect("the client starts");
         let stdout = child.stdout.take().expect("stdout");
-        let (tx, lines) = std::sync::mpsc::channel();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                let _ = tx.send(line);
-            }
-        });
+        let lines = lines(stdout);
         Self { child, lines }
     }
 

@@ -251,10 +251,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         let file = File::create(path)
             .with_context(|| format!("cannot create trace file {}", path.display()))?;
         // By the extension: `.mcap` is MCAP, anything else JSON Lines.
-        if path
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("mcap"))
-        {
+        if radar::view::is_mcap(path) {
             let trace = radar::view::McapTrace::new(BufWriter::new(file))
                 .with_context(|| format!("cannot write trace file {}", path.display()))?;
             builder = builder.trace_to(trace);

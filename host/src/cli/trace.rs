@@ -3,11 +3,11 @@
 
 use std::fs::File;
 use std::io::{BufReader, BufWriter};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
-use radar::view::{jsonl_to_mcap, mcap_to_jsonl};
+use radar::view::{is_mcap, jsonl_to_mcap, mcap_to_jsonl};
 
 /// `radar trace ...`.
 #[derive(Args)]
@@ -26,11 +26,6 @@ enum TraceCommand {
         /// The trace to write.
         output: PathBuf,
     },
-}
-
-fn is_mcap(path: &Path) -> bool {
-    path.extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("mcap"))
 }
 
 /// Runs `radar trace`.

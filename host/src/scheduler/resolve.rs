@@ -17,22 +17,19 @@ impl State {
         } else {
             "exited"
         };
-        let signal = match port.unwrap_or(default) {
-            "triggered" => Signal::Triggered,
-            "started" => Signal::Started,
-            "interrupted" => Signal::Interrupted,
-            "exited" => Signal::Exited,
-            "faulted" => Signal::Faulted,
-            other => match entry
+        let name = port.unwrap_or(default);
+        let signal = match Signal::builtin(name) {
+            Some(signal) => signal,
+            None => match entry
                 .def
                 .code
                 .kind
                 .signals()
                 .iter()
-                .find(|(n, _)| n.as_str() == other)
+                .find(|(n, _)| n.as_str() == name)
             {
                 Some((name, _)) => Signal::Named(*name),
-                None => return Err(self.unknown_port(pid, "signal", other)),
+                None => return Err(self.unknown_port(pid, "signal", name)),
             },
         };
         if entry.signal_type(signal).is_none() {

@@ -140,15 +140,11 @@ impl System {
         } else {
             "exited"
         });
-        let signal = match port {
-            "triggered" => Signal::Triggered,
-            "started" => Signal::Started,
-            "interrupted" => Signal::Interrupted,
-            "exited" => Signal::Exited,
-            "faulted" => Signal::Faulted,
-            other => match kind.signals().iter().find(|(n, _)| n.as_str() == other) {
+        let signal = match Signal::builtin(port) {
+            Some(signal) => signal,
+            None => match kind.signals().iter().find(|(n, _)| n.as_str() == port) {
                 Some((n, _)) => Signal::Named(*n),
-                None => return Err(format!("plugin `{name}` has no signal `{other}`")),
+                None => return Err(format!("plugin `{name}` has no signal `{port}`")),
             },
         };
         crate::scheduler::typing::signal_type(kind, signal)

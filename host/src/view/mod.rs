@@ -10,4 +10,4 @@ mod read;
 
 pub use self::graph::{graph_at, Graph};
 pub use self::mcap::{jsonl_to_mcap, mcap_to_jsonl, McapTrace, ViewError};
-pub use self::read::read_trace;
+pub use self::read::{is_mcap, read_trace};

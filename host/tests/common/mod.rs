@@ -1,8 +1,10 @@
 //! What the command-line tests share: running the `radar` binary.
 #![allow(dead_code)]
 
+use std::io::{BufRead, BufReader};
 use std::path::Path;
-use std::process::{Child, Command, Output};
+use std::process::{Child, ChildStdout, Command, Output};
+use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 /// Runs `radar` with `args`, to the end.
@@ -69,4 +71,16 @@ pub fn wait_within(child: &mut Child, limit: Duration) -> Output {
         stdout: Vec::new(),
         stderr,
     }
+}
+
+/// A child's stdout, line by line, read on a thread of its own so that a
+/// test can wait for a line with a bound (`recv_timeout`).
+pub fn lines(stdout: ChildStdout) -> Receiver<String> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    rx
 }

@@ -1,21 +1,19 @@
-//! The ROS 2 bridge at run time: Radar as a node on rmw_zenoh, taking
-//! messages from topics into blackboard entries and publishing signals.
-//!
-//! Every message taken becomes a blackboard write by `(ros2 <topic>)`, an
-//! outside input like any other: in the trace, in `--record`, so a replay
-//! needs neither ROS nor the network. A message that cannot be read is
-//! dropped with a `refused` record. Signals reach the bridge as the trace
-//! does, through a sink that only queues them: the scheduler never waits
-//! for the network.
+//! The ROS 2 bridge: Radar as a node on rmw_zenoh. It reads the routes
+//! and their types, checks them against the built system, joins the graph
+//! (the node's and its endpoints' liveliness tokens, subscribers,
+//! publishers) and starts the threads that move messages: `incoming`
+//! (each message taken, a blackboard write by `(ros2 <topic>)`, an outside
+//! input like any other, so a replay needs neither ROS nor the network)
+//! and `outgoing` (each emission of a published signal, a message).
 
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
-use std::time::{Duration, SystemTime, UNIX_EPOCH};
+use std::time::Duration;
 
-use crossbeam_channel::{bounded, Receiver, Sender, TrySendError};
+use crossbeam_channel::{bounded, Receiver, Sender};
 use serde_json::Value as Json;
 use zenoh::handlers::RingChannel;
 use zenoh::qos::CongestionControl;
@@ -25,12 +23,14 @@ use super::cdr;
 use super::error::Ros2Error;
 use super::fit::{self, FieldPath};
 use super::graph::{self, Endpoint, Node};
+use super::incoming::Taker;
+use super::outgoing::{has_header, publish, Outgoing, Tap};
 use super::settings::{Qos, Ros2Settings};
 use super::types::{Message, MessageTypes};
 use crate::network::{session, Network};
 use crate::payload::PayloadType;
-use crate::system::{Radar, System};
-use crate::trace::{Entry, Record, TraceSink};
+use crate::system::System;
+use crate::trace::TraceSink;
 
 /// Signals waiting to be published, at most.
 const QUEUE: usize = 65_536;
@@ -56,20 +56,6 @@ struct Publication {
     use_payload: bool,
     values: Json,
     qos: Qos,
-}
-
-/// A publication as the run uses it, once checked.
-struct Outgoing {
-    message: Message,
-    path: Option<FieldPath>,
-    base: Json,
-    unwrap_ok: bool,
-    topic: String,
-    /// Whether a message not published has been reported.
-    warned: bool,
-    publisher: zenoh::pubsub::Publisher<'static>,
-    gid: [u8; 16],
-    sequence: i64,
 }
 
 /// Radar's ROS 2 node (see the module docs).
@@ -317,6 +303,7 @@ impl Ros2 {
                 path: checked.path,
                 base: checked.base,
                 unwrap_ok: checked.unwrap_ok,
+                stamp: has_header(m),
                 topic: publication.topic.clone(),
                 warned: false,
                 publisher,
@@ -436,216 +423,5 @@ impl Drop for Ros2 {
         for thread in self.threads.drain(..) {
             let _ = thread.join();
         }
-    }
-}
-
-/// Refusals of one topic recorded one by one; past them, every
-/// [`REFUSALS_EVERY`]th, with the count (a flood must not flood the trace).
-const REFUSALS_RECORDED: u64 = 100;
-const REFUSALS_EVERY: u64 = 1000;
-
-/// Takes one topic's messages into its entry.
-struct Taker {
-    max_bytes: usize,
-    refusals: u64,
-    topic: String,
-    message: Message,
-    entry: String,
-    path: FieldPath,
-    ty: PayloadType,
-    radar: Radar,
-}
-
-impl Taker {
-    /// Writes one message's value, or records why not; `false` once the
-    /// run has ended.
-    fn take(&mut self, bytes: &[u8], attachment: Option<&[u8]>) -> bool {
-        if bytes.len() > self.max_bytes {
-            let reason = format!(
-                "a message of {} bytes, over the subscription's max_bytes ({})",
-                bytes.len(),
-                self.max_bytes
-            );
-            return self.refuse(attachment, reason);
-        }
-        let value = match cdr::decode(&self.message, bytes) {
-            Ok(value) => fit::take(&value, &self.path, &self.ty),
-            Err(e) => {
-                let reason = format!(
-                    "a malformed {} ({} bytes): {e}",
-                    self.message.name,
-                    bytes.len()
-                );
-                return self.refuse(attachment, reason);
-            }
-        };
-        let by = format!("(ros2 {})", self.topic);
-        match self.radar.board_write_by(&self.entry, value, &by) {
-            Ok(()) => true,
-            Err(crate::error::RadarError::Stopped) => false,
-            Err(e) => self.refuse(attachment, e.to_string()),
-        }
-    }
-
-    /// Records a refused message (see [`REFUSALS_RECORDED`]); `false` once
-    /// the run has ended.
-    fn refuse(&mut self, attachment: Option<&[u8]>, reason: String) -> bool {
-        self.refusals += 1;
-        let n = self.refusals;
-        if n > REFUSALS_RECORDED && !n.is_multiple_of(REFUSALS_EVERY) {
-            return true;
-        }
-        let reason = if n > REFUSALS_RECORDED {
-            format!("{reason} ({n} refused on this topic so far)")
-        } else {
-            reason
-        };
-        self.radar
-            .refused(
-                format!("ros2 {}", self.topic),
-                self.sender(attachment),
-                reason,
-            )
-            .is_ok()
-    }
-
-    fn sender(&self, attachment: Option<&[u8]>) -> String {
-        match attachment.and_then(graph::sender) {
-            Some(gid) => format!("a ROS 2 publisher (gid {gid})"),
-            None => "a ROS 2 publisher".to_string(),
-        }
-    }
-}
-
-/// The publishing thread: each queued emission as a message, until the
-/// run ends.
-fn publish(
-    mut out: Vec<Outgoing>,
-    queued: Receiver<(usize, Json)>,
-    left_out: Arc<AtomicU64>,
-    stop: Arc<AtomicBool>,
-) {
-    use crossbeam_channel::RecvTimeoutError;
-    loop {
-        // Everything queued goes out; the bridge's end stops the wait even
-        // if the run's sinks are still alive.
-        let (route, payload) = match queued.recv_timeout(Duration::from_millis(100)) {
-            Ok(next) => next,
-            Err(RecvTimeoutError::Timeout) if !stop.load(Ordering::Relaxed) => continue,
-            Err(_) => break,
-        };
-        let Some(o) = out.get_mut(route) else {
-            continue;
-        };
-        if payload.get("$cut").is_some() {
-            // Too large for the trace, which is all the bridge sees.
-            o.not_published("its payload is over the trace's 16 KiB", &left_out);
-            continue;
-        }
-        let payload = match (o.unwrap_ok, payload) {
-            (false, payload) => payload,
-            (true, Json::Object(mut result)) => match result.remove("ok") {
-                Some(ok) => ok,
-                // An `err` is not published.
-                None => continue,
-            },
-            (true, _) => continue,
-        };
-        let value = match &o.path {
-            Some(path) => fit::fill(&o.base, path, payload),
-            None => o.base.clone(),
-        };
-        let now = SystemTime::now()
-            .duration_since(UNIX_EPOCH)
-            .unwrap_or_default();
-        let value = stamped(&o.message, value, now);
-        let bytes = match cdr::encode(&o.message, &value) {
-            Ok(bytes) => bytes,
-            Err(e) => {
-                o.not_published(&e.to_string(), &left_out);
-                continue;
-            }
-        };
-        o.sequence += 1;
-        let nanos = i64::try_from(now.as_nanos()).unwrap_or(i64::MAX);
-        let attachment = graph::attachment(o.sequence, nanos, &o.gid);
-        if let Err(e) = o.publisher.put(bytes).attachment(attachment).wait() {
-            o.not_published(&e.to_string(), &left_out);
-        }
-    }
-}
-
-impl Outgoing {
-    /// Counts an emission not published, and says why the first time.
-    fn not_published(&mut self, why: &str, left_out: &AtomicU64) {
-        left_out.fetch_add(1, Ordering::Relaxed);
-        if !self.warned {
-            self.warned = true;
-            eprintln!(
-                "radar: ros2: a message on {} not published ({why}); later ones are counted",
-                self.topic
-            );
-        }
-    }
-}
-
-/// A message whose `header` (a `std_msgs/msg/Header`) has no stamp gets
-/// `now`, as a ROS 2 node stamps what it publishes.
-fn stamped(message: &Message, mut value: Json, now: Duration) -> Json {
-    let has_header = message.def().fields.iter().any(|f| {
-        f.name == "header" && f.base == super::msg::Base::Nested("std_msgs/msg/Header".into())
-    });
-    if !has_header {
-        return value;
-    }
-    if let Some(object) = value.as_object_mut() {
-        let header = object
-            .entry("header")
-            .or_insert_with(|| Json::Object(Default::default()));
-        if let Some(header) = header.as_object_mut() {
-            let stamp = header.entry("stamp").or_insert(Json::Null);
-            if stamp.is_null() {
-                *stamp = serde_json::json!({
-                    "sec": i32::try_from(now.as_secs()).unwrap_or(i32::MAX),
-                    "nanosec": now.subsec_nanos(),
-                });
-            }
-        }
-    }
-    value
-}
-
-/// The sink that queues the emissions of published signals.
-struct Tap {
-    /// Plugin → its published signals, each with its publication.
-    routes: HashMap<String, Vec<(String, usize)>>,
-    tx: Option<Sender<(usize, Json)>>,
-    left_out: Arc<AtomicU64>,
-}
-
-impl TraceSink for Tap {
-    fn record(&mut self, record: &Record) {
-        let Entry::Signal {
-            plugin,
-            signal,
-            payload,
-        } = &record.entry
-        else {
-            return;
-        };
-        let (Some(tx), Some(routes)) = (&self.tx, self.routes.get(&**plugin)) else {
-            return;
-        };
-        for (_, route) in routes.iter().filter(|(s, _)| s == signal) {
-            if let Err(TrySendError::Full(_)) = tx.try_send((*route, payload.clone())) {
-                self.left_out.fetch_add(1, Ordering::Relaxed);
-            }
-        }
-    }
-
-    fn finish(&mut self) -> std::io::Result<()> {
-        // The publishing thread ends once what is queued is out.
-        self.tx = None;
-        Ok(())
     }
 }

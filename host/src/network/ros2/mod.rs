@@ -7,7 +7,8 @@
 //! built-in ones in `builtin`, where they come from in `types`), their
 //! type hash (`hash`) and wire form (`cdr`), how a message fits an entry
 //! or a signal (`fit`), rmw_zenoh's names (`graph`), and the bridge that
-//! runs them (`bridge`).
+//! runs them (`bridge`), with its subscriptions' threads (`incoming`) and
+//! its publishing (`outgoing`).
 
 mod bridge;
 mod builtin;
@@ -16,7 +17,9 @@ mod error;
 mod fit;
 mod graph;
 mod hash;
+mod incoming;
 pub mod msg;
+mod outgoing;
 mod settings;
 mod types;
 

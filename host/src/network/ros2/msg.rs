@@ -84,16 +84,6 @@ impl Primitive {
             Self::F64 => "float64",
         }
     }
-
-    /// Its size in CDR, which is also its alignment.
-    pub fn size(self) -> usize {
-        match self {
-            Self::Bool | Self::Byte | Self::Char | Self::I8 | Self::U8 => 1,
-            Self::I16 | Self::U16 => 2,
-            Self::I32 | Self::U32 | Self::F32 => 4,
-            Self::I64 | Self::U64 | Self::F64 => 8,
-        }
-    }
 }
 
 /// What one element of a field is.

@@ -1,0 +1,172 @@
+//! Publishing at run time: the sink that queues the published signals'
+//! emissions (the scheduler never waits for the network), and the thread
+//! that makes each a message: the route's values, the payload on top, a
+//! stamp for a header left without one, the attachment rmw_zenoh expects.
+
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+use crossbeam_channel::{Receiver, Sender, TrySendError};
+use serde_json::Value as Json;
+use zenoh::Wait;
+
+use super::cdr;
+use super::fit::{self, FieldPath};
+use super::graph;
+use super::msg::Base;
+use super::types::Message;
+use crate::trace::{Entry, Record, TraceSink};
+
+/// A publication as the run uses it, once checked.
+pub(super) struct Outgoing {
+    pub(super) message: Message,
+    pub(super) path: Option<FieldPath>,
+    pub(super) base: Json,
+    pub(super) unwrap_ok: bool,
+    /// The message has a top-level `std_msgs/msg/Header`, stamped if the
+    /// value leaves its stamp out ([`has_header`]).
+    pub(super) stamp: bool,
+    pub(super) topic: String,
+    /// Whether a message not published has been reported.
+    pub(super) warned: bool,
+    pub(super) publisher: zenoh::pubsub::Publisher<'static>,
+    pub(super) gid: [u8; 16],
+    pub(super) sequence: i64,
+}
+
+/// The publishing thread: each queued emission as a message, until the
+/// run ends.
+pub(super) fn publish(
+    mut out: Vec<Outgoing>,
+    queued: Receiver<(usize, Json)>,
+    left_out: Arc<AtomicU64>,
+    stop: Arc<AtomicBool>,
+) {
+    use crossbeam_channel::RecvTimeoutError;
+    loop {
+        // Everything queued goes out; the bridge's end stops the wait even
+        // if the run's sinks are still alive.
+        let (route, payload) = match queued.recv_timeout(Duration::from_millis(100)) {
+            Ok(next) => next,
+            Err(RecvTimeoutError::Timeout) if !stop.load(Ordering::Relaxed) => continue,
+            Err(_) => break,
+        };
+        let Some(o) = out.get_mut(route) else {
+            continue;
+        };
+        if payload.get("$cut").is_some() {
+            // Too large for the trace, which is all the bridge sees.
+            o.not_published("its payload is over the trace's 16 KiB", &left_out);
+            continue;
+        }
+        let payload = match (o.unwrap_ok, payload) {
+            (false, payload) => payload,
+            (true, Json::Object(mut result)) => match result.remove("ok") {
+                Some(ok) => ok,
+                // An `err` is not published.
+                None => continue,
+            },
+            (true, _) => continue,
+        };
+        let value = match &o.path {
+            Some(path) => fit::fill(&o.base, path, payload),
+            None => o.base.clone(),
+        };
+        let now = SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .unwrap_or_default();
+        let value = if o.stamp { stamped(value, now) } else { value };
+        let bytes = match cdr::encode(&o.message, &value) {
+            Ok(bytes) => bytes,
+            Err(e) => {
+                o.not_published(&e.to_string(), &left_out);
+                continue;
+            }
+        };
+        o.sequence += 1;
+        let nanos = i64::try_from(now.as_nanos()).unwrap_or(i64::MAX);
+        let attachment = graph::attachment(o.sequence, nanos, &o.gid);
+        if let Err(e) = o.publisher.put(bytes).attachment(attachment).wait() {
+            o.not_published(&e.to_string(), &left_out);
+        }
+    }
+}
+
+impl Outgoing {
+    /// Counts an emission not published, and says why the first time.
+    fn not_published(&mut self, why: &str, left_out: &AtomicU64) {
+        left_out.fetch_add(1, Ordering::Relaxed);
+        if !self.warned {
+            self.warned = true;
+            eprintln!(
+                "radar: ros2: a message on {} not published ({why}); later ones are counted",
+                self.topic
+            );
+        }
+    }
+}
+
+/// Whether `message` has a top-level `header` of type
+/// `std_msgs/msg/Header`.
+pub(super) fn has_header(message: &Message) -> bool {
+    message.def().fields.iter().any(|f| {
+        f.name == "header" && matches!(&f.base, Base::Nested(n) if n == "std_msgs/msg/Header")
+    })
+}
+
+/// A value whose `header` has no stamp gets `now`, as a ROS 2 node stamps
+/// what it publishes.
+fn stamped(mut value: Json, now: Duration) -> Json {
+    if let Some(object) = value.as_object_mut() {
+        let header = object
+            .entry("header")
+            .or_insert_with(|| Json::Object(Default::default()));
+        if let Some(header) = header.as_object_mut() {
+            let stamp = header.entry("stamp").or_insert(Json::Null);
+            if stamp.is_null() {
+                *stamp = serde_json::json!({
+                    "sec": i32::try_from(now.as_secs()).unwrap_or(i32::MAX),
+                    "nanosec": now.subsec_nanos(),
+                });
+            }
+        }
+    }
+    value
+}
+
+/// The sink that queues the emissions of published signals.
+pub(super) struct Tap {
+    /// Plugin → its published signals, each with its publication.
+    pub(super) routes: HashMap<String, Vec<(String, usize)>>,
+    pub(super) tx: Option<Sender<(usize, Json)>>,
+    pub(super) left_out: Arc<AtomicU64>,
+}
+
+impl TraceSink for Tap {
+    fn record(&mut self, record: &Record) {
+        let Entry::Signal {
+            plugin,
+            signal,
+            payload,
+        } = &record.entry
+        else {
+            return;
+        };
+        let (Some(tx), Some(routes)) = (&self.tx, self.routes.get(&**plugin)) else {
+            return;
+        };
+        for (_, route) in routes.iter().filter(|(s, _)| s == signal) {
+            if let Err(TrySendError::Full(_)) = tx.try_send((*route, payload.clone())) {
+                self.left_out.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+    }
+
+    fn finish(&mut self) -> std::io::Result<()> {
+        // The publishing thread ends once what is queued is out.
+        self.tx = None;
+        Ok(())
+    }
+}
