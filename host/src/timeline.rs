@@ -3,13 +3,16 @@
 //! The timeline is a [`TraceSink`]: it prints what happens as it happens
 //! (so a real-clock run can be watched live) and, when an instant is over and
 //! the state of the system changed during it, that state: which connections
-//! exist, which events are active, and each response's state.
+//! exist (with their busy policy, and an `until` with the connection it
+//! serves), which events are active, each response's state and queue, and
+//! the blackboard's entries with who wrote them. The state is the same fold
+//! of the records that `radar graph` and `radar view` draw
+//! ([`crate::view::Graph`]).
 
-use std::collections::BTreeMap;
 use std::io::Write;
-use std::sync::Arc;
 
-use crate::trace::{Entry, Name, Record, TraceSink};
+use crate::trace::{Entry, Record, TraceSink};
+use crate::view::Graph;
 
 /// The timeline's resolution: records within one millisecond are shown as
 /// one instant (under the real clock, steps of one instant differ by
@@ -23,9 +26,8 @@ pub struct Timeline<W: Write + Send> {
     instant: Option<u64>,
     /// Whether the current instant's time stamp has been printed.
     stamped: bool,
-    connections: BTreeMap<u64, String>,
-    events: BTreeMap<Arc<str>, Name>,
-    responses: BTreeMap<Arc<str>, Name>,
+    /// The system as the records so far leave it.
+    graph: Graph,
     last_summary: String,
 }
 
@@ -36,9 +38,7 @@ impl<W: Write + Send> Timeline<W> {
             out,
             instant: None,
             stamped: false,
-            connections: BTreeMap::new(),
-            events: BTreeMap::new(),
-            responses: BTreeMap::new(),
+            graph: Graph::default(),
             last_summary: String::new(),
         }
     }
@@ -79,41 +79,49 @@ impl<W: Write + Send> Timeline<W> {
     }
 
     fn summary(&self) -> String {
-        let conns = if self.connections.is_empty() {
-            "none".to_string()
-        } else {
-            self.connections
-                .values()
-                .cloned()
-                .collect::<Vec<_>>()
-                .join(", ")
+        fn list(items: Vec<String>) -> String {
+            if items.is_empty() {
+                "none".to_string()
+            } else {
+                items.join(", ")
+            }
+        }
+        let g = &self.graph;
+        let conns = list(
+            g.connections
+                .iter()
+                .map(|(id, c)| {
+                    let how = match (c.until_of, c.busy.as_str()) {
+                        (Some(of), _) => format!("until of #{of}"),
+                        (None, "drop") => c.mode.clone(),
+                        (None, busy) => format!("{}, {busy}", c.mode),
+                    };
+                    format!("#{id} {} → {} ({how})", c.from, c.to)
+                })
+                .collect(),
+        );
+        let events = |state: &str| -> Vec<String> {
+            g.plugins
+                .iter()
+                .filter(|(_, p)| p.event && p.state == state)
+                .map(|(n, _)| n.clone())
+                .collect()
         };
-        let active: Vec<&str> = self
-            .events
+        let errors = events("error");
+        let responses: Vec<String> = g
+            .plugins
             .iter()
-            .filter(|(_, s)| *s == "active")
-            .map(|(n, _)| n.as_ref())
+            .filter(|(_, p)| !p.event)
+            .map(|(n, p)| match p.queued {
+                0 => format!("{n} {}", p.state),
+                q => format!("{n} {}, {q} queued", p.state),
+            })
             .collect();
-        let active = if active.is_empty() {
-            "none".to_string()
-        } else {
-            active.join(", ")
-        };
-        let errors: Vec<&str> = self
-            .events
-            .iter()
-            .filter(|(_, s)| *s == "error")
-            .map(|(n, _)| n.as_ref())
-            .collect();
-        let responses = self
-            .responses
-            .iter()
-            .map(|(n, s)| format!("{n} {s}"))
-            .collect::<Vec<_>>()
-            .join(", ");
         let mut s = format!(
-            "{:>10}  ┆ connections: {conns}\n{:>10}  ┆ active events: {active}\n",
-            "", ""
+            "{:>10}  ┆ connections: {conns}\n{:>10}  ┆ active events: {}\n",
+            "",
+            "",
+            list(events("active"))
         );
         if !errors.is_empty() {
             s.push_str(&format!(
@@ -123,32 +131,49 @@ impl<W: Write + Send> Timeline<W> {
             ));
         }
         if !responses.is_empty() {
-            s.push_str(&format!("{:>10}  ┆ responses: {responses}\n", ""));
+            s.push_str(&format!(
+                "{:>10}  ┆ responses: {}\n",
+                "",
+                responses.join(", ")
+            ));
+        }
+        if !g.board.is_empty() {
+            let entries: Vec<String> = g
+                .board
+                .iter()
+                .map(|(name, e)| format!("{name} = {} (by {})", e.value, e.by))
+                .collect();
+            s.push_str(&format!("{:>10}  ┆ board: {}\n", "", entries.join(", ")));
         }
         s
     }
 
-    fn apply(&mut self, entry: &Entry) -> Option<String> {
+    /// The line a record prints (none for the steps the state block
+    /// shows), from the state before the record.
+    fn line(&self, entry: &Entry) -> Option<String> {
         Some(match entry {
             Entry::Connect {
-                id, from, to, mode, ..
-            } => {
-                self.connections
-                    .insert(*id, format!("#{id} {from} → {to} ({mode})"));
-                format!("connect #{id}: {mode} {from} → {to}")
-            }
+                id,
+                from,
+                to,
+                mode,
+                busy,
+                queue,
+                until_of,
+            } => match (until_of, busy.as_ref(), queue) {
+                (Some(of), ..) => format!("connect #{id}: until of #{of}: {from} → {to}"),
+                (None, "drop", _) => format!("connect #{id}: {mode} {from} → {to}"),
+                (None, busy, Some(n)) => {
+                    format!("connect #{id}: {mode} {from} → {to} (busy {busy}:{n})")
+                }
+                (None, busy, None) => format!("connect #{id}: {mode} {from} → {to} (busy {busy})"),
+            },
             Entry::Disconnect { id, reason } => {
-                self.connections.remove(id)?;
+                self.graph.connections.get(id)?;
                 format!("disconnect #{id} ({reason})")
             }
-            Entry::Activate { plugin } => {
-                self.events.insert(plugin.clone(), "active".into());
-                format!("{plugin} activated")
-            }
-            Entry::Deactivate { plugin } => {
-                self.events.insert(plugin.clone(), "inactive".into());
-                format!("{plugin} deactivated")
-            }
+            Entry::Activate { plugin } => format!("{plugin} activated"),
+            Entry::Deactivate { plugin } => format!("{plugin} deactivated"),
             Entry::Signal {
                 plugin,
                 signal,
@@ -164,15 +189,20 @@ impl<W: Write + Send> Timeline<W> {
             Entry::Discarded { plugin, payload } => {
                 format!("{plugin} returned {payload} after deactivation: discarded")
             }
-            Entry::State { plugin, state } => {
-                let is_event = self.events.contains_key(plugin.as_ref()) || *state == "inactive";
-                if is_event {
-                    self.events.insert(plugin.clone(), state.clone());
-                } else {
-                    self.responses.insert(plugin.clone(), state.clone());
-                }
-                return None;
-            }
+            Entry::Deliver {
+                id,
+                to,
+                queued: Some(n),
+            } => format!("  queued at {to} (#{id}): {n} waiting"),
+            Entry::SlotBegin {
+                plugin,
+                queued: Some(n),
+                connection,
+                ..
+            } => format!(
+                "  {plugin}.start taken from the queue (#{}): {n} still waiting",
+                connection.unwrap_or(0)
+            ),
             Entry::Fault { plugin, error, .. } => format!("FAULT {plugin}: {error}"),
             Entry::Reset { plugin } => format!("{plugin} reset (fresh instance)"),
             Entry::Log {
@@ -215,7 +245,10 @@ impl<W: Write + Send> Timeline<W> {
                 Some(error) => format!("deliberative program ended: {outcome}: {error}"),
                 None => format!("deliberative program ended: {outcome}"),
             },
-            Entry::Deliver { .. } | Entry::SlotBegin { .. } | Entry::SlotEnd { .. } => return None,
+            Entry::State { .. }
+            | Entry::Deliver { .. }
+            | Entry::SlotBegin { .. }
+            | Entry::SlotEnd { .. } => return None,
         })
     }
 }
@@ -228,7 +261,9 @@ impl<W: Write + Send> TraceSink for Timeline<W> {
             self.instant = Some(instant);
             self.stamped = false;
         }
-        if let Some(line) = self.apply(&record.entry) {
+        let line = self.line(&record.entry);
+        self.graph.apply(record);
+        if let Some(line) = line {
             self.print(&line);
         }
     }
@@ -277,6 +312,8 @@ mod tests {
                     to: "R.start".into(),
                     mode: "whenever".into(),
                     busy: "drop".into(),
+                    queue: None,
+                    until_of: None,
                 },
             ),
             at(0, Entry::Activate { plugin: "E".into() }),

@@ -278,7 +278,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         });
     }
     for w in &args.writes {
-        builder = builder.write_at(w.at, &w.entry, w.value.clone());
+        builder = builder.write_at_by(w.at, &w.entry, w.value.clone(), "(command line)");
     }
     for i in &args.injections {
         builder = builder.inject_at(i.at, &i.slot, i.payload.clone());

@@ -154,7 +154,7 @@ impl Server {
             return Reply::Refused(reason);
         }
         let changes = request.command.changes();
-        match self.execute(request.command, rest) {
+        match self.execute(request.command, rest, &from) {
             Ok(lines) => Reply::Ok(lines),
             Err(e) => {
                 // A change that could not be made is refused in the trace
@@ -167,10 +167,13 @@ impl Server {
         }
     }
 
+    /// Carries out `command` from `from` (who asked: `radar ctl` sends
+    /// `user@host`).
     fn execute(
         &mut self,
         command: Command,
         component: &[u8],
+        from: &str,
     ) -> Result<Vec<String>, Box<dyn std::error::Error + Send + Sync>> {
         let radar = &self.radar;
         Ok(match command {
@@ -209,7 +212,7 @@ impl Server {
                 vec![format!("injected into {to}")]
             }
             Command::Write { entry, value } => {
-                radar.board_write(&entry, value)?;
+                radar.board_write_by(&entry, value, &format!("(ctl {from})"))?;
                 vec![format!("wrote {entry}")]
             }
             Command::Read { entry } => match radar.board_read(&entry)? {
@@ -296,7 +299,8 @@ impl Server {
             }
         };
         let done = if command == "write" {
-            self.radar.board_write(&target, value)
+            self.radar
+                .board_write_by(&target, value, &format!("(zenoh {key})"))
         } else {
             self.radar.inject(&target, value)
         };

@@ -141,8 +141,15 @@ fn trapped(core: &Core, pid: usize, slot: Slot, fault: Fault) {
     core.with(|st| st.fault(pid, fault));
 }
 
-/// `connection`: for `start`, the connection whose start began it.
-pub(super) fn slot_begin(st: &mut State, pid: usize, slot: Slot, connection: Option<u64>) {
+/// `connection`: for `start`, the connection whose start began it;
+/// `queued`: for a start taken from the queue, how many still wait.
+pub(super) fn slot_begin(
+    st: &mut State,
+    pid: usize,
+    slot: Slot,
+    connection: Option<u64>,
+    queued: Option<u64>,
+) {
     if !st.trace.tracing() {
         return;
     }
@@ -151,6 +158,7 @@ pub(super) fn slot_begin(st: &mut State, pid: usize, slot: Slot, connection: Opt
         plugin,
         slot: slot.as_str().into(),
         connection,
+        queued,
     });
 }
 
@@ -181,9 +189,15 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
                 .await;
             continue;
         };
-        let Some(request) = core.with(|st| {
+        let Some((request, queued)) = core.with(|st| {
             let entry = &mut st.plugins[pid];
-            entry.next.take().or_else(|| entry.queue.pop_front())
+            match entry.next.take() {
+                Some(next) => Some((next, None)),
+                None => {
+                    let first = entry.queue.pop_front()?;
+                    Some((first, Some(entry.queue.len() as u64)))
+                }
+            }
         }) else {
             continue;
         };
@@ -210,7 +224,7 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
                 payload: request.payload.clone(),
                 until: request.until,
             });
-            slot_begin(st, pid, Slot::Start, Some(request.via));
+            slot_begin(st, pid, Slot::Start, Some(request.via), queued);
             st.emit(pid, Signal::Started, payload.clone());
         });
         let outcome = inst.start(payload, has_result).await;
@@ -260,7 +274,7 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
             let payload = payload.filter(|_| interrupt_takes);
             core.with(|st| {
                 st.set_phase(pid, Phase::Interrupting);
-                slot_begin(st, pid, Slot::Interrupt, None);
+                slot_begin(st, pid, Slot::Interrupt, None, None);
                 st.emit(pid, Signal::Interrupted, payload.clone());
             });
             if let Err(fault) = inst.interrupt(payload).await {
@@ -273,7 +287,7 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
         // exit
         core.with(|st| {
             st.set_phase(pid, Phase::Exiting);
-            slot_begin(st, pid, Slot::Exit, None);
+            slot_begin(st, pid, Slot::Exit, None, None);
         });
         if let Err(fault) = inst.exit().await {
             trapped(&core, pid, Slot::Exit, fault);

@@ -26,6 +26,11 @@ impl State {
             to: conn.to_label.clone(),
             mode: conn.mode.as_str().into(),
             busy: conn.busy.as_str().into(),
+            queue: match conn.busy {
+                Busy::Queue(n) => Some(n as u64),
+                _ => None,
+            },
+            until_of: conn.serves,
         });
         let routes = &mut self.routes[from.0];
         match routes.iter_mut().find(|(signal, _)| *signal == from.1) {

@@ -103,18 +103,18 @@ impl State {
                     None => Ok(()),
                 };
                 self.dispatch_anonymous(slot);
-                queued
+                queued.map(|()| None)
             }
             Target::Waiter(w) => {
                 self.finish_waiter(w, Some(Payload(payload)));
-                Ok(())
+                Ok(None)
             }
-            Target::Mailbox(mailbox) => self.mail(mailbox, id, Payload(payload)),
+            Target::Mailbox(mailbox) => self.mail(mailbox, id, Payload(payload)).map(|()| None),
         };
         match accepted {
-            Ok(()) => {
+            Ok(queued) => {
                 if self.trace.tracing() {
-                    self.record(Entry::Deliver { id, to });
+                    self.record(Entry::Deliver { id, to, queued });
                 }
             }
             Err(reason) => {
@@ -133,14 +133,15 @@ impl State {
         }
     }
 
-    /// Hands a payload to a response's slot under the busy policy; the
-    /// error is the reason it was not taken.
+    /// Hands a payload to a response's slot under the busy policy: how
+    /// many starts wait in its queue if this one joined them, or the reason
+    /// it was not taken.
     pub(super) fn deliver_to_slot(
         &mut self,
         pid: usize,
         slot: Slot,
         delivery: Delivery,
-    ) -> Result<(), &'static str> {
+    ) -> Result<Option<u64>, &'static str> {
         let entry = &mut self.plugins[pid];
         if entry.lifecycle == Lifecycle::Error {
             return Err("error");
@@ -163,7 +164,7 @@ impl State {
                     entry.next = Some(request);
                     entry.wake();
                     self.set_phase(pid, Phase::Running);
-                    return Ok(());
+                    return Ok(None);
                 }
                 match busy {
                     Busy::Drop => Err("busy"),
@@ -172,7 +173,7 @@ impl State {
                             return Err("queue-full");
                         }
                         entry.queue.push_back(request);
-                        Ok(())
+                        Ok(Some(entry.queue.len() as u64))
                     }
                     Busy::Restart => {
                         // The running activation stops as by an exit signal;
@@ -187,7 +188,7 @@ impl State {
                         if let Some(old) = replaced {
                             self.withdraw_start(pid, old, "restarted");
                         }
-                        Ok(())
+                        Ok(None)
                     }
                 }
             }
@@ -209,7 +210,7 @@ impl State {
                     (Phase::Running, None) => {
                         entry.stop_request = Some((reason, payload));
                         entry.stop.request(reason);
-                        Ok(())
+                        Ok(None)
                     }
                     (Phase::Running, Some(_)) => Err("stopping"),
                     (Phase::Idle, _) => Err("idle"),
@@ -407,7 +408,11 @@ impl State {
         // Like a connection's delivery, an injection is recorded as
         // delivered or dropped, with id 0.
         match self.deliver_to_slot(pid, slot, delivery) {
-            Ok(()) => self.record(Entry::Deliver { id: 0, to: label }),
+            Ok(queued) => self.record(Entry::Deliver {
+                id: 0,
+                to: label,
+                queued,
+            }),
             Err(reason) => self.record(Entry::Dropped {
                 id: 0,
                 to: label,

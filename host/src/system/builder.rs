@@ -158,16 +158,30 @@ impl SystemBuilder {
     /// reading, a test's input. A value that does not fit the entry's type
     /// fails the run before anything runs.
     pub fn write_at(self, at: Duration, entry: impl Into<String>, value: Json) -> Self {
+        self.write_as(at, entry, value, None)
+    }
+
+    /// [`RadarBuilder::write_at`] on behalf of `by` (`radar run --write`
+    /// writes as `(command line)`): the `board-write` record names it.
+    pub fn write_at_by(
+        self,
+        at: Duration,
+        entry: impl Into<String>,
+        value: Json,
+        by: &str,
+    ) -> Self {
+        self.write_as(at, entry, value, Some(by.to_string()))
+    }
+
+    fn write_as(
+        self,
+        at: Duration,
+        entry: impl Into<String>,
+        value: Json,
+        by: Option<String>,
+    ) -> Self {
         let entry = entry.into();
-        self.input(
-            at,
-            None,
-            StaticWhat::Write {
-                entry,
-                value,
-                by: None,
-            },
-        )
+        self.input(at, None, StaticWhat::Write { entry, value, by })
     }
 
     /// Swaps `plugin` for the component at `path` at `at` of the run's time

@@ -269,7 +269,9 @@ impl Host for ProgramCtx {
 
     fn board_write(&mut self, entry: String, value: String) -> Result<(), String> {
         let value = parse_json("value", &value)?;
-        self.radar.board_write(&entry, value).map_err(text)
+        self.radar
+            .board_write_by(&entry, value, "(program)")
+            .map_err(text)
     }
 }
 

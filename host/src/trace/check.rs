@@ -357,7 +357,7 @@ impl Checker {
             Entry::Inject { to, .. } => {
                 self.open_window(format!("the injection into {to}"), VecDeque::from([0]));
             }
-            Entry::Deliver { id, to } => {
+            Entry::Deliver { id, to, .. } => {
                 self.answer(*id, "deliver");
                 self.owe_start(to, *id);
             }
@@ -372,6 +372,7 @@ impl Checker {
                 plugin,
                 slot,
                 connection,
+                ..
             } => self.slot_begin(plugin, slot, *connection),
             Entry::SlotEnd {
                 plugin,

@@ -41,6 +41,13 @@ pub enum Entry {
         mode: Name,
         /// What happens to a start signal while the target is busy.
         busy: Name,
+        /// With `busy` `queue`: how many starts may wait.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        queue: Option<u64>,
+        /// An `until` connection: the start connection whose activations
+        /// it interrupts (`once E start R until F` makes two connections).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        until_of: Option<u64>,
     },
     /// A connection ended: `fired` (once), `scope` (its guard was dropped),
     /// `closed` (its guard was closed), `until` (the activation it lived with
@@ -57,7 +64,15 @@ pub enum Entry {
         payload: Json,
     },
     /// A signal was handed to a connection's target.
-    Deliver { id: u64, to: Arc<str> },
+    Deliver {
+        id: u64,
+        to: Arc<str>,
+        /// A start that waits in the response's queue (it was busy, and the
+        /// busy policy is `queue(n)`): how many starts wait, this one
+        /// included.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        queued: Option<u64>,
+    },
     /// A signal reached a connection but its target did not take it
     /// (`busy`, `queue-full`, `min-interval`, `error`, `idle`, `stopping`,
     /// `interrupting`, `exiting`, `other-activation`), or a start that was
@@ -73,6 +88,9 @@ pub enum Entry {
         /// activation (0: an injection).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         connection: Option<u64>,
+        /// For a `start` taken from the queue: how many starts still wait.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        queued: Option<u64>,
     },
     /// A slot finished: `completed`, `interrupted` or `trapped`.
     SlotEnd {

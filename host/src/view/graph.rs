@@ -7,7 +7,7 @@
 use std::collections::BTreeMap;
 use std::fmt::Write;
 
-use crate::trace::{Entry, Record};
+use crate::trace::{Entry, Record, WITHDRAWN};
 
 /// A plugin at the instant.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -17,6 +17,8 @@ pub struct PluginAt {
     pub state: String,
     /// Whether it is an event (it has been `inactive` or `active`).
     pub event: bool,
+    /// A response's starts waiting in its queue.
+    pub queued: u64,
 }
 
 /// A live connection at the instant.
@@ -28,12 +30,25 @@ pub struct ConnectionAt {
     pub to: String,
     /// `once` or `whenever`.
     pub mode: String,
-    /// Its busy policy.
+    /// Its busy policy: `drop`, `restart`, or `queue:N` (N starts may
+    /// wait).
     pub busy: String,
+    /// An `until` connection: the start connection it serves.
+    pub until_of: Option<u64>,
+}
+
+/// A blackboard entry at the instant: its last value and who wrote it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EntryAt {
+    /// The value, as JSON.
+    pub value: serde_json::Value,
+    /// Who wrote it: a plugin, `(native)`, `(command line)`, `(ctl ...)`,
+    /// `(zenoh KEY)`, `(ros2 /topic)`, `(program)`.
+    pub by: String,
 }
 
 /// The system at one instant.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Graph {
     /// The instant, in nanoseconds since the run began.
     pub t: u64,
@@ -41,23 +56,40 @@ pub struct Graph {
     pub plugins: BTreeMap<String, PluginAt>,
     /// Every connection live at the instant, by id.
     pub connections: BTreeMap<u64, ConnectionAt>,
+    /// Every blackboard entry written so far, by name.
+    pub board: BTreeMap<String, EntryAt>,
 }
 
 /// The graph after every record at or before `at` (nanoseconds).
 pub fn graph_at(records: &[Record], at: u64) -> Graph {
-    let mut graph = Graph {
-        t: at,
-        ..Graph::default()
-    };
+    let mut graph = Graph::default();
     for record in records.iter().take_while(|r| r.t <= at) {
+        graph.apply(record);
+    }
+    graph.t = at;
+    graph
+}
+
+/// The plugin a port (`Plugin.slot`) belongs to.
+fn plugin_of(port: &str) -> &str {
+    port.split('.').next().unwrap_or(port)
+}
+
+impl Graph {
+    /// Folds one more record in (records come in trace order).
+    pub fn apply(&mut self, record: &Record) {
+        self.t = record.t;
         match &record.entry {
             Entry::State { plugin, state } => {
-                let p = graph.plugins.entry(plugin.to_string()).or_default();
+                let p = self.plugins.entry(plugin.to_string()).or_default();
                 p.state = state.to_string();
                 p.event |= matches!(&**state, "inactive" | "active");
+                if matches!(&**state, "error" | "idle") {
+                    p.queued = 0;
+                }
             }
             Entry::Activate { plugin } | Entry::Deactivate { plugin } => {
-                let p = graph.plugins.entry(plugin.to_string()).or_default();
+                let p = self.plugins.entry(plugin.to_string()).or_default();
                 p.event = true;
                 p.state = if matches!(record.entry, Entry::Activate { .. }) {
                     "active".into()
@@ -71,24 +103,62 @@ pub fn graph_at(records: &[Record], at: u64) -> Graph {
                 to,
                 mode,
                 busy,
+                queue,
+                until_of,
             } => {
-                graph.connections.insert(
+                self.connections.insert(
                     *id,
                     ConnectionAt {
                         from: from.clone(),
                         to: to.clone(),
                         mode: mode.to_string(),
-                        busy: busy.to_string(),
+                        busy: match queue {
+                            Some(n) => format!("{busy}:{n}"),
+                            None => busy.to_string(),
+                        },
+                        until_of: *until_of,
                     },
                 );
             }
             Entry::Disconnect { id, .. } => {
-                graph.connections.remove(id);
+                self.connections.remove(id);
+            }
+            Entry::Deliver {
+                to,
+                queued: Some(n),
+                ..
+            } => {
+                self.plugins
+                    .entry(plugin_of(to).to_string())
+                    .or_default()
+                    .queued = *n;
+            }
+            Entry::SlotBegin {
+                plugin,
+                queued: Some(n),
+                ..
+            } => {
+                self.plugins.entry(plugin.to_string()).or_default().queued = *n;
+            }
+            Entry::Dropped { to, reason, .. }
+                if WITHDRAWN.contains(&reason.as_ref()) && reason != "restarted" =>
+            {
+                if let Some(p) = self.plugins.get_mut(plugin_of(to)) {
+                    p.queued = p.queued.saturating_sub(1);
+                }
+            }
+            Entry::BoardWrite { entry, by, value } => {
+                self.board.insert(
+                    entry.clone(),
+                    EntryAt {
+                        value: value.clone(),
+                        by: by.to_string(),
+                    },
+                );
             }
             _ => {}
         }
     }
-    graph
 }
 
 fn quote(text: &str) -> String {
@@ -112,6 +182,11 @@ impl Graph {
             quote(&format!("t = {:.3} s", self.t as f64 / 1e9))
         );
         for (name, p) in &self.plugins {
+            let state = if p.queued > 0 {
+                format!("{}, {} queued", p.state, p.queued)
+            } else {
+                p.state.clone()
+            };
             let (shape, busy) = if p.event {
                 ("ellipse", p.state == "active")
             } else {
@@ -128,7 +203,7 @@ impl Graph {
                 dot,
                 "  {} [shape={shape}, label={}{style}];",
                 quote(name),
-                quote(&format!("{name}\n{}", p.state))
+                quote(&format!("{name}\n{state}"))
             );
         }
         for (id, c) in &self.connections {
@@ -141,12 +216,27 @@ impl Graph {
                 "  {} -> {} [label={}{}];",
                 quote(&from),
                 quote(&to),
-                quote(&format!("#{id} {} {signal} → {slot} ({})", c.mode, c.busy)),
+                quote(&match c.until_of {
+                    Some(of) => format!("#{id} {signal} → {slot} (until of #{of})"),
+                    None => format!("#{id} {} {signal} → {slot} ({})", c.mode, c.busy),
+                }),
                 if c.mode == "once" {
                     ", style=dashed"
                 } else {
                     ""
                 }
+            );
+        }
+        if !self.board.is_empty() {
+            let lines: Vec<String> = self
+                .board
+                .iter()
+                .map(|(entry, e)| format!("{entry} = {} (by {})", e.value, e.by))
+                .collect();
+            let _ = writeln!(
+                dot,
+                "  \"(blackboard)\" [shape=note, label={}];",
+                quote(&format!("blackboard\n{}", lines.join("\n")))
             );
         }
         dot.push_str("}\n");
