@@ -91,6 +91,20 @@ pub fn listing23_program(radar: Radar) -> Result<(), RadarError> {
     }
 }
 
+/// [`listing23_program`] paced so that the paper's Fig. 3 can be seen at
+/// 0 s, 1 s and 4 s (`radar run --example fig3`): (a) before the program
+/// has connected anything, (b) after its `whenever` (at 1 s), (c) after
+/// `do_loop`'s `once` (at 4 s, until TestEvent2 fires 3 s later).
+pub fn fig3_program(radar: Radar) -> Result<(), RadarError> {
+    radar.sleep(Duration::from_secs(1))?;
+    let _c1 = radar.whenever("TestEvent.triggered", "TestResponse.start")?;
+    radar.sleep(Duration::from_secs(3))?;
+    do_loop(&radar)?;
+    loop {
+        radar.sleep(Duration::from_secs(3600))?;
+    }
+}
+
 fn do_loop(radar: &Radar) -> Result<(), RadarError> {
     let _c2 = radar.once("TestEvent2.triggered", "TestResponse.interrupt")?;
     for _ in 0..15 {

@@ -47,6 +47,9 @@ enum Cmd {
     /// The connection graph at one instant of a trace (`--at 4s`), as
     /// Graphviz DOT or SVG: the paper's Fig. 3.
     Graph(cli::graph::GraphArgs),
+    /// Writes a trace as one self-contained HTML page: a lane per plugin,
+    /// and the connection graph at any instant with a time slider.
+    View(cli::view::ViewArgs),
     /// Runs each plugin's `[plugins.X.build]` command.
     Build {
         /// The `radar.toml` (default: `radar.toml` here).
@@ -78,6 +81,7 @@ fn main() -> ExitCode {
         Some(Cmd::Ros2(args)) => cli::ros2::ros2(args),
         Some(Cmd::Trace(args)) => cli::trace::trace(args),
         Some(Cmd::Graph(args)) => cli::graph::graph(args),
+        Some(Cmd::View(args)) => cli::view::view(args),
         Some(Cmd::Build { manifest }) => cli::workspace::build_all(manifest),
         Some(Cmd::New {
             kind,

@@ -9,6 +9,7 @@ pub mod ros2;
 pub mod run;
 pub mod test;
 pub mod trace;
+pub mod view;
 pub mod workspace;
 
 /// Prints a line; a closed stdout (`radar run | head`) is not an error.

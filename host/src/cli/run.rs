@@ -47,6 +47,11 @@ pub struct RunArgs {
     /// Do not print the timeline.
     #[arg(long, short)]
     quiet: bool,
+    /// Serve the run, live, to a browser (docs/view.md): a small HTTP
+    /// server on ADDR (default 127.0.0.1:7878, loopback; port 0 picks a
+    /// free one). The address is printed when the run starts.
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:7878")]
+    monitor: Option<String>,
     /// Send a payload straight into a slot at a given time, like OpenRTM's
     /// rtinject: `AT:Plugin.slot=JSON`, e.g. `2s:TestResponse.start=7` or
     /// `4.5s:TestResponse.interrupt` (repeatable).
@@ -62,8 +67,10 @@ pub struct RunArgs {
     #[arg(long = "swap", value_parser = parse_swap)]
     swaps: Vec<Swap>,
     /// Without a manifest, which built-in example runs: `listing23` (the
-    /// paper's Listing 2/3), `listing1` (Listing 1), or `obstacle` (the
-    /// blackboard: a range sensor, an obstacle event, an avoid response).
+    /// paper's Listing 2/3), `listing1` (Listing 1), `obstacle` (the
+    /// blackboard: a range sensor, an obstacle event, an avoid response),
+    /// or `fig3` (Listing 2/3 paced to show the paper's Fig. 3 at 0 s, 1 s
+    /// and 4 s in `radar view`).
     #[arg(long, default_value = "listing23")]
     example: BuiltInExample,
     /// Real clock, with a manifest: when a plugin's component file changes,
@@ -161,6 +168,9 @@ pub enum BuiltInExample {
     Listing23,
     Listing1,
     Obstacle,
+    /// Listing 2/3 with its program paced to show the paper's Fig. 3 at
+    /// 0 s, 1 s and 4 s.
+    Fig3,
 }
 
 /// One `--write`.
@@ -259,6 +269,24 @@ pub fn run(args: RunArgs) -> Result<()> {
             builder = builder.trace_to(JsonLines::new(BufWriter::new(file)));
         }
     }
+    // Lives until the run's report is out: dropping it ends the pages'
+    // streams.
+    let _monitor = match &args.monitor {
+        Some(addr) => {
+            let title = args.manifest.as_ref().map_or_else(
+                || "built-in example".to_string(),
+                |p| p.display().to_string(),
+            );
+            let monitor = radar::view::Monitor::start(addr, &title)?;
+            builder = builder.trace_to(monitor.sink());
+            say(format_args!(
+                "monitor: http://{}/ (the run, live, in a browser)",
+                monitor.addr()
+            ));
+            Some(monitor)
+        }
+        None => None,
+    };
     if let Some(path) = &args.record {
         builder = builder.record_to(path);
     }
@@ -321,6 +349,11 @@ pub fn run(args: RunArgs) -> Result<()> {
                     "the blackboard example (range sensor, Obstacle, Avoid)",
                     example::obstacle,
                     example::obstacle_program,
+                ),
+                BuiltInExample::Fig3 => (
+                    "the paper's Fig. 3 (Listing 2/3, its program paced: 1 s, 4 s)",
+                    example::listing23,
+                    example::fig3_program,
                 ),
             };
             // The built-in Listing 2/3 is a manifest whose deliberative

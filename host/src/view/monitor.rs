@@ -1,0 +1,408 @@
+//! `radar run --monitor`: the view of `radar view`, live (`docs/view.md`).
+//!
+//! A small HTTP server on its own threads: `GET /` is the page, `GET
+//! /events` streams the trace as server-sent events (every record so far,
+//! then each as it happens), `GET /trace.jsonl` is the trace so far. The
+//! run only hands each record to a channel ([`MonitorSink`]): serving,
+//! serializing and slow browsers never hold the scheduler.
+
+use std::collections::VecDeque;
+use std::io::{BufWriter, Read, Write};
+use std::net::{SocketAddr, TcpListener, TcpStream, ToSocketAddrs};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use crossbeam_channel::{Receiver, Sender};
+
+use super::html::live_page;
+use crate::trace::{Record, TraceSink};
+
+/// Records kept for a browser that opens the page late: a longer run
+/// shows its last this many records (the page says how many it has).
+pub const HISTORY: usize = 2_000_000;
+
+/// Records a server-sent event carries at most when a page catches up.
+const BATCH: usize = 5_000;
+
+/// What a monitor could not do.
+#[derive(Debug, thiserror::Error)]
+pub enum MonitorError {
+    /// The address does not parse or resolve.
+    #[error("monitor: `{0}` is not an address (e.g. 127.0.0.1:7878)")]
+    Address(String),
+    /// Nothing can listen there.
+    #[error("monitor: cannot listen on {addr}: {source}")]
+    Listen {
+        /// Where.
+        addr: String,
+        /// Why not.
+        source: std::io::Error,
+    },
+}
+
+enum Message {
+    Record(Box<Record>),
+    End,
+}
+
+#[derive(Default)]
+struct Shared {
+    /// Every record so far (the last [`HISTORY`]), as JSON lines.
+    history: VecDeque<String>,
+    /// The open `/events` streams.
+    clients: Vec<Sender<Arc<String>>>,
+    ended: bool,
+}
+
+struct Hub {
+    shared: Mutex<Shared>,
+    stop: AtomicBool,
+}
+
+impl Hub {
+    fn lock(&self) -> MutexGuard<'_, Shared> {
+        // A poisoned lock only means a serving thread panicked: the data
+        // (lines and senders) is still whole.
+        self.shared.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+/// The live monitor: serving from [`Monitor::start`] until dropped.
+pub struct Monitor {
+    addr: SocketAddr,
+    hub: Arc<Hub>,
+    tx: Sender<Message>,
+    threads: Vec<JoinHandle<()>>,
+    writers: Arc<Mutex<Vec<JoinHandle<()>>>>,
+}
+
+/// The trace sink that feeds a [`Monitor`].
+pub struct MonitorSink {
+    tx: Sender<Message>,
+}
+
+impl TraceSink for MonitorSink {
+    fn record(&mut self, record: &Record) {
+        let _ = self.tx.send(Message::Record(Box::new(record.clone())));
+    }
+
+    fn finish(&mut self) -> std::io::Result<()> {
+        let _ = self.tx.send(Message::End);
+        Ok(())
+    }
+}
+
+impl Monitor {
+    /// Listens on `addr` (`127.0.0.1:7878`; port 0 picks a free one) and
+    /// serves the page titled `title`.
+    pub fn start(addr: &str, title: &str) -> Result<Self, MonitorError> {
+        let resolved = addr
+            .to_socket_addrs()
+            .ok()
+            .and_then(|mut a| a.next())
+            .ok_or_else(|| MonitorError::Address(addr.to_string()))?;
+        let listener = TcpListener::bind(resolved).map_err(|source| MonitorError::Listen {
+            addr: addr.to_string(),
+            source,
+        })?;
+        let local = listener
+            .local_addr()
+            .map_err(|source| MonitorError::Listen {
+                addr: addr.to_string(),
+                source,
+            })?;
+        let hub = Arc::new(Hub {
+            shared: Mutex::new(Shared::default()),
+            stop: AtomicBool::new(false),
+        });
+        let (tx, rx) = crossbeam_channel::unbounded();
+        let writers = Arc::new(Mutex::new(Vec::new()));
+        let page = Arc::new(live_page(title));
+        let fan_out = {
+            let hub = hub.clone();
+            std::thread::Builder::new()
+                .name("radar-monitor".into())
+                .spawn(move || fan_out(&hub, &rx))
+                .expect("a thread")
+        };
+        let accept = {
+            let hub = hub.clone();
+            let writers = writers.clone();
+            std::thread::Builder::new()
+                .name("radar-monitor-http".into())
+                .spawn(move || {
+                    for stream in listener.incoming() {
+                        if hub.stop.load(Ordering::Relaxed) {
+                            break;
+                        }
+                        let Ok(stream) = stream else { continue };
+                        let (hub, page) = (hub.clone(), page.clone());
+                        if let Ok(handle) = std::thread::Builder::new()
+                            .name("radar-monitor-client".into())
+                            .spawn(move || serve(stream, &hub, &page))
+                        {
+                            let mut writers = writers.lock().unwrap_or_else(|e| e.into_inner());
+                            writers.retain(|w: &JoinHandle<()>| !w.is_finished());
+                            writers.push(handle);
+                        }
+                    }
+                })
+                .expect("a thread")
+        };
+        Ok(Self {
+            addr: local,
+            hub,
+            tx,
+            threads: vec![fan_out, accept],
+            writers,
+        })
+    }
+
+    /// Where it listens.
+    pub fn addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// A sink for the run's trace (`RadarBuilder::trace_to`).
+    pub fn sink(&self) -> MonitorSink {
+        MonitorSink {
+            tx: self.tx.clone(),
+        }
+    }
+}
+
+impl Drop for Monitor {
+    /// Stops serving: the pages open get the rest of the trace and the
+    /// end of the stream (waiting at most a second for them), then the
+    /// server closes.
+    fn drop(&mut self) {
+        let _ = self.tx.send(Message::End);
+        let deadline = Instant::now() + Duration::from_secs(1);
+        let writers: Vec<JoinHandle<()>> = {
+            let mut w = self.writers.lock().unwrap_or_else(|e| e.into_inner());
+            w.drain(..).collect()
+        };
+        for w in writers {
+            while !w.is_finished() && Instant::now() < deadline {
+                std::thread::sleep(Duration::from_millis(5));
+            }
+        }
+        self.hub.stop.store(true, Ordering::Relaxed);
+        // Wake the accept loop so that it sees the stop.
+        let _ = TcpStream::connect_timeout(&self.addr, Duration::from_millis(200));
+        for t in self.threads.drain(..) {
+            let _ = t.join();
+        }
+    }
+}
+
+/// Serializes records off the run's thread, keeps them, and hands each
+/// batch to every open stream.
+fn fan_out(hub: &Hub, rx: &Receiver<Message>) {
+    let mut lines = Vec::new();
+    while let Ok(first) = rx.recv() {
+        let mut end = false;
+        for message in std::iter::once(first).chain(rx.try_iter().take(BATCH)) {
+            match message {
+                Message::Record(record) => lines.push(record.to_json_line()),
+                Message::End => end = true,
+            }
+        }
+        let mut shared = hub.lock();
+        if !lines.is_empty() {
+            let event = Arc::new(event(&lines));
+            shared.clients.retain(|c| c.send(event.clone()).is_ok());
+            shared.history.extend(lines.drain(..));
+            let over = shared.history.len().saturating_sub(HISTORY);
+            shared.history.drain(..over);
+        }
+        if end {
+            shared.ended = true;
+            let done = Arc::new(END.to_string());
+            for c in shared.clients.drain(..) {
+                let _ = c.send(done.clone());
+            }
+            return;
+        }
+    }
+}
+
+/// The server-sent event that ends a stream: the run is over.
+const END: &str = "event: end\ndata: the run ended\n\n";
+
+/// A server-sent event carrying `lines`, one `data:` line each (the page
+/// splits them at newlines again).
+fn event(lines: &[String]) -> String {
+    let mut text = String::with_capacity(lines.iter().map(|l| l.len() + 7).sum::<usize>() + 1);
+    for line in lines {
+        text.push_str("data: ");
+        text.push_str(line);
+        text.push('\n');
+    }
+    text.push('\n');
+    text
+}
+
+/// Answers one HTTP request (one connection).
+fn serve(mut stream: TcpStream, hub: &Hub, page: &str) {
+    let _ = stream.set_read_timeout(Some(Duration::from_secs(5)));
+    let _ = stream.set_write_timeout(Some(Duration::from_secs(10)));
+    let mut request = Vec::new();
+    let mut buf = [0u8; 2048];
+    while !request.windows(4).any(|w| w == b"\r\n\r\n") && request.len() < 16 * 1024 {
+        match stream.read(&mut buf) {
+            Ok(0) | Err(_) => return,
+            Ok(n) => request.extend_from_slice(&buf[..n]),
+        }
+    }
+    let line = String::from_utf8_lossy(&request);
+    let mut words = line.split_whitespace();
+    let (method, path) = (words.next().unwrap_or(""), words.next().unwrap_or(""));
+    let path = path.split('?').next().unwrap_or("");
+    if method != "GET" {
+        let _ = respond(
+            &mut stream,
+            "405 Method Not Allowed",
+            "text/plain",
+            b"GET only\n",
+        );
+        return;
+    }
+    match path {
+        "/" | "/index.html" => {
+            let _ = respond(
+                &mut stream,
+                "200 OK",
+                "text/html; charset=utf-8",
+                page.as_bytes(),
+            );
+        }
+        "/trace.jsonl" => {
+            let body: String = hub
+                .lock()
+                .history
+                .iter()
+                .map(|l| format!("{l}\n"))
+                .collect();
+            let _ = respond(
+                &mut stream,
+                "200 OK",
+                "application/x-ndjson",
+                body.as_bytes(),
+            );
+        }
+        "/events" => stream_events(stream, hub),
+        _ => {
+            let _ = respond(&mut stream, "404 Not Found", "text/plain", b"not found\n");
+        }
+    }
+}
+
+fn respond(stream: &mut TcpStream, status: &str, kind: &str, body: &[u8]) -> std::io::Result<()> {
+    write!(
+        stream,
+        "HTTP/1.1 {status}\r\nContent-Type: {kind}\r\nContent-Length: {}\r\nCache-Control: no-store\r\nConnection: close\r\n\r\n",
+        body.len()
+    )?;
+    stream.write_all(body)?;
+    stream.flush()
+}
+
+/// `/events`: the records so far, then each batch as it comes, until the
+/// run ends or the page goes away.
+fn stream_events(stream: TcpStream, hub: &Hub) {
+    let (tx, rx) = crossbeam_channel::unbounded::<Arc<String>>();
+    let mut out = BufWriter::new(stream);
+    let head = "HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-store\r\nConnection: keep-alive\r\n\r\n";
+    if out.write_all(head.as_bytes()).is_err() {
+        return;
+    }
+    {
+        // Registered under the lock that the history grows under: no record
+        // is missed or sent twice.
+        let mut shared = hub.lock();
+        let history: Vec<String> = shared.history.iter().cloned().collect();
+        for chunk in history.chunks(BATCH) {
+            let _ = tx.send(Arc::new(event(chunk)));
+        }
+        if shared.ended {
+            let _ = tx.send(Arc::new(END.to_string()));
+        } else {
+            shared.clients.push(tx);
+        }
+    }
+    for batch in rx {
+        if out
+            .write_all(batch.as_bytes())
+            .and_then(|()| out.flush())
+            .is_err()
+        {
+            return;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::trace::Entry;
+
+    fn get(addr: SocketAddr, path: &str) -> String {
+        let mut s = TcpStream::connect(addr).expect("connects");
+        write!(s, "GET {path} HTTP/1.1\r\nHost: x\r\n\r\n").expect("asks");
+        let mut text = String::new();
+        let _ = s.read_to_string(&mut text);
+        text
+    }
+
+    #[test]
+    fn serves_the_page_the_records_so_far_and_the_rest_as_they_come() {
+        let monitor = Monitor::start("127.0.0.1:0", "test").expect("listens");
+        let mut sink = monitor.sink();
+        let record = |t| Record {
+            t,
+            entry: Entry::Activate { plugin: "E".into() },
+        };
+        sink.record(&record(1));
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while !get(monitor.addr(), "/trace.jsonl").contains("\"t\":1,") {
+            assert!(Instant::now() < deadline, "the record never arrived");
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        assert!(get(monitor.addr(), "/").contains("const RADAR_LIVE = true;"));
+        assert!(get(monitor.addr(), "/nothing").starts_with("HTTP/1.1 404"));
+        let addr = monitor.addr();
+        let events = std::thread::spawn(move || get(addr, "/events"));
+        std::thread::sleep(Duration::from_millis(100));
+        sink.record(&record(2));
+        sink.finish().expect("finishes");
+        let events = events.join().expect("read");
+        let first = events.find("\"t\":1,").expect("history");
+        let second = events.find("\"t\":2,").expect("live record");
+        assert!(first < second);
+        assert!(
+            events
+                .trim_end()
+                .ends_with("event: end\ndata: the run ended"),
+            "{events}"
+        );
+        drop(monitor);
+    }
+
+    #[test]
+    fn a_taken_port_is_a_one_line_error() {
+        let first = Monitor::start("127.0.0.1:0", "a").expect("listens");
+        let taken = first.addr().to_string();
+        let err = Monitor::start(&taken, "b")
+            .err()
+            .expect("refused")
+            .to_string();
+        assert!(
+            err.starts_with(&format!("monitor: cannot listen on {taken}")),
+            "{err}"
+        );
+        assert!(Monitor::start("nowhere", "c").is_err());
+    }
+}
