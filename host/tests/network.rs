@@ -189,6 +189,11 @@ fn ctl_steers_a_running_system_and_a_replay_of_its_recording_gives_its_trace() {
     let (trace, records) = lawful_trace(&dir.path().join("trace.jsonl"));
     assert!(trace.contains(r#""kind":"refused","command":"inject Avoid.start""#));
     assert!(trace.contains(r#""kind":"disconnect","id":1,"reason":"closed""#));
+    // The write names who made it: radar ctl, and its user@host.
+    assert!(
+        trace.contains(r#""kind":"board-write","entry":"range","by":"(ctl "#),
+        "{trace}"
+    );
     assert!(records.len() > 10);
     // Replayed from the recording alone (no network), the same trace.
     let rec = dir.path().join("rec.jsonl");
@@ -485,6 +490,10 @@ fn garbage_on_every_key_never_stalls_the_run_and_good_messages_still_work() {
             if &**plugin == "Obstacle" && signal == "triggered" && *payload == 0.3)
     });
     assert!(triggered, "the good write triggered Obstacle: {trace}");
+    assert!(
+        trace.contains(r#""by":"(zenoh radar/flooded/write/range)""#),
+        "a put's write names its key: {trace}"
+    );
     let avoided = records.iter().any(|r| {
         matches!(&r.entry, radar::trace::Entry::SlotBegin { plugin, slot, .. }
             if &**plugin == "Avoid" && slot == "start")

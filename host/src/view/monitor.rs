@@ -3,8 +3,10 @@
 //! A small HTTP server on its own threads: `GET /` is the page, `GET
 //! /events` streams the trace as server-sent events (every record so far,
 //! then each as it happens), `GET /trace.jsonl` is the trace so far. The
-//! run only hands each record to a channel ([`MonitorSink`]): serving,
-//! serializing and slow browsers never hold the scheduler.
+//! run only keeps each record, and hands what it kept to a channel when it
+//! has nothing due ([`MonitorSink`], as the trace file's sink does): no
+//! wake-up on the run's path, and serving, serializing and slow browsers
+//! never hold the scheduler.
 
 use std::collections::VecDeque;
 use std::io::{BufWriter, Read, Write};
@@ -43,7 +45,7 @@ pub enum MonitorError {
 }
 
 enum Message {
-    Record(Box<Record>),
+    Records(Vec<Record>),
     End,
 }
 
@@ -78,17 +80,38 @@ pub struct Monitor {
     writers: Arc<Mutex<Vec<JoinHandle<()>>>>,
 }
 
-/// The trace sink that feeds a [`Monitor`].
+/// The trace sink that feeds a [`Monitor`]: records go to the server in
+/// batches, when the run has nothing due or a batch is full.
 pub struct MonitorSink {
     tx: Sender<Message>,
+    pending: Vec<Record>,
+}
+
+impl MonitorSink {
+    fn send(&mut self) {
+        if !self.pending.is_empty() {
+            // The next batch's room is made here, off the run's path.
+            let room = (self.pending.len() * 2).clamp(64, BATCH);
+            let batch = std::mem::replace(&mut self.pending, Vec::with_capacity(room));
+            let _ = self.tx.send(Message::Records(batch));
+        }
+    }
 }
 
 impl TraceSink for MonitorSink {
     fn record(&mut self, record: &Record) {
-        let _ = self.tx.send(Message::Record(Box::new(record.clone())));
+        self.pending.push(record.clone());
+        if self.pending.len() >= BATCH {
+            self.send();
+        }
+    }
+
+    fn idle(&mut self) {
+        self.send();
     }
 
     fn finish(&mut self) -> std::io::Result<()> {
+        self.send();
         let _ = self.tx.send(Message::End);
         Ok(())
     }
@@ -169,6 +192,7 @@ impl Monitor {
     pub fn sink(&self) -> MonitorSink {
         MonitorSink {
             tx: self.tx.clone(),
+            pending: Vec::new(),
         }
     }
 }
@@ -204,9 +228,11 @@ fn fan_out(hub: &Hub, rx: &Receiver<Message>) {
     let mut lines = Vec::new();
     while let Ok(first) = rx.recv() {
         let mut end = false;
-        for message in std::iter::once(first).chain(rx.try_iter().take(BATCH)) {
+        for message in std::iter::once(first).chain(rx.try_iter().take(16)) {
             match message {
-                Message::Record(record) => lines.push(record.to_json_line()),
+                Message::Records(records) => {
+                    lines.extend(records.iter().map(Record::to_json_line));
+                }
                 Message::End => end = true,
             }
         }
@@ -366,6 +392,7 @@ mod tests {
             entry: Entry::Activate { plugin: "E".into() },
         };
         sink.record(&record(1));
+        sink.idle();
         let deadline = Instant::now() + Duration::from_secs(10);
         while !get(monitor.addr(), "/trace.jsonl").contains("\"t\":1,") {
             assert!(Instant::now() < deadline, "the record never arrived");
