@@ -154,7 +154,7 @@ impl Server {
             return Reply::Refused(reason);
         }
         let changes = request.command.changes();
-        match self.execute(request.command, rest, &from) {
+        match self.execute(request.command, rest, request.sender.as_deref()) {
             Ok(lines) => Reply::Ok(lines),
             Err(e) => {
                 // A change that could not be made is refused in the trace
@@ -167,13 +167,13 @@ impl Server {
         }
     }
 
-    /// Carries out `command` from `from` (who asked: `radar ctl` sends
-    /// `user@host`).
+    /// Carries out `command` from `sender` (as the request names it:
+    /// `radar ctl` sends `user@host (uid N, radar ctl)`).
     fn execute(
         &mut self,
         command: Command,
         component: &[u8],
-        from: &str,
+        sender: Option<&str>,
     ) -> Result<Vec<String>, Box<dyn std::error::Error + Send + Sync>> {
         let radar = &self.radar;
         Ok(match command {
@@ -212,7 +212,12 @@ impl Server {
                 vec![format!("injected into {to}")]
             }
             Command::Write { entry, value } => {
-                radar.board_write_by(&entry, value, &format!("(ctl {from})"))?;
+                // `(ctl user@host)`: who, without how.
+                let by = match sender.and_then(|s| s.split(" (").next()) {
+                    Some(who) if !who.is_empty() => format!("(ctl {who})"),
+                    _ => "(ctl)".to_string(),
+                };
+                radar.board_write_by(&entry, value, &by)?;
                 vec![format!("wrote {entry}")]
             }
             Command::Read { entry } => match radar.board_read(&entry)? {

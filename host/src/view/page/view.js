@@ -734,8 +734,11 @@
       liveState = "running";
       updateStatus();
     };
-    source.onmessage = (e) => {
-      add(e.data.split("\n").filter((line) => line).map((line) => JSON.parse(line)));
+    // Between records the run's time goes on: the page moves its end on
+    // by the wall clock since the last batch came (a response's open span
+    // grows), until the next batch says where the run is.
+    let arrived = { t: 0, at: performance.now() };
+    const follow = () => {
       if ($("follow").checked) {
         const w = v1 - v0;
         if (end > v1) {
@@ -747,6 +750,17 @@
         schedule();
       }
     };
+    source.onmessage = (e) => {
+      add(e.data.split("\n").filter((line) => line).map((line) => JSON.parse(line)));
+      arrived = { t: records.length ? records[records.length - 1].t : 0, at: performance.now() };
+      follow();
+    };
+    const ticking = setInterval(() => {
+      if (liveState === "ended") return clearInterval(ticking);
+      if (liveState !== "running" || !records.length) return;
+      end = Math.max(end, arrived.t + (performance.now() - arrived.at) * 1e6);
+      follow();
+    }, 250);
     source.addEventListener("end", () => {
       liveState = "ended";
       source.close();
