@@ -161,7 +161,7 @@ impl SystemBuilder {
         self.write_as(at, entry, value, None)
     }
 
-    /// [`RadarBuilder::write_at`] on behalf of `by` (`radar run --write`
+    /// [`SystemBuilder::write_at`] on behalf of `by` (`radar run --write`
     /// writes as `(command line)`): the `board-write` record names it.
     pub fn write_at_by(
         self,

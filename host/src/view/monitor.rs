@@ -188,7 +188,7 @@ impl Monitor {
         self.addr
     }
 
-    /// A sink for the run's trace (`RadarBuilder::trace_to`).
+    /// A sink for the run's trace (`SystemBuilder::trace_to`).
     pub fn sink(&self) -> MonitorSink {
         MonitorSink {
             tx: self.tx.clone(),
