@@ -210,7 +210,8 @@ impl Graph {
             let plugin = |port: &str| port.split('.').next().unwrap_or(port).to_string();
             let (from, to) = (plugin(&c.from), plugin(&c.to));
             let signal = c.from.split_once('.').map_or("", |(_, s)| s);
-            let slot = c.to.split_once('.').map_or("", |(_, s)| s);
+            // `(anonymous)` and `(waitfor)` are their own slots.
+            let slot = c.to.split_once('.').map_or(c.to.as_str(), |(_, s)| s);
             let _ = writeln!(
                 dot,
                 "  {} -> {} [label={}{}];",

@@ -20,14 +20,13 @@ fn halves(title: &str, live: bool) -> (String, String) {
         .replace('<', "&lt;")
         .replace('>', "&gt;");
     let page = HTML
-        .replace("/*TITLE*/", &title)
         .replace("/*CSS*/", CSS)
         .replace("/*LIVE*/", if live { "true" } else { "false" })
         .replace("/*JS*/", JS);
-    match page.split_once("/*TRACE*/") {
-        Some((before, after)) => (before.to_string(), after.to_string()),
-        None => (page, String::new()),
-    }
+    // The title goes in last, and only before the records: whatever it
+    // holds cannot stand for a place in the page.
+    let (before, after) = page.split_once("/*TRACE*/").unwrap_or((&page, ""));
+    (before.replace("/*TITLE*/", &title), after.to_string())
 }
 
 /// The live monitor's page: the view with no records, which it asks the

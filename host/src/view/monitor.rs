@@ -28,6 +28,14 @@ pub const HISTORY: usize = 2_000_000;
 /// Records a server-sent event carries at most when a page catches up.
 const BATCH: usize = 5_000;
 
+/// Batches waiting for one page at most: a page that falls this far
+/// behind is dropped (its browser reconnects, and resumes where it was).
+const CLIENT_QUEUE: usize = 1_024;
+
+/// How long the run keeps records before handing them over when it is
+/// never idle.
+const SEND_EVERY: Duration = Duration::from_millis(100);
+
 /// What a monitor could not do.
 #[derive(Debug, thiserror::Error)]
 pub enum MonitorError {
@@ -52,10 +60,20 @@ enum Message {
 #[derive(Default)]
 struct Shared {
     /// Every record so far (the last [`HISTORY`]), as JSON lines.
-    history: VecDeque<String>,
+    history: VecDeque<Arc<str>>,
+    /// Records that left the history's front ([`HISTORY`]): the first
+    /// record in it is record number `forgotten` of the run.
+    forgotten: usize,
     /// The open `/events` streams.
     clients: Vec<Sender<Arc<String>>>,
     ended: bool,
+}
+
+impl Shared {
+    /// Records the run has written so far.
+    fn total(&self) -> usize {
+        self.forgotten + self.history.len()
+    }
 }
 
 struct Hub {
@@ -85,10 +103,12 @@ pub struct Monitor {
 pub struct MonitorSink {
     tx: Sender<Message>,
     pending: Vec<Record>,
+    sent: Instant,
 }
 
 impl MonitorSink {
     fn send(&mut self) {
+        self.sent = Instant::now();
         if !self.pending.is_empty() {
             // The next batch's room is made here, off the run's path.
             let room = (self.pending.len() * 2).clamp(64, BATCH);
@@ -101,7 +121,7 @@ impl MonitorSink {
 impl TraceSink for MonitorSink {
     fn record(&mut self, record: &Record) {
         self.pending.push(record.clone());
-        if self.pending.len() >= BATCH {
+        if self.pending.len() >= BATCH || self.sent.elapsed() >= SEND_EVERY {
             self.send();
         }
     }
@@ -156,11 +176,17 @@ impl Monitor {
             std::thread::Builder::new()
                 .name("radar-monitor-http".into())
                 .spawn(move || {
-                    for stream in listener.incoming() {
-                        if hub.stop.load(Ordering::Relaxed) {
-                            break;
-                        }
-                        let Ok(stream) = stream else { continue };
+                    // Polled, so that it sees the stop without a wake-up.
+                    let _ = listener.set_nonblocking(true);
+                    while !hub.stop.load(Ordering::Relaxed) {
+                        let stream = match listener.accept() {
+                            Ok((stream, _)) => stream,
+                            Err(_) => {
+                                std::thread::sleep(Duration::from_millis(20));
+                                continue;
+                            }
+                        };
+                        let _ = stream.set_nonblocking(false);
                         let (hub, page) = (hub.clone(), page.clone());
                         if let Ok(handle) = std::thread::Builder::new()
                             .name("radar-monitor-client".into())
@@ -193,6 +219,7 @@ impl Monitor {
         MonitorSink {
             tx: self.tx.clone(),
             pending: Vec::new(),
+            sent: Instant::now(),
         }
     }
 }
@@ -203,6 +230,12 @@ impl Drop for Monitor {
     /// server closes.
     fn drop(&mut self) {
         let _ = self.tx.send(Message::End);
+        // The fan-out thread ends at the end, once every record before it
+        // is with the streams.
+        let mut threads = self.threads.drain(..);
+        if let Some(fan_out) = threads.next() {
+            let _ = fan_out.join();
+        }
         let deadline = Instant::now() + Duration::from_secs(1);
         let writers: Vec<JoinHandle<()>> = {
             let mut w = self.writers.lock().unwrap_or_else(|e| e.into_inner());
@@ -214,9 +247,7 @@ impl Drop for Monitor {
             }
         }
         self.hub.stop.store(true, Ordering::Relaxed);
-        // Wake the accept loop so that it sees the stop.
-        let _ = TcpStream::connect_timeout(&self.addr, Duration::from_millis(200));
-        for t in self.threads.drain(..) {
+        for t in threads {
             let _ = t.join();
         }
     }
@@ -238,11 +269,15 @@ fn fan_out(hub: &Hub, rx: &Receiver<Message>) {
         }
         let mut shared = hub.lock();
         if !lines.is_empty() {
-            let event = Arc::new(event(&lines));
-            shared.clients.retain(|c| c.send(event.clone()).is_ok());
-            shared.history.extend(lines.drain(..));
+            let lines: Vec<Arc<str>> = lines.drain(..).map(Arc::from).collect();
+            let total = shared.total() + lines.len();
+            let event = Arc::new(event(&lines, total));
+            // A page that fell too far behind is let go (it reconnects).
+            shared.clients.retain(|c| c.try_send(event.clone()).is_ok());
+            shared.history.extend(lines);
             let over = shared.history.len().saturating_sub(HISTORY);
             shared.history.drain(..over);
+            shared.forgotten += over;
         }
         if end {
             shared.ended = true;
@@ -259,15 +294,17 @@ fn fan_out(hub: &Hub, rx: &Receiver<Message>) {
 const END: &str = "event: end\ndata: the run ended\n\n";
 
 /// A server-sent event carrying `lines`, one `data:` line each (the page
-/// splits them at newlines again).
-fn event(lines: &[String]) -> String {
-    let mut text = String::with_capacity(lines.iter().map(|l| l.len() + 7).sum::<usize>() + 1);
+/// splits them at newlines again), whose id is the number of records up
+/// to its last: a browser that reconnects says it (`Last-Event-ID`) and
+/// is sent only what follows.
+fn event(lines: &[Arc<str>], total: usize) -> String {
+    let mut text = String::with_capacity(lines.iter().map(|l| l.len() + 7).sum::<usize>() + 24);
     for line in lines {
         text.push_str("data: ");
         text.push_str(line);
         text.push('\n');
     }
-    text.push('\n');
+    text.push_str(&format!("id: {total}\n\n"));
     text
 }
 
@@ -306,12 +343,8 @@ fn serve(mut stream: TcpStream, hub: &Hub, page: &str) {
             );
         }
         "/trace.jsonl" => {
-            let body: String = hub
-                .lock()
-                .history
-                .iter()
-                .map(|l| format!("{l}\n"))
-                .collect();
+            let history: Vec<Arc<str>> = hub.lock().history.iter().cloned().collect();
+            let body: String = history.iter().map(|l| format!("{l}\n")).collect();
             let _ = respond(
                 &mut stream,
                 "200 OK",
@@ -319,7 +352,16 @@ fn serve(mut stream: TcpStream, hub: &Hub, page: &str) {
                 body.as_bytes(),
             );
         }
-        "/events" => stream_events(stream, hub),
+        "/events" => {
+            // A browser that reconnects says how many records it has.
+            let seen = line
+                .lines()
+                .filter_map(|l| l.split_once(':'))
+                .find(|(name, _)| name.trim().eq_ignore_ascii_case("last-event-id"))
+                .and_then(|(_, value)| value.trim().parse().ok())
+                .unwrap_or(0);
+            stream_events(stream, hub, seen);
+        }
         _ => {
             let _ = respond(&mut stream, "404 Not Found", "text/plain", b"not found\n");
         }
@@ -336,28 +378,48 @@ fn respond(stream: &mut TcpStream, status: &str, kind: &str, body: &[u8]) -> std
     stream.flush()
 }
 
-/// `/events`: the records so far, then each batch as it comes, until the
-/// run ends or the page goes away.
-fn stream_events(stream: TcpStream, hub: &Hub) {
-    let (tx, rx) = crossbeam_channel::unbounded::<Arc<String>>();
+/// `/events`: the records after the first `seen`, then each batch as it
+/// comes, until the run ends or the page goes away.
+fn stream_events(stream: TcpStream, hub: &Hub, seen: usize) {
+    let (tx, rx) = crossbeam_channel::bounded::<Arc<String>>(CLIENT_QUEUE);
     let mut out = BufWriter::new(stream);
     let head = "HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-store\r\nConnection: keep-alive\r\n\r\n";
-    if out.write_all(head.as_bytes()).is_err() {
+    if out
+        .write_all(head.as_bytes())
+        .and_then(|()| out.flush())
+        .is_err()
+    {
         return;
     }
-    {
-        // Registered under the lock that the history grows under: no record
-        // is missed or sent twice.
+    // Taken, and the stream registered, under the lock the history grows
+    // under: no record is missed or sent twice. What was taken is written
+    // after the lock is let go.
+    let (history, first, ended) = {
         let mut shared = hub.lock();
-        let history: Vec<String> = shared.history.iter().cloned().collect();
-        for chunk in history.chunks(BATCH) {
-            let _ = tx.send(Arc::new(event(chunk)));
-        }
-        if shared.ended {
-            let _ = tx.send(Arc::new(END.to_string()));
-        } else {
+        let skip = seen
+            .saturating_sub(shared.forgotten)
+            .min(shared.history.len());
+        let history: Vec<Arc<str>> = shared.history.iter().skip(skip).cloned().collect();
+        let first = shared.forgotten + skip;
+        let ended = shared.ended;
+        if !ended {
             shared.clients.push(tx);
         }
+        (history, first, ended)
+    };
+    let mut upto = first;
+    for chunk in history.chunks(BATCH) {
+        upto += chunk.len();
+        if out.write_all(event(chunk, upto).as_bytes()).is_err() {
+            return;
+        }
+    }
+    if ended {
+        let _ = out.write_all(END.as_bytes()).and_then(|()| out.flush());
+        return;
+    }
+    if out.flush().is_err() {
+        return;
     }
     for batch in rx {
         if out
@@ -414,6 +476,21 @@ mod tests {
                 .trim_end()
                 .ends_with("event: end\ndata: the run ended"),
             "{events}"
+        );
+        // A browser that reconnects after record 1 gets only what follows
+        // (and, the run being over, the end at once).
+        let mut s = TcpStream::connect(monitor.addr()).expect("connects");
+        write!(s, "GET /events HTTP/1.1\r\nLast-Event-ID: 1\r\n\r\n").expect("asks");
+        let mut resumed = String::new();
+        let _ = s.read_to_string(&mut resumed);
+        assert!(
+            !resumed.contains("\"t\":1,") && resumed.contains("\"t\":2,"),
+            "{resumed}"
+        );
+        assert!(resumed.contains("id: 2\n"), "{resumed}");
+        assert!(
+            resumed.trim_end().ends_with("data: the run ended"),
+            "{resumed}"
         );
         drop(monitor);
     }

@@ -53,6 +53,8 @@
     return p;
   }
   const pluginOf = (port) => port.split(".")[0];
+  // Starts withdrawn from a queue: trace::WITHDRAWN (host/src/trace/check.rs)
+  // but `restarted`, which replaces the start waiting to begin, not a queued one.
   const WITHDRAWN = ["fault", "node-lost", "swap-refused"];
   function fold(g, r) {
     if (!r) return g;
@@ -495,7 +497,7 @@
       el("path", { d: `M${x1},${pa.y} Q${mx},${my} ${x2},${pb.y}`, "marker-end": "url(#arrow)" }, grp);
       const signal = c.from.slice(c.from.indexOf(".") + 1);
       const slot = c.to.includes(".") ? c.to.slice(c.to.indexOf(".") + 1) : c.to;
-      const label = until ? `#${id} ${signal} → ${slot} (until of #${c.until_of})` : `#${id} ${c.mode} ${signal} → ${slot}${c.busy === "drop" ? "" : " (" + c.busy + ")"}`;
+      const label = until ? `#${id} ${signal} → ${slot} (until of #${c.until_of})` : `#${id} ${c.mode} ${signal} → ${slot} (${c.busy})`;
       const lx = mx;
       const ly = (pa.y + pb.y) / 2 + bend / 2 - 4;
       const tl = text(grp, lx, ly, label);
@@ -642,6 +644,12 @@
 
   // --- input ---
 
+  // Looking back (the slider, a click, a step, a zoom) stops following
+  // the live run; ticking "follow" again catches up.
+  const lookBack = () => {
+    $("follow").checked = false;
+  };
+
   let drag = null;
   canvas.addEventListener("mousedown", (e) => {
     drag = { x: e.offsetX, v0, v1, moved: false };
@@ -664,6 +672,7 @@
     drag = null;
     if (wasDrag || e.target !== canvas) return;
     const i = hit(e.offsetX, e.offsetY);
+    lookBack();
     if (i >= 0) showRecord(i);
     else setCursor(toT(e.offsetX), true);
   });
@@ -671,6 +680,7 @@
     "wheel",
     (e) => {
       e.preventDefault();
+      lookBack();
       const t = toT(e.offsetX);
       const f = Math.pow(1.2, e.deltaY / 100);
       const w = Math.max(1000, (v1 - v0) * f);
@@ -680,10 +690,19 @@
     },
     { passive: false }
   );
-  $("slider").addEventListener("input", (e) => setCursor(Number(e.target.value)));
+  $("slider").addEventListener("input", (e) => {
+    lookBack();
+    setCursor(Number(e.target.value));
+  });
   $("fit").addEventListener("click", fit);
-  $("prev").addEventListener("click", () => stepTo(-1));
-  $("next").addEventListener("click", () => stepTo(1));
+  $("prev").addEventListener("click", () => {
+    lookBack();
+    stepTo(-1);
+  });
+  $("next").addEventListener("click", () => {
+    lookBack();
+    stepTo(1);
+  });
   window.addEventListener("resize", schedule);
   window.addEventListener("hashchange", fromHash);
 
@@ -742,14 +761,23 @@
       if ($("follow").checked) {
         const w = v1 - v0;
         if (end > v1) {
-          v1 = end * 1.02;
-          v0 = Math.max(0, v1 - Math.max(w, end * 1.02));
+          // Showing the run from its start: it grows with the run. A
+          // window zoomed in elsewhere keeps its width and slides.
+          if (v0 <= 0) {
+            v1 = end * 1.02;
+          } else {
+            v1 = end + w * 0.02;
+            v0 = Math.max(0, v1 - w);
+          }
         }
         setCursor(end, true);
       } else {
         schedule();
       }
     };
+    $("follow").addEventListener("change", () => {
+      if ($("follow").checked) follow();
+    });
     source.onmessage = (e) => {
       add(e.data.split("\n").filter((line) => line).map((line) => JSON.parse(line)));
       arrived = { t: records.length ? records[records.length - 1].t : 0, at: performance.now() };
@@ -764,7 +792,9 @@
     source.addEventListener("end", () => {
       liveState = "ended";
       source.close();
-      schedule();
+      // The run's end is its last record, not the page's guess.
+      if (records.length) end = records[records.length - 1].t;
+      follow();
     });
     source.onerror = () => {
       if (liveState !== "ended") liveState = "disconnected";
