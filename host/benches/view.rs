@@ -14,26 +14,37 @@ use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use radar::trace::Record;
+use radar::trace::{Record, TraceSink};
 use radar::view::write_view;
 use radar::{Link, Plugin, System};
 use radar_fixtures::plugins;
 
-/// A run of an event every millisecond starting a response: about eight
-/// records a trigger, taken until there are `n`.
+/// Keeps every record (the kept trace of a report is bounded).
+struct Keep(std::sync::Arc<std::sync::Mutex<Vec<Record>>>);
+
+impl TraceSink for Keep {
+    fn record(&mut self, record: &Record) {
+        if let Ok(mut all) = self.0.lock() {
+            all.push(record.clone());
+        }
+    }
+}
+
+/// A run of an event every millisecond starting a response: its first `n`
+/// records (about eleven a trigger).
 fn trace(n: usize) -> Vec<Record> {
-    let millis = (n / 6) as u64 + 1000;
-    let system = System::builder()
-        .keep_trace(true)
+    let millis = (n / 10) as u64 + 1000;
+    let all = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    System::builder()
+        .trace_to(Keep(all.clone()))
         .plugin(Plugin::file("E", plugins::BENCH_EVENT).period(Duration::from_millis(1)))
         .plugin(Plugin::file("R", plugins::BENCH_RESPONSE))
         .connect(Link::whenever("E.triggered", "R.start"))
         .build()
-        .expect("builds");
-    let mut records = system
+        .expect("builds")
         .run(Some(Duration::from_millis(millis)))
-        .expect("runs")
-        .trace;
+        .expect("runs");
+    let mut records = std::mem::take(&mut *all.lock().expect("records"));
     records.truncate(n);
     records
 }
@@ -68,14 +79,17 @@ fn main() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(1_000_000);
-    let dir = tempfile::tempdir().expect("temp dir");
+    let temp = tempfile::tempdir().expect("temp dir");
+    // `RADAR_VIEW_KEEP=DIR` keeps the pages there, to open them by hand.
+    let dir =
+        std::env::var_os("RADAR_VIEW_KEEP").map_or_else(|| temp.path().to_path_buf(), Into::into);
     let all = trace(n);
     println!("== radar view: {} records vs the first 1,000 ==", all.len());
     for (label, records) in [
         ("1,000 records", &all[..1000.min(all.len())]),
         ("all", &all[..]),
     ] {
-        let page = dir.path().join(format!("{}.html", records.len()));
+        let page = dir.join(format!("{}.html", records.len()));
         let began = Instant::now();
         let file = File::create(&page).expect("page");
         write_view(records, "bench", BufWriter::new(file)).expect("written");

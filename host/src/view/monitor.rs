@@ -36,6 +36,13 @@ const CLIENT_QUEUE: usize = 1_024;
 /// never idle.
 const SEND_EVERY: Duration = Duration::from_millis(100);
 
+/// After taking what the run handed over, the server rests this long
+/// before it looks again: whatever the run does, the server's threads run
+/// at most about ten times a second (each time they run they take a
+/// little of the caches the run would find warm), and a page shows the run
+/// at most about this much late.
+const PACE: Duration = Duration::from_millis(100);
+
 /// What a monitor could not do.
 #[derive(Debug, thiserror::Error)]
 pub enum MonitorError {
@@ -53,7 +60,8 @@ pub enum MonitorError {
 }
 
 enum Message {
-    Records(Vec<Record>),
+    /// Records as JSON lines.
+    Lines(Vec<String>),
     End,
 }
 
@@ -107,13 +115,16 @@ pub struct MonitorSink {
 }
 
 impl MonitorSink {
+    /// Hands what was kept to the server as JSON lines. Made here, on the
+    /// run's thread while it has nothing due (as the trace file's lines
+    /// are), so that no other thread touches the records: their memory and
+    /// the names they share stay with the run's core.
     fn send(&mut self) {
         self.sent = Instant::now();
         if !self.pending.is_empty() {
-            // The next batch's room is made here, off the run's path.
-            let room = (self.pending.len() * 2).clamp(64, BATCH);
-            let batch = std::mem::replace(&mut self.pending, Vec::with_capacity(room));
-            let _ = self.tx.send(Message::Records(batch));
+            let lines = self.pending.iter().map(Record::to_json_line).collect();
+            self.pending.clear();
+            let _ = self.tx.send(Message::Lines(lines));
         }
     }
 }
@@ -121,7 +132,10 @@ impl MonitorSink {
 impl TraceSink for MonitorSink {
     fn record(&mut self, record: &Record) {
         self.pending.push(record.clone());
-        if self.pending.len() >= BATCH || self.sent.elapsed() >= SEND_EVERY {
+        // The clock is read every 64 records only: a read costs as much as
+        // keeping a record.
+        let n = self.pending.len();
+        if n >= BATCH || (n % 64 == 0 && self.sent.elapsed() >= SEND_EVERY) {
             self.send();
         }
     }
@@ -176,17 +190,20 @@ impl Monitor {
             std::thread::Builder::new()
                 .name("radar-monitor-http".into())
                 .spawn(move || {
-                    // Polled, so that it sees the stop without a wake-up.
-                    let _ = listener.set_nonblocking(true);
+                    // Blocked in accept (no polling: nothing runs while no
+                    // one connects); the stop comes with a connection.
                     while !hub.stop.load(Ordering::Relaxed) {
                         let stream = match listener.accept() {
                             Ok((stream, _)) => stream,
                             Err(_) => {
-                                std::thread::sleep(Duration::from_millis(20));
+                                // Out of descriptors, say: not a busy loop.
+                                std::thread::sleep(Duration::from_millis(50));
                                 continue;
                             }
                         };
-                        let _ = stream.set_nonblocking(false);
+                        if hub.stop.load(Ordering::Relaxed) {
+                            break;
+                        }
                         let (hub, page) = (hub.clone(), page.clone());
                         if let Ok(handle) = std::thread::Builder::new()
                             .name("radar-monitor-client".into())
@@ -218,7 +235,7 @@ impl Monitor {
     pub fn sink(&self) -> MonitorSink {
         MonitorSink {
             tx: self.tx.clone(),
-            pending: Vec::new(),
+            pending: Vec::with_capacity(BATCH),
             sent: Instant::now(),
         }
     }
@@ -246,30 +263,43 @@ impl Drop for Monitor {
                 std::thread::sleep(Duration::from_millis(5));
             }
         }
+        // The accept loop sees the stop with a connection of its own. Where
+        // none can be made it is left to end with the process, not waited
+        // for.
         self.hub.stop.store(true, Ordering::Relaxed);
-        for t in threads {
-            let _ = t.join();
+        let mut wake = self.addr;
+        if wake.ip().is_unspecified() {
+            wake.set_ip(match wake {
+                SocketAddr::V4(_) => std::net::Ipv4Addr::LOCALHOST.into(),
+                SocketAddr::V6(_) => std::net::Ipv6Addr::LOCALHOST.into(),
+            });
+        }
+        if TcpStream::connect_timeout(&wake, Duration::from_millis(500)).is_ok() {
+            for t in threads {
+                let _ = t.join();
+            }
         }
     }
 }
 
-/// Serializes records off the run's thread, keeps them, and hands each
-/// batch to every open stream.
+/// Keeps the run's lines, and hands each batch to every open stream.
+///
+/// After each round it rests [`PACE`], while the run's batches wait in the
+/// channel: at most about ten rounds a second, whatever the run does.
 fn fan_out(hub: &Hub, rx: &Receiver<Message>) {
-    let mut lines = Vec::new();
-    while let Ok(first) = rx.recv() {
+    loop {
+        let Ok(first) = rx.recv() else { return };
+        let mut lines = Vec::new();
         let mut end = false;
-        for message in std::iter::once(first).chain(rx.try_iter().take(16)) {
+        for message in std::iter::once(first).chain(rx.try_iter()) {
             match message {
-                Message::Records(records) => {
-                    lines.extend(records.iter().map(Record::to_json_line));
-                }
+                Message::Lines(batch) => lines.extend(batch),
                 Message::End => end = true,
             }
         }
         let mut shared = hub.lock();
         if !lines.is_empty() {
-            let lines: Vec<Arc<str>> = lines.drain(..).map(Arc::from).collect();
+            let lines: Vec<Arc<str>> = lines.into_iter().map(Arc::from).collect();
             let total = shared.total() + lines.len();
             let event = Arc::new(event(&lines, total));
             // A page that fell too far behind is let go (it reconnects).
@@ -287,6 +317,8 @@ fn fan_out(hub: &Hub, rx: &Receiver<Message>) {
             }
             return;
         }
+        drop(shared);
+        std::thread::sleep(PACE);
     }
 }
 
