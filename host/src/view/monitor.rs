@@ -135,7 +135,7 @@ impl TraceSink for MonitorSink {
         // The clock is read every 64 records only: a read costs as much as
         // keeping a record.
         let n = self.pending.len();
-        if n >= BATCH || (n % 64 == 0 && self.sent.elapsed() >= SEND_EVERY) {
+        if n >= BATCH || (n.is_multiple_of(64) && self.sent.elapsed() >= SEND_EVERY) {
             self.send();
         }
     }
