@@ -12,7 +12,7 @@ use std::io::{BufWriter, Read, Write};
 use std::net::TcpStream;
 use std::time::Duration;
 
-use radar::trace::{Entry, JsonLines};
+use radar::trace::JsonLines;
 use radar::view::Monitor;
 use radar::{ClockKind, Link, Plugin, System};
 use radar_fixtures::plugins;
@@ -54,21 +54,7 @@ fn round(secs: u64, monitor: bool) -> (Vec<f64>, usize) {
     let report = system.run(Some(Duration::from_secs(secs))).expect("runs");
     drop(served);
     let got = reader.map_or(0, |r| r.join().expect("reader"));
-    let mut triggered = None;
-    let mut latency = Vec::new();
-    for r in &report.trace {
-        match &r.entry {
-            Entry::Signal { plugin, signal, .. } if &**plugin == "E" && signal == "triggered" => {
-                triggered = Some(r.t);
-            }
-            Entry::SlotBegin { plugin, slot, .. } if &**plugin == "R" && slot == "start" => {
-                if let Some(t) = triggered.take() {
-                    latency.push(r.t.saturating_sub(t) as f64 / 1e3);
-                }
-            }
-            _ => {}
-        }
-    }
+    let latency = common::trigger_to_start(&report.trace, "E", "R");
     (latency, got)
 }
 

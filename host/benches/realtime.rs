@@ -18,6 +18,8 @@ use radar::trace::{Entry, JsonLines};
 use radar::{ClockKind, Link, Plugin, System};
 use radar_fixtures::plugins;
 
+mod common;
+
 const PERIOD_MS: u64 = 10;
 
 /// Lateness of each 10 ms sleep of a counting response, and trigger →
@@ -44,9 +46,7 @@ fn measure(secs: u64, realtime: RealTime) -> Result<(Vec<f64>, Vec<f64>), String
         .run(Some(Duration::from_secs(secs)))
         .map_err(|e| e.to_string())?;
     let mut lateness = Vec::new();
-    let mut latency = Vec::new();
     let mut last_count: Option<u64> = None;
-    let mut triggered: Option<u64> = None;
     for r in &report.trace {
         match &r.entry {
             // Each "count N" comes one sleep after the one before.
@@ -59,17 +59,10 @@ fn measure(secs: u64, realtime: RealTime) -> Result<(Vec<f64>, Vec<f64>), String
                 }
                 last_count = Some(r.t);
             }
-            Entry::Signal { plugin, signal, .. } if &**plugin == "E" && signal == "triggered" => {
-                triggered = Some(r.t);
-            }
-            Entry::SlotBegin { plugin, slot, .. } if &**plugin == "R" && slot == "start" => {
-                if let Some(t) = triggered.take() {
-                    latency.push(r.t.saturating_sub(t) as f64 / 1e3);
-                }
-            }
             _ => {}
         }
     }
+    let latency = common::trigger_to_start(&report.trace, "E", "R");
     Ok((lateness, latency))
 }
 

@@ -1,5 +1,6 @@
-//! What the benchmark harnesses share: a loopback port, percentiles, and
-//! the one-line summary of a latency series.
+//! What the benchmark harnesses share: a loopback port, percentiles, the
+//! one-line summary of a latency series, and trigger → start latencies
+//! read from a trace.
 #![allow(dead_code)]
 
 /// A port on 127.0.0.1 that nothing listens on now.
@@ -29,4 +30,26 @@ pub fn summary(name: &str, mut us: Vec<f64>) -> f64 {
         percentile(&us, 0.99)
     );
     p50
+}
+
+/// Each time `event` triggered and `response`'s start then began: the time
+/// between the two records, in µs.
+pub fn trigger_to_start(trace: &[radar::trace::Record], event: &str, response: &str) -> Vec<f64> {
+    use radar::trace::Entry;
+    let mut triggered = None;
+    let mut latency = Vec::new();
+    for r in trace {
+        match &r.entry {
+            Entry::Signal { plugin, signal, .. } if &**plugin == event && signal == "triggered" => {
+                triggered = Some(r.t);
+            }
+            Entry::SlotBegin { plugin, slot, .. } if &**plugin == response && slot == "start" => {
+                if let Some(t) = triggered.take() {
+                    latency.push(r.t.saturating_sub(t) as f64 / 1e3);
+                }
+            }
+            _ => {}
+        }
+    }
+    latency
 }
