@@ -59,8 +59,13 @@ pub enum RadarError {
     #[error("plugin `{0}` is defined twice")]
     DuplicatePlugin(String),
     /// A name that no plugin of the system has.
-    #[error("no plugin named `{0}` in this system")]
-    UnknownPlugin(String),
+    #[error("no plugin named `{name}` in this system{hint}")]
+    UnknownPlugin {
+        /// The name asked for.
+        name: String,
+        /// ` (did you mean `X`?)`, or the plugins there are.
+        hint: String,
+    },
     /// A plugin has no signal or slot of that name.
     #[error("plugin `{plugin}` has no {what} `{name}` (it has: {known})")]
     UnknownPort {

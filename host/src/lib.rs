@@ -29,6 +29,7 @@ mod ports;
 pub mod realtime;
 pub(crate) mod scheduler;
 pub mod script;
+pub mod suggest;
 pub mod system;
 pub mod testing;
 pub mod timeline;

@@ -584,11 +584,24 @@ impl Manifest {
             None | Some("drop") => Busy::Drop,
             Some("queue") => Busy::Queue(c.queue.unwrap_or(1)),
             Some("restart") => Busy::Restart,
+            // `queue:N`, as `radar ctl connect --busy` writes it.
+            Some(other) if other.starts_with("queue:") => other.parse()?,
             Some(other) => {
+                let fix = match other
+                    .trim_start_matches("queue")
+                    .trim_matches(['(', ')', ' '])
+                {
+                    n if other.starts_with("queue") && n.parse::<usize>().is_ok() => {
+                        format!("write busy = \"queue\" and queue = {n}")
+                    }
+                    _ => "busy is `drop`, `restart` or `queue` (with `queue = N` for how many \
+                          may wait, 1 by default; `queue:N` also works)"
+                        .to_string(),
+                };
                 return Err(format!(
-                    "connect {} -> {}: unknown busy policy `{other}`",
+                    "connect {} -> {}: unknown busy policy `{other}`: {fix}",
                     c.from, c.to
-                ))
+                ));
             }
         };
         link = link.busy(busy);

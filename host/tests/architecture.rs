@@ -29,6 +29,7 @@ const FLOORS: &[(&str, u8, &str)] = &[
     ("ports", 1, "values and time"),
     ("realtime", 1, "values and time"),
     ("script", 1, "values and time"),
+    ("suggest", 1, "values and time"),
     ("trace", 1, "values and time"),
     ("watchdog", 1, "values and time"),
     // 2. The host interfaces plugins import.

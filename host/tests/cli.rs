@@ -662,3 +662,50 @@ fn a_plugin_that_hits_the_kernels_mapping_limit_says_which_limit_and_how_to_rais
     assert!(stderr.contains("vm.max_map_count"), "{stderr}");
     assert!(stderr.contains("sysctl -w vm.max_map_count="), "{stderr}");
 }
+
+#[test]
+fn mistakes_in_a_manifest_are_shown_with_their_fix() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let system = "[plugins.LowBattery]\nwasm = \"builtin:test-event\"\n\
+                  [plugins.Dock]\nwasm = \"builtin:test-response\"\n\
+                  [[connect]]\nmode = \"whenever\"\n";
+    let cases = [
+        (
+            format!("{system}from = \"LowBatery\"\nto = \"Dock\"\n"),
+            "radar.toml:7: no plugin named `LowBatery` in this system (did you mean `LowBattery`?)",
+        ),
+        (
+            format!("{system}from = \"LowBattery\"\nto = \"Dock\"\nbusy = \"queue(1)\"\n"),
+            "unknown busy policy `queue(1)`: write busy = \"queue\" and queue = 1",
+        ),
+        (
+            format!("{system}from = \"LowBattery\"\nto = \"Dock\"\nbusy = \"wait\"\n"),
+            "unknown busy policy `wait`: busy is `drop`, `restart` or `queue`",
+        ),
+        (
+            "[plugins.Mine]\nwasm = \"mine/mine.wasm\"\n[plugins.Mine.build]\ncommand = \"true\"\n"
+                .to_string(),
+            "No such file or directory (os error 2): it is built by `radar build",
+        ),
+    ];
+    for (body, expected) in cases {
+        let manifest = write_manifest(dir.path(), &body);
+        let out = radar(&["run", &manifest, "--for", "1s", "-q"]);
+        assert!(!out.status.success(), "{body} should fail");
+        let stderr = text(&out.stderr);
+        assert_eq!(stderr.lines().count(), 1, "one line: {stderr}");
+        assert!(stderr.contains(expected), "{expected:?} not in {stderr:?}");
+    }
+    // `queue:N`, as radar ctl writes it, is a busy policy of a manifest too.
+    let manifest = write_manifest(
+        dir.path(),
+        &format!("{system}from = \"LowBattery\"\nto = \"Dock\"\nbusy = \"queue:2\"\n"),
+    );
+    let out = radar(&["run", &manifest, "--for", "1s"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stdout).contains("(busy queue:2)"),
+        "{}",
+        text(&out.stdout)
+    );
+}

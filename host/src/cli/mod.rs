@@ -4,6 +4,7 @@ use std::io::Write;
 
 pub mod agent;
 pub mod ctl;
+pub mod fixes;
 pub mod graph;
 pub mod ros2;
 pub mod run;

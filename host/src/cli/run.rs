@@ -411,7 +411,10 @@ pub fn run(args: RunArgs) -> Result<()> {
                 builder = builder.trace_to(bridge.tap());
                 ros2 = Some(bridge);
             }
-            let system = manifest.add_to(builder).build()?;
+            let system = manifest
+                .add_to(builder)
+                .build()
+                .map_err(|e| super::fixes::building(e, &manifest, path))?;
             if let Some(bridge) = &mut ros2 {
                 bridge.start(&system, network.as_ref())?;
             }
@@ -448,7 +451,9 @@ pub fn run(args: RunArgs) -> Result<()> {
                 )
                 .context("cannot watch the plugins' files")?;
             }
-            system.run(run_for)?
+            system
+                .run(run_for)
+                .map_err(|e| super::fixes::building(e, &manifest, path))?
         }
     };
     if let Some(bridge) = ros2.take() {

@@ -342,7 +342,10 @@ impl State {
         self.by_name
             .get(name)
             .copied()
-            .ok_or_else(|| RadarError::UnknownPlugin(name.to_string()))
+            .ok_or_else(|| RadarError::UnknownPlugin {
+                name: name.to_string(),
+                hint: crate::suggest::hint(name, self.plugins.iter().map(|p| &*p.name)),
+            })
     }
 
     pub(super) fn setup(&self, pid: usize) -> (Rc<PluginCode>, InstanceSetup) {

@@ -133,7 +133,10 @@ impl System {
             .plugins
             .iter()
             .find(|p| p.name == name)
-            .ok_or_else(|| format!("no plugin named `{name}`"))?;
+            .ok_or_else(|| {
+                let hint = crate::suggest::hint(name, self.plugins.iter().map(|p| p.name.as_str()));
+                format!("no plugin named `{name}`{hint}")
+            })?;
         let kind = &plugin.code.kind;
         let port = port.unwrap_or(if matches!(kind, crate::plugin::Kind::Event { .. }) {
             "triggered"
