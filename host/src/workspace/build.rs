@@ -109,19 +109,24 @@ pub fn check_script(plugin: &str, main: &Path) -> Result<(), BuildFailure> {
     ))
 }
 
-/// The line a user wants first: one that names an error, else the last
-/// non-empty one.
+/// The line a user wants first: the root cause when the tool gives one
+/// (`Caused by:`, as componentize-py does under a Python traceback whose
+/// own error line is only `AssertionError: File "/0/app.py", line 13`),
+/// else one that names an error, else the last non-empty one.
 fn first_error(text: &str) -> Option<String> {
     let lines: Vec<&str> = text
         .lines()
         .map(str::trim)
         .filter(|l| !l.is_empty())
         .collect();
-    lines
+    let cause = lines
         .iter()
-        .find(|l| l.to_lowercase().contains("error"))
+        .position(|l| *l == "Caused by:")
+        .and_then(|i| lines.get(i + 1));
+    cause
+        .or_else(|| lines.iter().find(|l| l.to_lowercase().contains("error")))
         .or_else(|| lines.last())
-        .map(|l| l.to_string())
+        .map(|l| l.trim_start_matches("0: ").to_string())
 }
 
 /// Whether `path` is one of `build`'s watched sources.
@@ -166,6 +171,15 @@ mod tests {
             Some("error[E0425]: cannot find value `x`")
         );
         assert_eq!(first_error("one\ntwo\n").as_deref(), Some("two"));
+        // componentize-py on a Python syntax error (its output, cut).
+        let python = "Traceback (most recent call last):\n  File \"componentize-py\", line 8\n\
+            AssertionError:   File \"/0/app.py\", line 13\n    def check(self)\n\
+            ^\nSyntaxError: expected ':'\n\n\nCaused by:\n    SyntaxError: expected ':' \
+            (app.py, line 13)\n\nStack backtrace:\n   0: anyhow::error::msg\n";
+        assert_eq!(
+            first_error(python).as_deref(),
+            Some("SyntaxError: expected ':' (app.py, line 13)")
+        );
     }
 
     #[test]
