@@ -12,6 +12,7 @@
 use std::io::Write;
 
 use crate::trace::{Entry, Record, TraceSink};
+use crate::view::graph::busy_policy;
 use crate::view::Graph;
 
 /// The timeline's resolution: records within one millisecond are shown as
@@ -160,13 +161,13 @@ impl<W: Write + Send> Timeline<W> {
                 busy,
                 queue,
                 until_of,
-            } => match (until_of, busy.as_ref(), queue) {
-                (Some(of), ..) => format!("connect #{id}: until of #{of}: {from} → {to}"),
-                (None, "drop", _) => format!("connect #{id}: {mode} {from} → {to}"),
-                (None, busy, Some(n)) => {
-                    format!("connect #{id}: {mode} {from} → {to} (busy {busy}:{n})")
-                }
-                (None, busy, None) => format!("connect #{id}: {mode} {from} → {to} (busy {busy})"),
+            } => match until_of {
+                Some(of) => format!("connect #{id}: until of #{of}: {from} → {to}"),
+                None if busy == "drop" => format!("connect #{id}: {mode} {from} → {to}"),
+                None => format!(
+                    "connect #{id}: {mode} {from} → {to} (busy {})",
+                    busy_policy(busy, *queue)
+                ),
             },
             Entry::Disconnect { id, reason } => {
                 self.graph.connections.get(id)?;

@@ -70,6 +70,16 @@ pub fn graph_at(records: &[Record], at: u64) -> Graph {
     graph
 }
 
+/// A connection's busy policy as `radar ctl` and the views write it:
+/// `drop`, `restart`, or `queue:N` from a `connect` record's `busy` and
+/// `queue`.
+pub fn busy_policy(busy: &str, queue: Option<u64>) -> String {
+    match queue {
+        Some(n) => format!("{busy}:{n}"),
+        None => busy.to_string(),
+    }
+}
+
 /// The plugin a port (`Plugin.slot`) belongs to.
 fn plugin_of(port: &str) -> &str {
     port.split('.').next().unwrap_or(port)
@@ -112,10 +122,7 @@ impl Graph {
                         from: from.clone(),
                         to: to.clone(),
                         mode: mode.to_string(),
-                        busy: match queue {
-                            Some(n) => format!("{busy}:{n}"),
-                            None => busy.to_string(),
-                        },
+                        busy: busy_policy(busy, *queue),
                         until_of: *until_of,
                     },
                 );

@@ -57,7 +57,7 @@ pub fn write_view(records: &[Record], title: &str, mut out: impl Write) -> std::
 /// A line of JSON made safe inside a `<script>` element: a `<` can only be
 /// in a string, where `\u003c` means the same (no `</script>` ends it
 /// early).
-pub(crate) fn inline(json: &str) -> std::borrow::Cow<'_, str> {
+fn inline(json: &str) -> std::borrow::Cow<'_, str> {
     if json.contains('<') {
         json.replace('<', "\\u003c").into()
     } else {

@@ -469,8 +469,16 @@ mod tests {
     use super::*;
     use crate::trace::Entry;
 
+    /// Bounded: a stream that never ends fails the test, not hangs it.
+    fn connect(addr: SocketAddr) -> TcpStream {
+        let s = TcpStream::connect(addr).expect("connects");
+        s.set_read_timeout(Some(Duration::from_secs(20)))
+            .expect("a timeout");
+        s
+    }
+
     fn get(addr: SocketAddr, path: &str) -> String {
-        let mut s = TcpStream::connect(addr).expect("connects");
+        let mut s = connect(addr);
         write!(s, "GET {path} HTTP/1.1\r\nHost: x\r\n\r\n").expect("asks");
         let mut text = String::new();
         let _ = s.read_to_string(&mut text);
@@ -511,7 +519,7 @@ mod tests {
         );
         // A browser that reconnects after record 1 gets only what follows
         // (and, the run being over, the end at once).
-        let mut s = TcpStream::connect(monitor.addr()).expect("connects");
+        let mut s = connect(monitor.addr());
         write!(s, "GET /events HTTP/1.1\r\nLast-Event-ID: 1\r\n\r\n").expect("asks");
         let mut resumed = String::new();
         let _ = s.read_to_string(&mut resumed);
