@@ -2,8 +2,11 @@
 //
 //     node dev_runtime.js WIT_DIR WORLD RADAR_DEV_JS OUT_JS
 //
-// Reads the world's `export`s from the .wit files of WIT_DIR (not its
-// deps/): a function (`export check: func(...)`) becomes an exported
+// Reads the world from the .wit files of WIT_DIR (not its deps/). Each
+// interface it imports (its own, `import board;`, a full name, `import
+// radar:reactive/clock@0.1.0;`, and those of `radar:reactive` that every
+// plugin world includes) is imported as a namespace and offered to the
+// script under its specifier. Each `export`: a function (`export check: func(...)`) becomes an exported
 // function, an interface (`export slots;`) an exported object with one
 // method per function of the interface; each hands the call to the
 // plugin's own export of the same name (see radar_dev.js). WIT names are
@@ -32,8 +35,22 @@ function block(kind, name) {
     throw new Error(`unclosed ${kind} ${name}`);
 }
 
+const pkg = (text.match(/\bpackage\s+([a-z][\w-]*:[a-z][\w-]*)(@[\w.+-]+)?\s*;/) || []).slice(1);
+const worldText = block('world', world);
+const imports = [];
+const reactive = worldText.match(/include\s+radar:reactive\/[a-z-]+(@[\w.+-]+)/);
+if (reactive) {
+    for (const name of ['clock', 'logging', 'config']) imports.push(`radar:reactive/${name}${reactive[1]}`);
+}
+for (const m of worldText.matchAll(/(?:^|[;{\s])import\s+([a-z][\w:/@.-]*)\s*;/g)) {
+    imports.push(m[1].includes(':') ? m[1] : `${pkg[0]}/${m[1]}${pkg[1] || ''}`);
+}
 const lines = [fs.readFileSync(runtime, 'utf8')];
-for (const m of block('world', world).matchAll(/export\s+([a-z][\w-]*)\s*(:\s*func)?/g)) {
+imports.forEach((spec, i) => {
+    lines.push(`import * as __world${i} from ${JSON.stringify(spec)};`);
+    lines.push(`WORLD_IMPORTS[${JSON.stringify(spec)}] = __world${i};`);
+});
+for (const m of worldText.matchAll(/export\s+([a-z][\w-]*)\s*(:\s*func)?/g)) {
     const name = camel(m[1]);
     if (m[2]) {
         lines.push(`export function ${name}(...args) { return plugin().${name}(...args); }`);

@@ -1,39 +1,65 @@
 // Radar's development runtime for JavaScript plugins.
 //
 // Built once per plugin world (`build --dev OUT.wasm`), this component holds
-// the engine and the helpers but not the plugin's code: it reads that from
-// the configuration value `radar.source`, which the host fills from the
-// plugin's script (`source = "app.js"` in the manifest), and evaluates it on
-// the first call. An edit of the script is then a new instance of the same
-// component, swapped in by `radar run --watch` without a build or a compile.
+// the engine, the helpers and every interface the world imports, but not
+// the plugin's code: it reads that from the configuration value
+// `radar.source`, which the host fills from the plugin's scripts
+// (`source = "app.js"` in the manifest, with the other `.js` files beside
+// it), and evaluates it on the first call. An edit of the script is then a
+// new instance of the same component, swapped in by `radar run --watch`
+// without a build or a compile.
 //
-// The script is an ES module as for a build, with two limits: it imports
-// only from './radar_guest.js' (the helpers; the host's interfaces are
-// reached through them), and it is one file. Its `export`s are what the
-// world's exports, generated below by dev_runtime.js, hand each call to.
+// The script is an ES module as for a build. It may import, with
+// `import { a, b as c } from '...'` or `import * as ns from '...'`:
+// './radar_guest.js' (the helpers), the other `.js` files of its folder
+// ('./helper.js'), and every interface its world imports
+// ('radar:reactive/clock@0.1.0', 'local:sensor/board', ...). Its `export`s
+// are what the world's exports, generated below by dev_runtime.js, hand
+// each call to.
 import * as guest from './radar_guest.js';
 import { get } from 'radar:reactive/config@0.1.0';
 
 const SOURCE_KEY = 'radar.source';
+// What a script may import from the world: specifier → the interface's
+// functions. Filled by the part dev_runtime.js generates (below).
+const WORLD_IMPORTS = {};
 let loaded;
 
-function evaluate(name, text) {
+const IMPORT = /import\s*(\{[^}]*\}|\*\s*as\s+[A-Za-z_$][\w$]*)\s*from\s*['"]([^'"]+)['"]\s*;?/g;
+const EXPORT = /export\s+(async\s+function\*?|function\*?|class|const|let|var)\s+([A-Za-z_$][\w$]*)/g;
+
+/** The module `spec` as the script `from` imports it. */
+function resolve(from, spec, files, modules) {
+    if (spec === './radar_guest.js') return guest;
+    if (spec.startsWith('./')) return evaluate(spec.slice(2), files, modules);
+    if (Object.prototype.hasOwnProperty.call(WORLD_IMPORTS, spec)) return WORLD_IMPORTS[spec];
+    const known = ['./radar_guest.js', ...Object.keys(files).map((f) => `./${f}`), ...Object.keys(WORLD_IMPORTS)];
+    throw new Error(`${from}: cannot import '${spec}': the world does not import it (it can import: ${known.join(', ')})`);
+}
+
+/** Evaluates the script file `name` once; its exports. */
+function evaluate(name, files, modules) {
+    if (modules[name]) return modules[name];
+    const text = files[name];
+    if (text === undefined) {
+        throw new Error(`no script file ${name} beside the plugin's (it has: ${Object.keys(files).join(', ')})`);
+    }
+    const exports = {};
+    modules[name] = exports; // a cycle sees what is exported so far
     const names = [];
-    let body = text.replace(
-        /import\s*\{([^}]*)\}\s*from\s*['"]\.\/radar_guest\.js['"]\s*;?/g,
-        (_, list) => `const {${list.replace(/\s+as\s+/g, ': ')}} = __radarGuest;`,
-    );
+    let body = text.replace(IMPORT, (_, what, spec) => {
+        const from = `__radarImport(${JSON.stringify(spec)})`;
+        if (what.startsWith('*')) return `const ${what.replace(/^\*\s*as\s+/, '')} = ${from};`;
+        return `const {${what.slice(1, -1).replace(/\s+as\s+/g, ': ')}} = ${from};`;
+    });
     const other = body.match(/^\s*import\s.*$/m);
     if (other) {
-        throw new Error(`${name}: the development runtime imports only from './radar_guest.js' (found: ${other[0].trim()})`);
+        throw new Error(`${name}: the development runtime takes \`import { ... } from '...'\` and \`import * as name from '...'\` (found: ${other[0].trim()})`);
     }
-    body = body.replace(
-        /export\s+(async\s+function\*?|function\*?|class|const|let|var)\s+([A-Za-z_$][\w$]*)/g,
-        (_, keyword, exported) => {
-            names.push(exported);
-            return `${keyword} ${exported}`;
-        },
-    );
+    body = body.replace(EXPORT, (_, keyword, exported) => {
+        names.push(exported);
+        return `${keyword} ${exported}`;
+    });
     body = body.replace(/export\s*\{([^}]*)\}\s*;?/g, (_, list) => {
         for (const item of list.split(',')) {
             const [local, exported] = item.trim().split(/\s+as\s+/);
@@ -42,7 +68,9 @@ function evaluate(name, text) {
         return '';
     });
     body += `\nreturn { ${names.join(', ')} };\n//# sourceURL=${name}`;
-    return new Function('__radarGuest', body)(guest);
+    const load = (spec) => resolve(name, spec, files, modules);
+    Object.assign(exports, new Function('__radarImport', body)(load));
+    return exports;
 }
 
 /** The plugin's exports, evaluated once per instance. */
@@ -53,10 +81,9 @@ export function plugin() {
             throw new Error("this is Radar's JavaScript development runtime: give the plugin `source = \"app.js\"` in the manifest");
         }
         const { module, files } = JSON.parse(packed);
-        const name = `${module}.js`;
-        loaded = evaluate(name, files[name]);
+        loaded = evaluate(`${module}.js`, files, {});
     }
     return loaded;
 }
 
-// The world's exports, generated by dev_runtime.js, follow.
+// The world's imports and exports, generated by dev_runtime.js, follow.

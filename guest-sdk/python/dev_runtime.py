@@ -7,11 +7,36 @@ world; the protocols in `wit_world/__init__.py` (the world's own exports)
 and `wit_world/exports/__init__.py` (its exported interfaces) name the
 classes and methods the runtime must export. Each generated method hands
 the call to the plugin's own class of the same name (see radar_dev.py).
+
+The runtime also imports every module of `wit_world/imports/` (each
+interface the world imports: `board`, `signals`, ...) and the standard
+modules in STANDARD below, because the component holds only the modules
+imported when it was built: a script can then import what a build of the
+same code could.
 """
 
 import re
 import sys
 from pathlib import Path
+
+
+# Standard modules robot code often reaches for, held by every runtime
+# (a script may import any module these load, too).
+STANDARD = [
+    "collections",
+    "dataclasses",
+    "enum",
+    "functools",
+    "itertools",
+    "json",
+    "math",
+    "random",
+    "re",
+    "statistics",
+    "struct",
+    "time",
+    "typing",
+]
 
 
 def protocols(path):
@@ -39,6 +64,11 @@ def main():
     world = protocols(bindings / "wit_world" / "__init__.py")
     exports = protocols(bindings / "wit_world" / "exports" / "__init__.py")
     lines = [runtime.read_text()]
+    lines.append("# What a script may import: the standard modules and the world's imports.")
+    lines += [f"import {name}  # noqa: F401" for name in STANDARD]
+    for module in sorted((bindings / "wit_world" / "imports").glob("*.py")):
+        if module.stem != "__init__":
+            lines.append(f"import wit_world.imports.{module.stem}  # noqa: F401")
     if exports:
         lines.append("from wit_world import exports as _exports\n")
     for base, classes in (("wit_world", world), ("_exports", exports)):
