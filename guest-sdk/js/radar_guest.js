@@ -79,3 +79,55 @@ export function config(key, fallback) {
 export function configKeys() {
     return keys();
 }
+
+// UTF-8 without TextEncoder, which not every engine has.
+const utf8 = (text) => Uint8Array.from(unescape(encodeURIComponent(text)), (c) => c.charCodeAt(0));
+const fromUtf8 = (bytes) => decodeURIComponent(escape(String.fromCharCode(...bytes)));
+
+/**
+ * What a plugin keeps across a hot swap, as named fields with their first
+ * values:
+ *
+ *     const state = new State({ count: 0, near: false });
+ *     export function check() { state.count += 1; ... }
+ *     export const snapshot = state.snapshot;  // the world exports snapshot
+ *     export const restore = state.restore;    // and restore: hand it over
+ *
+ * `snapshot` gives the fields as JSON; `restore` takes the old version's
+ * fields that this version still has (a new field keeps its first value, a
+ * dropped one is ignored) and refuses what is not such JSON, which rolls the
+ * swap back.
+ */
+export class State {
+    constructor(fields) {
+        Object.assign(this, fields);
+        // Bound, and not fields themselves: `export const snapshot =
+        // state.snapshot` works, and JSON.stringify(this) skips them.
+        Object.defineProperty(this, 'snapshot', {
+            value: () => utf8(JSON.stringify(this)),
+        });
+        Object.defineProperty(this, 'restore', {
+            value: (saved) => {
+                let fields;
+                try {
+                    fields = JSON.parse(fromUtf8(saved));
+                } catch (e) {
+                    throw refusal(`the old version's state does not fit: ${e.message}`);
+                }
+                if (fields === null || typeof fields !== 'object' || Array.isArray(fields)) {
+                    throw refusal("the old version's state does not fit: not a table of fields");
+                }
+                for (const name of Object.keys(this)) {
+                    if (Object.prototype.hasOwnProperty.call(fields, name)) this[name] = fields[name];
+                }
+            },
+        });
+    }
+}
+
+/** An error whose `payload` is the `err` value of a `result<_, string>`. */
+function refusal(message) {
+    const e = new Error(message);
+    e.payload = message;
+    return e;
+}

@@ -19,6 +19,7 @@ interruptions only; `except Err` catches them and any other error result.
 """
 
 import functools
+import json
 
 import wit_world
 from componentize_py_types import Err
@@ -165,3 +166,42 @@ def config(key: str, default=None):
 def config_keys() -> list:
     """Every configured key, sorted."""
     return host_config.keys()
+
+
+class State:
+    """What a plugin keeps across a hot swap, as named fields with their
+    first values:
+
+        state = State(count=0, near=False)
+
+        class WitWorld(wit_world.WitWorld):
+            def check(self):
+                state.count += 1
+                ...
+            snapshot = state.snapshot   # the world exports snapshot and
+            restore = state.restore     # restore: hand the state over
+
+    `snapshot` gives the fields as JSON; `restore` takes the old version's
+    fields that this version still has (a new field keeps its first value,
+    a field the new version dropped is ignored) and refuses what is not
+    such JSON, which rolls the swap back. Keep it at module level: every
+    export sees it."""
+
+    def __init__(self, **fields) -> None:
+        self.__dict__.update(fields)
+
+    def snapshot(self) -> bytes:
+        """The fields as JSON bytes, for the world's `snapshot`."""
+        return json.dumps(vars(self), sort_keys=True).encode()
+
+    def restore(self, saved: bytes) -> None:
+        """The old version's fields back, for the world's `restore`;
+        raises `Err` (the swap rolls back) if `saved` is not theirs."""
+        try:
+            fields = json.loads(bytes(saved))
+        except ValueError as e:
+            raise Err(f"the old version's state does not fit: {e}") from None
+        if not isinstance(fields, dict):
+            raise Err("the old version's state does not fit: not a table of fields")
+        for name in vars(self).keys() & fields.keys():
+            setattr(self, name, fields[name])

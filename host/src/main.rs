@@ -50,10 +50,18 @@ enum Cmd {
     /// Writes a trace as one self-contained HTML page: a lane per plugin,
     /// and the connection graph at any instant with a time slider.
     View(cli::view::ViewArgs),
-    /// Runs each plugin's `[plugins.X.build]` command.
+    /// Runs each plugin's `[plugins.X.build]` command, unless its sources
+    /// are unchanged since its last build.
     Build {
         /// The `radar.toml` (default: `radar.toml` here).
         manifest: Option<PathBuf>,
+        /// Build the components to ship (`[plugins.X.release]`): a script
+        /// plugin's self-contained component, not its development runtime.
+        #[arg(long)]
+        release: bool,
+        /// Build even what is up to date.
+        #[arg(long)]
+        force: bool,
     },
     /// Makes a folder with a new plugin that builds and runs as it is:
     /// its world, its code, its build, and a radar.toml to try it with.
@@ -82,7 +90,11 @@ fn main() -> ExitCode {
         Some(Cmd::Trace(args)) => cli::trace::trace(args),
         Some(Cmd::Graph(args)) => cli::graph::graph(args),
         Some(Cmd::View(args)) => cli::view::view(args),
-        Some(Cmd::Build { manifest }) => cli::workspace::build_all(manifest),
+        Some(Cmd::Build {
+            manifest,
+            release,
+            force,
+        }) => cli::workspace::build_all(manifest, release, force),
         Some(Cmd::New {
             kind,
             name,

@@ -40,6 +40,18 @@
 //! workdir = "test-response"            # relative to the manifest
 //! watch = ["src/**/*.rs", "wit/*.wit"] # relative to workdir
 //! ```
+//!
+//! A plugin that runs as a script on a development runtime during
+//! development says how its self-contained component, the one to ship, is
+//! built; `radar build --release` builds it and `radar run --release` runs
+//! it ([`Manifest::use_release`]):
+//!
+//! ```toml
+//! [plugins.Sensor.release]
+//! command = "sh tools/build target/sensor.wasm"
+//! wasm = "target/sensor.wasm"
+//! watch = ["*.py", "wit/**/*.wit"]     # its sources (default: the build's)
+//! ```
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -184,6 +196,9 @@ pub struct PluginEntry {
     pub payload_bytes: Option<usize>,
     /// How to build the component (`radar build`, `radar run --watch`).
     pub build: Option<BuildEntry>,
+    /// The self-contained component to ship and how to build it (`radar
+    /// build --release`, `radar run --release`).
+    pub release: Option<ReleaseEntry>,
     /// What it may do with the blackboard: `{ read = [...], write = [...] }`.
     pub board: Option<BoardGrantEntry>,
     /// What of the host it sees through WASI (nothing by default).
@@ -270,6 +285,24 @@ pub struct BuildEntry {
     /// `workdir` (e.g. `src/**/*.rs`).
     #[serde(default)]
     pub watch: Vec<String>,
+}
+
+/// `[plugins.NAME.release]` (`docs/manifest.md`): what `--release` builds
+/// and runs instead of the plugin's `wasm` (and `source`).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReleaseEntry {
+    /// The command that builds the release component, run with `sh -c` in
+    /// `workdir`.
+    pub command: String,
+    /// The component it writes, relative to the manifest.
+    pub wasm: PathBuf,
+    /// Where to run it, relative to the manifest (default: the build's
+    /// `workdir`, else the manifest's folder).
+    pub workdir: Option<PathBuf>,
+    /// Its sources, globs relative to `workdir` (default: the build's
+    /// `watch`).
+    pub watch: Option<Vec<String>>,
 }
 
 /// A plugin's build, with its paths resolved against the manifest.
@@ -403,7 +436,7 @@ impl Manifest {
                         known.join(", ")
                     )));
                 }
-                if entry.build.is_some() {
+                if entry.build.is_some() || entry.release.is_some() {
                     return Err(bad(format!(
                         "plugins.{name}: a built-in plugin has no [build]"
                     )));
@@ -537,6 +570,37 @@ impl Manifest {
             builder = builder.plugin(plugin);
         }
         builder
+    }
+
+    /// The manifest as `--release` runs it: each plugin with a
+    /// `[release]` table runs its release component (not a script on a
+    /// development runtime), built by the release command from the release
+    /// sources. Returns the plugins that still run a script on a
+    /// development runtime because they have no `[release]` table.
+    pub fn use_release(&mut self) -> Vec<String> {
+        let mut scripts = Vec::new();
+        for (name, entry) in &mut self.plugins {
+            let Some(release) = entry.release.take() else {
+                if entry.source.is_some() {
+                    scripts.push(name.clone());
+                }
+                continue;
+            };
+            let build = entry.build.take();
+            entry.wasm = release.wasm;
+            entry.source = None;
+            entry.build = Some(BuildEntry {
+                command: release.command,
+                workdir: release
+                    .workdir
+                    .or_else(|| build.as_ref().and_then(|b| b.workdir.clone())),
+                watch: release
+                    .watch
+                    .or_else(|| build.map(|b| b.watch))
+                    .unwrap_or_default(),
+            });
+        }
+        scripts
     }
 
     /// Each plugin's component file and build (paths resolved), in name

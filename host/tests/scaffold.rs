@@ -2,8 +2,10 @@
 //! with `radar run` as it is, beside its built-in partner; and `radar` runs
 //! its built-in example from any directory.
 
-use std::path::Path;
+use std::io::BufRead;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use std::time::{Duration, Instant};
 
 fn radar(cwd: &Path, args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_radar"))
@@ -26,9 +28,16 @@ fn ok(out: &Output) -> String {
     stdout
 }
 
-/// `radar new KIND NAME --lang LANG`, `radar build`, then 10 s of
-/// `radar run`; returns the trace.
-fn scaffold_runs(kind: &str, name: &str, lang: &str) -> Vec<serde_json::Value> {
+/// A folder `radar new` made, in a temporary directory.
+struct Scaffold {
+    _dir: tempfile::TempDir,
+    folder: PathBuf,
+    name: String,
+}
+
+/// `radar new KIND NAME --lang LANG`, then `radar build`; a second `radar
+/// build` finds it up to date.
+fn scaffold(kind: &str, name: &str, lang: &str) -> Scaffold {
     let dir = tempfile::tempdir().expect("temp dir");
     let made = ok(&radar(dir.path(), &["new", kind, name, "--lang", lang]));
     assert!(
@@ -38,9 +47,22 @@ fn scaffold_runs(kind: &str, name: &str, lang: &str) -> Vec<serde_json::Value> {
     let folder = dir.path().join(name);
     let built = ok(&radar(&folder, &["build"]));
     assert!(built.contains(&format!("built {name}")), "{built}");
-    ok(&radar(
-        &folder,
-        &[
+    let again = ok(&radar(&folder, &["build"]));
+    assert!(
+        again.contains(&format!("{name} is up to date")),
+        "nothing changed, nothing built: {again}"
+    );
+    Scaffold {
+        _dir: dir,
+        folder,
+        name: name.to_string(),
+    }
+}
+
+impl Scaffold {
+    /// 10 s of `radar run radar.toml` (with `extra` arguments); the trace.
+    fn run(&self, extra: &[&str]) -> Vec<serde_json::Value> {
+        let mut args = vec![
             "run",
             "radar.toml",
             "--for",
@@ -48,9 +70,25 @@ fn scaffold_runs(kind: &str, name: &str, lang: &str) -> Vec<serde_json::Value> {
             "-q",
             "--trace",
             "t.jsonl",
-        ],
-    ));
-    let trace = std::fs::read_to_string(folder.join("t.jsonl")).expect("trace");
+        ];
+        args.extend(extra);
+        ok(&radar(&self.folder, &args));
+        trace_of(&self.folder.join("t.jsonl"))
+    }
+
+    /// `radar build --release`, then a run of what it built.
+    fn release_run(&self) -> Vec<serde_json::Value> {
+        let built = ok(&radar(&self.folder, &["build", "--release"]));
+        assert!(built.contains(&format!("built {}", self.name)), "{built}");
+        let trace = self.run(&["--release"]);
+        let component = format!("target/{}.wasm", self.name);
+        assert!(self.folder.join(&component).exists(), "{component}");
+        trace
+    }
+}
+
+fn trace_of(path: &Path) -> Vec<serde_json::Value> {
+    let trace = std::fs::read_to_string(path).expect("trace");
     let records = radar::trace::parse_json_lines(&trace).expect("records");
     assert!(radar::trace::check(&records).is_empty(), "lawful trace");
     trace
@@ -100,32 +138,141 @@ fn response_works(trace: &[serde_json::Value], name: &str) {
 
 #[test]
 fn a_rust_event_scaffold_builds_and_runs() {
-    event_works(&scaffold_runs("event", "ticker", "rust"), "ticker");
+    event_works(&scaffold("event", "ticker", "rust").run(&[]), "ticker");
 }
 
 #[test]
 fn a_rust_response_scaffold_builds_and_runs() {
-    response_works(&scaffold_runs("response", "stepper", "rust"), "stepper");
+    let made = scaffold("response", "stepper", "rust");
+    response_works(&made.run(&[]), "stepper");
+}
+
+/// A script scaffold runs its script on the development runtime, and its
+/// release build, the component to ship, runs alike.
+fn script_event_works(lang: &str, name: &str) {
+    let made = scaffold("event", name, lang);
+    event_works(&made.run(&[]), name);
+    event_works(&made.release_run(), name);
+    swaps_an_edit_in_and_keeps_its_state(&made, if lang == "js" { "app.js" } else { "app.py" });
+}
+
+fn script_response_works(lang: &str, name: &str) {
+    let made = scaffold("response", name, lang);
+    response_works(&made.run(&[]), name);
+    response_works(&made.release_run(), name);
+}
+
+/// `radar run --clock real --watch`: an edit of the script (its log line)
+/// is swapped in with no build, and the count carries on across the swap
+/// (the scaffold's `State`).
+fn swaps_an_edit_in_and_keeps_its_state(made: &Scaffold, main: &str) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_radar"))
+        .current_dir(&made.folder)
+        .args([
+            "run",
+            "radar.toml",
+            "--clock",
+            "real",
+            "--for",
+            "6s",
+            "--watch",
+        ])
+        .args(["--trace", "w.jsonl"])
+        .env("RADAR_TOOLCHAINS", radar_fixtures::TOOLCHAINS)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("radar starts");
+    let mut lines = std::io::BufReader::new(child.stdout.take().expect("stdout")).lines();
+    let mut stdout = String::new();
+    for line in lines.by_ref() {
+        let line = line.expect("reads stdout");
+        stdout.push_str(&line);
+        stdout.push('\n');
+        if line.starts_with("Radar:") {
+            break;
+        }
+    }
+    std::thread::sleep(Duration::from_millis(2500));
+    let path = made.folder.join(main);
+    let text = std::fs::read_to_string(&path).expect("reads the script");
+    let edited = text.replace("check ${state.checks}", "check ${state.checks}!");
+    let edited = edited.replace("check {state.checks}", "check {state.checks}!");
+    assert_ne!(text, edited, "the scaffold logs `check N`");
+    std::fs::write(&path, edited).expect("edits the script");
+    let saved = Instant::now();
+    let mut swapping = None;
+    for line in lines {
+        let line = line.expect("reads stdout");
+        if line.contains("watch: swapping") && swapping.is_none() {
+            swapping = Some(saved.elapsed());
+        }
+        stdout.push_str(&line);
+        stdout.push('\n');
+    }
+    let out = child.wait_with_output().expect("radar ends");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(!stdout.contains("watch: built"), "no build: {stdout}");
+    let swapping = swapping.unwrap_or_else(|| panic!("no swap: {stdout}"));
+    // A figure for the log, not a timed assertion.
+    println!(
+        "{main}: saved → swap requested in {} ms",
+        swapping.as_millis()
+    );
+    let trace = trace_of(&made.folder.join("w.jsonl"));
+    let swap = trace
+        .iter()
+        .find(|r| r["kind"] == "swap")
+        .unwrap_or_else(|| panic!("a swap record: {trace:?}"));
+    assert_eq!(swap["state"], "moved", "{swap}");
+    let checks: Vec<String> = trace
+        .iter()
+        .filter(|r| r["kind"] == "log" && r["plugin"] == made.name.as_str())
+        .filter_map(|r| r["message"].as_str().map(str::to_string))
+        .collect();
+    let numbers: Vec<u32> = checks
+        .iter()
+        .filter_map(|m| {
+            m.trim_start_matches("check ")
+                .trim_end_matches('!')
+                .parse()
+                .ok()
+        })
+        .collect();
+    assert_eq!(
+        numbers,
+        (1..=numbers.len() as u32).collect::<Vec<_>>(),
+        "{checks:?}"
+    );
+    assert!(
+        checks.iter().any(|m| m.ends_with('!')),
+        "the edit ran: {checks:?}"
+    );
+    assert!(!checks[0].ends_with('!'), "{checks:?}");
 }
 
 #[test]
-fn a_python_event_scaffold_builds_and_runs() {
-    event_works(&scaffold_runs("event", "hello", "python"), "hello");
+fn a_python_event_scaffold_runs_its_script_then_its_release_and_reloads_with_its_state() {
+    script_event_works("python", "hello");
 }
 
 #[test]
-fn a_python_response_scaffold_builds_and_runs() {
-    response_works(&scaffold_runs("response", "greeter", "python"), "greeter");
+fn a_python_response_scaffold_runs_its_script_and_its_release() {
+    script_response_works("python", "greeter");
 }
 
 #[test]
-fn a_js_event_scaffold_builds_and_runs() {
-    event_works(&scaffold_runs("event", "blinker", "js"), "blinker");
+fn a_js_event_scaffold_runs_its_script_then_its_release_and_reloads_with_its_state() {
+    script_event_works("js", "blinker");
 }
 
 #[test]
-fn a_js_response_scaffold_builds_and_runs() {
-    response_works(&scaffold_runs("response", "waver", "js"), "waver");
+fn a_js_response_scaffold_runs_its_script_and_its_release() {
+    script_response_works("js", "waver");
 }
 
 #[test]

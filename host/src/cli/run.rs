@@ -78,6 +78,11 @@ pub struct RunArgs {
     /// is rebuilt first), swap the new version in.
     #[arg(long)]
     watch: bool,
+    /// Run each plugin's release component (`[plugins.X.release]`, built
+    /// by `radar build --release`) instead of its script on a development
+    /// runtime.
+    #[arg(long)]
+    release: bool,
     /// Record every input from outside (injections, blackboard writes,
     /// swaps, from the command line, a watcher or a driver thread) with its
     /// time, in the inputs.jsonl format of docs/testing.md (swapped-in
@@ -382,6 +387,14 @@ pub fn run(args: RunArgs) -> Result<()> {
                 anyhow::bail!("with the virtual clock, say how long to run (e.g. --for 30s)");
             }
             let mut manifest = Manifest::load(path)?;
+            if args.release {
+                for plugin in manifest.use_release() {
+                    eprintln!(
+                        "radar: note: `{plugin}` has no [plugins.{plugin}.release] table; it runs \
+                         its script on the development runtime"
+                    );
+                }
+            }
             // A replay takes its inputs from the recording, not the
             // network, and runs the whole system here.
             if replay.is_some() {

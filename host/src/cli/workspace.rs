@@ -8,17 +8,31 @@ use radar::workspace::{self, scaffold};
 
 use super::say;
 
-/// `radar build`: each plugin's build command, one line each.
-pub fn build_all(manifest: Option<PathBuf>) -> Result<()> {
+/// `radar build`: each plugin's build command (its release command with
+/// `--release`), one line each.
+pub fn build_all(manifest: Option<PathBuf>, release: bool, force: bool) -> Result<()> {
     let path = manifest.unwrap_or_else(|| PathBuf::from("radar.toml"));
-    let manifest = Manifest::load(&path)?;
+    let mut manifest = Manifest::load(&path)?;
+    if release {
+        for plugin in manifest.use_release() {
+            eprintln!(
+                "radar: `{plugin}` runs a script on a development runtime and has no \
+                 [plugins.{plugin}.release] table: nothing to ship is built for it"
+            );
+        }
+    }
     let mut failed = 0;
     for build in manifest.builds().iter().filter(|b| b.command.is_some()) {
-        match workspace::build(build) {
-            Ok(took) => say(format_args!(
+        match workspace::build(build, force) {
+            Ok(workspace::Built::Ran(took)) => say(format_args!(
                 "built {} in {:.1} s → {}",
                 build.plugin,
                 took.as_secs_f64(),
+                build.wasm.display()
+            )),
+            Ok(workspace::Built::UpToDate) => say(format_args!(
+                "{} is up to date → {} (--force builds it again)",
+                build.plugin,
                 build.wasm.display()
             )),
             Err(failure) => {

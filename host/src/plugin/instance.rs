@@ -318,6 +318,19 @@ impl LocalInstance {
             let mut fault = fault(e);
             // An interpreter's uncaught exception: its message, then the trap.
             if let Some(line) = self.stderr.last_line() {
+                let wanted = func
+                    .ty(&self.store)
+                    .results()
+                    .next()
+                    .map(|ty| crate::payload::PayloadType::from_wasm(&ty).to_string());
+                let line = match (wrong_value(&line), wanted) {
+                    // componentize-js's own words name the core type
+                    // (`i32`), not the world's: they are left out.
+                    (Some(given), Some(wanted)) => {
+                        format!("`{export}` returned {given} where its world says {wanted}")
+                    }
+                    _ => line,
+                };
                 fault.cause = format!("{line} ({})", fault.cause);
             }
             fault
@@ -433,5 +446,32 @@ impl PluginInstance {
             })),
             _ => Ok(Ok(())),
         }
+    }
+}
+
+/// What a JavaScript plugin gave where its world wanted another type, from
+/// componentize-js's message (`expected number: FromJs { from: "string",
+/// to: "i32" }`): `a string`.
+fn wrong_value(line: &str) -> Option<String> {
+    let from = line.split("FromJs { from: \"").nth(1)?.split('"').next()?;
+    let article = if from.starts_with(['a', 'e', 'i', 'o', 'u']) {
+        "an"
+    } else {
+        "a"
+    };
+    Some(format!("{article} {from}"))
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_javascript_value_of_the_wrong_type_is_named() {
+        let line = r#"expected number: FromJs { from: "string", to: "i32" }"#;
+        assert_eq!(super::wrong_value(line).as_deref(), Some("a string"));
+        assert_eq!(
+            super::wrong_value(r#"x: FromJs { from: "object", to: "u32" }"#).as_deref(),
+            Some("an object")
+        );
+        assert_eq!(super::wrong_value("TypeError: not a function"), None);
     }
 }

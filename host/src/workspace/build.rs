@@ -1,11 +1,31 @@
 //! Running a plugin's build command (`radar build`, `--watch`) and
 //! checking a development runtime's script before it is swapped in.
+//!
+//! A build whose inputs have not changed since it last succeeded is not run
+//! again: its key is the sha256 of the command, its folder and every source
+//! its `watch` patterns match (the toolchain's pins among them in a `radar
+//! new` folder), kept beside the component with the component's own hash.
+//! An unchanged plugin is then neither rebuilt nor, since its component is
+//! the same bytes, compiled again (Python and JavaScript builds are not
+//! reproducible: a rebuild of the same sources is a new component).
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
+use sha2::{Digest, Sha256};
+
 use crate::manifest::Build;
+
+/// What a successful build did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Built {
+    /// The command ran, for this long.
+    Ran(Duration),
+    /// The sources and the command are those of the last build, and its
+    /// component is still there: nothing ran.
+    UpToDate,
+}
 
 /// A build command that did not succeed.
 #[derive(Debug, thiserror::Error)]
@@ -17,13 +37,20 @@ pub struct BuildFailure {
     pub line: String,
 }
 
-/// Runs a plugin's build command; its duration on success. A plugin without
-/// a command has nothing to build.
-pub fn build(build: &Build) -> Result<Duration, BuildFailure> {
+/// Runs a plugin's build command, unless its inputs are those of its last
+/// successful build (and `force` is false). A plugin without a command has
+/// nothing to build.
+pub fn build(build: &Build, force: bool) -> Result<Built, BuildFailure> {
     let began = Instant::now();
     let Some(command) = &build.command else {
-        return Ok(Duration::ZERO);
+        return Ok(Built::Ran(Duration::ZERO));
     };
+    let key = inputs_key(build, command);
+    let stamp = stamp_path(&build.wasm);
+    let current = key.clone().zip(file_hash(&build.wasm));
+    if !force && current.is_some() && read_stamp(&stamp) == current {
+        return Ok(Built::UpToDate);
+    }
     let failure = |line: String| BuildFailure {
         plugin: build.plugin.clone(),
         line,
@@ -40,7 +67,12 @@ pub fn build(build: &Build) -> Result<Duration, BuildFailure> {
             ))
         })?;
     if output.status.success() {
-        return Ok(began.elapsed());
+        let _ = std::fs::remove_file(&stamp);
+        if let (Some(key), Some(output)) = (key, file_hash(&build.wasm)) {
+            // Only saves time: a stamp that cannot be written is no error.
+            let _ = std::fs::write(&stamp, format!("{key} {output}\n"));
+        }
+        return Ok(Built::Ran(began.elapsed()));
     }
     let text = format!(
         "{}\n{}",
@@ -129,6 +161,74 @@ fn first_error(text: &str) -> Option<String> {
         .map(|l| l.trim_start_matches("0: ").to_string())
 }
 
+/// The build's inputs as one hash: the command, the folder it runs in and
+/// each watched source (path and bytes, in path order). None when it
+/// watches nothing (then it always runs).
+fn inputs_key(build: &Build, command: &str) -> Option<String> {
+    if build.watch.is_empty() {
+        return None;
+    }
+    let mut sources = Vec::new();
+    collect_sources(build, &build.workdir, &mut sources);
+    sources.sort();
+    let mut hash = Sha256::new();
+    for part in ["radar-build-1", command, &build.workdir.to_string_lossy()] {
+        hash.update(part.as_bytes());
+        hash.update([0]);
+    }
+    for path in &sources {
+        let bytes = std::fs::read(path).ok()?;
+        let relative = path.strip_prefix(&build.workdir).unwrap_or(path);
+        hash.update(relative.to_string_lossy().as_bytes());
+        hash.update([0]);
+        hash.update((bytes.len() as u64).to_le_bytes());
+        hash.update(&bytes);
+    }
+    Some(format!("{:x}", hash.finalize()))
+}
+
+/// Folders a build's sources are never in: outputs, installed packages,
+/// version control and caches.
+const NOT_SOURCES: [&str; 4] = ["target", "node_modules", "__pycache__", ".git"];
+
+fn collect_sources(build: &Build, dir: &Path, found: &mut Vec<PathBuf>) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let path = entry.path();
+        let Ok(kind) = entry.file_type() else {
+            continue;
+        };
+        if kind.is_dir() {
+            let name = entry.file_name();
+            if !NOT_SOURCES.iter().any(|n| name == *n) {
+                collect_sources(build, &path, found);
+            }
+        } else if watched(build, &path) {
+            found.push(path);
+        }
+    }
+}
+
+/// Where the key of `wasm`'s last build is kept: beside it, hidden.
+fn stamp_path(wasm: &Path) -> PathBuf {
+    let name = wasm.file_name().unwrap_or_default().to_string_lossy();
+    wasm.with_file_name(format!(".{name}.radar-build"))
+}
+
+/// The stamp's (inputs key, component hash).
+fn read_stamp(stamp: &Path) -> Option<(String, String)> {
+    let text = std::fs::read_to_string(stamp).ok()?;
+    let (key, output) = text.trim().split_once(' ')?;
+    Some((key.to_string(), output.to_string()))
+}
+
+fn file_hash(path: &Path) -> Option<String> {
+    let bytes = std::fs::read(path).ok()?;
+    Some(format!("{:x}", Sha256::digest(bytes)))
+}
+
 /// Whether `path` is one of `build`'s watched sources.
 pub(super) fn watched(build: &Build, path: &Path) -> bool {
     let Ok(relative) = path.strip_prefix(&build.workdir) else {
@@ -179,6 +279,48 @@ mod tests {
         assert_eq!(
             first_error(python).as_deref(),
             Some("SyntaxError: expected ':' (app.py, line 13)")
+        );
+    }
+
+    #[test]
+    fn an_unchanged_build_is_not_run_again_and_a_changed_source_or_output_is() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let root = dir.path();
+        std::fs::write(root.join("app.py"), "x = 1\n").expect("write");
+        std::fs::create_dir(root.join("target")).expect("mkdir");
+        // Counts its runs in a file that is not a source.
+        let mut b = build(
+            "echo run >> target/runs && printf component > target/out.wasm",
+            &["*.py"],
+        );
+        b.workdir = root.to_path_buf();
+        b.wasm = root.join("target/out.wasm");
+        let runs = || {
+            std::fs::read_to_string(root.join("target/runs"))
+                .unwrap_or_default()
+                .lines()
+                .count()
+        };
+        assert!(matches!(super::build(&b, false), Ok(Built::Ran(_))));
+        assert_eq!(super::build(&b, false).ok(), Some(Built::UpToDate));
+        assert_eq!(runs(), 1);
+        std::fs::write(root.join("app.py"), "x = 2\n").expect("edit");
+        assert!(matches!(super::build(&b, false), Ok(Built::Ran(_))));
+        assert_eq!(runs(), 2);
+        std::fs::write(&b.wasm, "overwritten").expect("write");
+        assert!(
+            matches!(super::build(&b, false), Ok(Built::Ran(_))),
+            "a changed output"
+        );
+        assert!(
+            matches!(super::build(&b, true), Ok(Built::Ran(_))),
+            "forced"
+        );
+        assert_eq!(runs(), 4);
+        b.watch.clear();
+        assert!(
+            matches!(super::build(&b, false), Ok(Built::Ran(_))),
+            "no sources named"
         );
     }
 

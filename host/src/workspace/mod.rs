@@ -12,5 +12,5 @@ mod build;
 pub mod scaffold;
 mod watch;
 
-pub use build::{build, check_script, BuildFailure};
+pub use build::{build, check_script, BuildFailure, Built};
 pub use watch::{watch, WatchEvent};

@@ -135,9 +135,9 @@ macro_rules! template {
 const EVENT_WIT: &Template = template!("event.wit");
 const RESPONSE_WIT: &Template = template!("response.wit");
 const MANIFEST: &Template = template!("radar.toml");
+const SCRIPT_MANIFEST: &Template = template!("radar-script.toml");
 const PARTNER_OF_EVENT: &Template = template!("partner-event.toml");
 const PARTNER_OF_RESPONSE: &Template = template!("partner-response.toml");
-const SCRIPT_NOTE: &Template = template!("script-note.toml");
 const RUST_EVENT: &Template = template!("rust/event.rs");
 const RUST_RESPONSE: &Template = template!("rust/response.rs");
 const RUST_CARGO: &Template = template!("rust/Cargo.toml");
@@ -221,53 +221,57 @@ fn files(kind: Kind, name: &str, language: Language) -> Result<Vec<NewFile>, Sca
             false,
         ),
     ];
-    let (wasm, command, watch) = match language {
-        Language::Rust => {
-            files.extend(rust_files(kind, &names)?);
-            (
-                format!("target/wasm32-wasip2/release/{snake}.wasm"),
-                "cargo build --release --target wasm32-wasip2".to_string(),
-                r#"["src/**/*.rs", "wit/**/*.wit"]"#,
-            )
-        }
-        Language::Python => {
-            files.extend(python_files(kind, &names)?);
-            (
-                format!("target/{name}.wasm"),
-                format!("sh tools/build target/{name}.wasm"),
-                r#"["*.py", "wit/**/*.wit"]"#,
-            )
-        }
-        Language::Js => {
-            files.extend(js_files(kind, &names)?);
-            (
-                format!("target/{name}.wasm"),
-                format!("sh tools/build target/{name}.wasm"),
-                r#"["*.js", "wit/**/*.wit"]"#,
-            )
-        }
-    };
     let partner = match kind {
         Kind::Event => PARTNER_OF_EVENT,
         Kind::Response => PARTNER_OF_RESPONSE,
     };
-    let script = match language {
-        Language::Rust => String::new(),
-        Language::Python => fill(SCRIPT_NOTE, &[("main", "app.py")])?,
-        Language::Js => fill(SCRIPT_NOTE, &[("main", "app.js")])?,
+    let partner = fill(partner, &names)?;
+    let language_name = language.to_string();
+    let manifest = match language {
+        Language::Rust => {
+            files.extend(rust_files(kind, &names)?);
+            fill(
+                MANIFEST,
+                &[
+                    ("name", name),
+                    ("language", &language_name),
+                    (
+                        "wasm",
+                        &format!("target/wasm32-wasip2/release/{snake}.wasm"),
+                    ),
+                    ("command", "cargo build --release --target wasm32-wasip2"),
+                    (
+                        "watch",
+                        r#"["src/**/*.rs", "wit/**/*.wit", "Cargo.toml", "tools/**"]"#,
+                    ),
+                    ("partner", &partner),
+                ],
+            )?
+        }
+        // A script on the world's development runtime by default: an edit
+        // is swapped in without a build; `--release` builds and runs the
+        // self-contained component.
+        Language::Python | Language::Js => {
+            let (main, extension, project) = if language == Language::Python {
+                files.extend(python_files(kind, &names)?);
+                ("app.py", "py", "pyproject.toml")
+            } else {
+                files.extend(js_files(kind, &names)?);
+                ("app.js", "js", "package.json")
+            };
+            fill(
+                SCRIPT_MANIFEST,
+                &[
+                    ("name", name),
+                    ("language", &language_name),
+                    ("main", main),
+                    ("extension", extension),
+                    ("project", project),
+                    ("partner", &partner),
+                ],
+            )?
+        }
     };
-    let manifest = fill(
-        MANIFEST,
-        &[
-            ("name", name),
-            ("language", &language.to_string()),
-            ("script", &script),
-            ("wasm", &wasm),
-            ("command", &command),
-            ("watch", watch),
-            ("partner", &fill(partner, &names)?),
-        ],
-    )?;
     files.push(("radar.toml".to_string(), manifest, false));
     Ok(files)
 }
@@ -422,8 +426,17 @@ mod tests {
                 assert!(manifest.contains("[plugins.demo.build]"), "{manifest}");
                 assert!(manifest.contains("builtin:"), "{manifest}");
                 assert!(files.iter().any(|f| f.0 == "wit/world.wit"));
+                let parsed = crate::manifest::Manifest::parse(
+                    manifest,
+                    Path::new("radar.toml"),
+                    Path::new("."),
+                )
+                .expect("the manifest parses");
                 if language != Language::Rust {
+                    // A script on the development runtime, and a release.
                     assert!(manifest.contains("build --dev"), "{manifest}");
+                    let entry = &parsed.plugins["demo"];
+                    assert!(entry.source.is_some() && entry.release.is_some());
                     assert!(files.iter().any(|f| f.0.starts_with("tools/radar_dev.")));
                     assert!(files.iter().any(|f| f.0.starts_with("tools/dev_runtime.")));
                 }

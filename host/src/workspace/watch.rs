@@ -21,7 +21,7 @@ use std::time::{Duration, Instant};
 
 use notify::{RecursiveMode, Watcher};
 
-use super::build::{build, check_script, watched, BuildFailure};
+use super::build::{build, check_script, watched, BuildFailure, Built};
 use crate::error::RadarError;
 use crate::manifest::Build;
 use crate::plugin::version_of;
@@ -147,11 +147,12 @@ pub fn watch(
                         continue;
                     }
                     if rebuild {
-                        match build(b) {
-                            Ok(took) => report(WatchEvent::Built {
+                        match build(b, false) {
+                            Ok(Built::Ran(took)) => report(WatchEvent::Built {
                                 plugin: b.plugin.clone(),
                                 took,
                             }),
+                            Ok(Built::UpToDate) => {}
                             Err(failure) => {
                                 report(WatchEvent::BuildFailed(failure));
                                 continue;

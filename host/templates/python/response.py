@@ -2,13 +2,17 @@
 second for `steps` steps (default 3); an interruption ends it at its next
 `sleep`, then `interrupt` and `exit` run."""
 
-from radar_guest import config, info, sleep
+from radar_guest import State, config, info, sleep
 from wit_world import exports
+
+# What the plugin keeps, also across a hot swap.
+state = State(starts=0)
 
 
 class Slots(exports.Slots):
     def start(self, payload: int) -> int:
-        info(f"started with {payload}")
+        state.starts += 1
+        info(f"started with {payload} (start {state.starts})")
         steps = config("steps", 3)
         for step in range(1, steps + 1):
             sleep(config("interval_s", 1.0))  # an interruption ends `start`
@@ -20,3 +24,7 @@ class Slots(exports.Slots):
 
     def exit(self) -> None:
         info("exit")
+
+    # Hand the state over on a hot swap.
+    snapshot = state.snapshot
+    restore = state.restore

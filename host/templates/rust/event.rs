@@ -4,10 +4,11 @@
 use std::sync::atomic::{AtomicU32, Ordering};
 
 use radar_guest::prelude::*;
+use radar_guest::state;
 
 radar_guest::plugin!(world: "{{name}}", path: "wit");
 
-/// Lives in the instance, between checks.
+/// Lives in the instance, between checks, and across a hot swap.
 static CHECKS: AtomicU32 = AtomicU32::new(0);
 
 struct Plugin;
@@ -19,6 +20,16 @@ impl Guest for Plugin {
         let checks = CHECKS.fetch_add(1, Ordering::Relaxed) + 1;
         info(&format!("check {checks}"));
         (checks % config_or("every", 3u32).max(1) == 0).then_some(checks)
+    }
+
+    // Hand the state over on a hot swap.
+    fn snapshot() -> Vec<u8> {
+        state::save(&CHECKS.load(Ordering::Relaxed))
+    }
+
+    fn restore(saved: Vec<u8>) -> Result<(), String> {
+        CHECKS.store(state::load(&saved)?, Ordering::Relaxed);
+        Ok(())
     }
 }
 
