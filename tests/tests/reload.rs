@@ -213,3 +213,25 @@ fn reloading_the_same_script_runs_as_from_the_start_fuel_for_fuel() {
     assert_eq!(before.len(), 2);
     assert_eq!(after, before);
 }
+
+#[test]
+fn a_javascript_value_of_the_wrong_type_faults_naming_the_export_and_the_worlds_type() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("app.js");
+    std::fs::write(&path, "export function check() { return 'five'; }\n").expect("writes");
+    let run = system(Plugin::file("TestEvent", plugins::TEST_EVENT_JS_DEV).source(path))
+        .run_for(secs(2.0))
+        .expect("runs");
+    let cause = run
+        .trace()
+        .iter()
+        .find_map(|r| match &r.entry {
+            radar::trace::Entry::Fault { error, .. } => Some(error.clone()),
+            _ => None,
+        })
+        .expect("a fault record");
+    assert!(
+        cause.starts_with("`check` returned a string where its world says option<u32>"),
+        "{cause}"
+    );
+}
