@@ -65,8 +65,10 @@ enum Cmd {
     },
     /// Makes a folder with a new plugin that builds and runs as it is:
     /// its world, its code, its build, and a radar.toml to try it with.
+    /// Run in a folder with a radar.toml (a system: `radar new system
+    /// NAME`), it adds the plugin's tables to that radar.toml too.
     New {
-        /// `event` or `response`.
+        /// `event`, `response` or `system`.
         kind: scaffold::Kind,
         /// The plugin's name: lowercase words joined by `-`.
         name: String,

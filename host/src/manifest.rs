@@ -425,7 +425,7 @@ impl Manifest {
             }
         }
         if manifest.plugins.is_empty() {
-            return Err(bad("it defines no [plugins]".into()));
+            return Err(bad("it defines no [plugins] (`radar new event|response NAME`, run in its folder, adds one)".into()));
         }
         for (name, entry) in &manifest.plugins {
             if let Some(builtin) = builtin_name(&entry.wasm) {

@@ -276,6 +276,58 @@ fn a_js_response_scaffold_runs_its_script_and_its_release() {
 }
 
 #[test]
+fn a_system_folder_takes_plugins_in_two_languages_that_build_and_run_together() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let made = ok(&radar(dir.path(), &["new", "system", "robot"]));
+    assert!(made.contains("made system `robot`"), "{made}");
+    let system = dir.path().join("robot");
+    for (kind, name, lang) in [("event", "bumper", "python"), ("response", "dock", "js")] {
+        let added = ok(&radar(&system, &["new", kind, name, "--lang", lang]));
+        assert!(added.contains(&format!("added `{name}` to")), "{added}");
+        assert!(system.join(name).join("radar.toml").exists());
+    }
+    // A name the system has already: refused, and nothing is made.
+    let out = radar(&system, &["new", "event", "bumper", "--lang", "rust"]);
+    assert!(!out.status.success());
+    let manifest = system.join("radar.toml");
+    let mut text = std::fs::read_to_string(&manifest).expect("manifest");
+    assert!(text.contains("[plugins.bumper.build]\ncommand = \"sh tools/build --dev target/dev.wasm\"\nworkdir = \"bumper\""), "{text}");
+    text.push_str(
+        "\n[[connect]]\nmode = \"whenever\"\nfrom = \"bumper.triggered\"\nto = \"dock.start\"\n",
+    );
+    std::fs::write(&manifest, text).expect("connects them");
+    let built = ok(&radar(&system, &["build"]));
+    assert!(
+        built.contains("built bumper") && built.contains("built dock"),
+        "{built}"
+    );
+    ok(&radar(
+        &system,
+        &[
+            "run",
+            "radar.toml",
+            "--for",
+            "10s",
+            "-q",
+            "--trace",
+            "t.jsonl",
+        ],
+    ));
+    let trace = trace_of(&system.join("t.jsonl"));
+    let started: Vec<_> = trace
+        .iter()
+        .filter(|r| r["kind"] == "signal" && r["plugin"] == "dock" && r["signal"] == "started")
+        .map(|r| r["payload"].clone())
+        .collect();
+    // bumper triggers at 3, 6 and 9 s; dock, busy for 3 s, takes 3 and 9.
+    assert_eq!(
+        started,
+        [serde_json::json!(3), serde_json::json!(9)],
+        "{trace:?}"
+    );
+}
+
+#[test]
 fn new_refuses_a_bad_name_and_an_existing_folder() {
     let dir = tempfile::tempdir().expect("temp dir");
     let out = radar(dir.path(), &["new", "event", "Hello World"]);

@@ -54,15 +54,46 @@ pub fn new_plugin(
     name: &str,
     language: scaffold::Language,
 ) -> Result<()> {
-    let dir = scaffold::create(parent, kind, name, language)?;
+    let made = scaffold::create(parent, kind, name, language)?;
+    let dir = made.dir.display();
+    if kind == scaffold::Kind::System {
+        println!("made system `{name}` in {dir}");
+        println!("next:");
+        println!("    cd {dir}");
+        println!(
+            "    radar new event NAME --lang rust|python|js      # adds a plugin to radar.toml"
+        );
+        println!("    radar new response NAME --lang rust|python|js");
+        return Ok(());
+    }
     let what = match kind {
         scaffold::Kind::Event => "event",
-        scaffold::Kind::Response => "response",
+        _ => "response",
     };
-    println!("made {what} `{name}` ({language}) in {}", dir.display());
+    let script = language != scaffold::Language::Rust;
+    println!("made {what} `{name}` ({language}) in {dir}");
+    if let Some(system) = &made.system {
+        println!("added `{name}` to {}", system.display());
+        println!("next: connect it in [[connect]] tables (docs/manifest.md), then");
+        println!("    radar build                       # builds what changed");
+        println!("    radar run radar.toml --for 10s");
+        return Ok(());
+    }
     println!("next:");
-    println!("    cd {}", dir.display());
-    println!("    radar build                       # builds it (the first build installs the toolchain)");
-    println!("    radar run radar.toml --for 10s    # runs it with a built-in partner");
+    println!("    cd {dir}");
+    if script {
+        println!("    radar build                       # the development runtime (the first build installs the toolchain)");
+        println!("    radar run radar.toml --for 10s    # runs it with a built-in partner");
+        println!(
+            "    radar run radar.toml --clock real --watch   # edit, save: swapped in, no build"
+        );
+        println!("    radar build --release             # the component to ship");
+    } else {
+        println!("    radar build                       # builds it");
+        println!("    radar run radar.toml --for 10s    # runs it with a built-in partner");
+        println!(
+            "    radar run radar.toml --clock real --watch   # edit, save: rebuilt and swapped in"
+        );
+    }
     Ok(())
 }

@@ -1,7 +1,7 @@
 //! The project side of a system: building plugins from their sources
 //! (`[plugins.X.build]`, `radar build`), rebuilding and swapping them in as
 //! they change (`radar run --watch`), and making new ones (`radar new`,
-//! [`scaffold`]).
+//! [`scaffold`]), alone or in a system of many (`radar new system`).
 //!
 //! A build is the plugin's own command, run with `sh -c` in its folder, so
 //! every language builds the same way; what it writes is the plugin's `wasm`
@@ -10,7 +10,9 @@
 
 mod build;
 pub mod scaffold;
+mod system;
 mod watch;
 
 pub use build::{build, check_script, BuildFailure, Built};
+pub use system::create_system;
 pub use watch::{watch, WatchEvent};

@@ -17,6 +17,8 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
+use super::system::{Release, Tables};
+
 /// What `radar new` makes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kind {
@@ -24,6 +26,9 @@ pub enum Kind {
     Event,
     /// A response: `start`, `interrupt` and `exit` slots.
     Response,
+    /// A system: a folder with a `radar.toml` that `radar new` run in it
+    /// adds plugins to ([`super::system`]).
+    System,
 }
 
 /// The plugin's language.
@@ -43,7 +48,10 @@ impl FromStr for Kind {
         match s {
             "event" => Ok(Self::Event),
             "response" => Ok(Self::Response),
-            other => Err(format!("`{other}`: a plugin is an `event` or a `response`")),
+            "system" => Ok(Self::System),
+            other => Err(format!(
+                "`{other}`: radar new makes an `event`, a `response` or a `system`"
+            )),
         }
     }
 }
@@ -84,6 +92,14 @@ pub enum ScaffoldError {
     /// The folder is there already.
     #[error("{0} exists already; choose another name or remove it")]
     Exists(PathBuf),
+    /// The system's manifest cannot take the new plugin; nothing was made.
+    #[error("{}: {cause}", path.display())]
+    System {
+        /// The system's `radar.toml`.
+        path: PathBuf,
+        /// Why.
+        cause: String,
+    },
     /// A template of `host/templates/` out of step with `radar new`.
     #[error("template {template}: {cause}")]
     Template {
@@ -161,26 +177,51 @@ fn valid_name(name: &str) -> bool {
         })
 }
 
-/// Makes `parent/NAME` with a plugin of `kind` in `language`; returns the
-/// folder.
+/// What `radar new` made.
+#[derive(Debug)]
+pub struct Made {
+    /// The new folder.
+    pub dir: PathBuf,
+    /// The system manifest the plugin was added to, if `parent` had one.
+    pub system: Option<PathBuf>,
+}
+
+/// Makes `parent/NAME` with a plugin of `kind` in `language` (or, for
+/// [`Kind::System`], a system). If `parent` has a `radar.toml`, the plugin's
+/// tables are added to it too.
 pub fn create(
     parent: &Path,
     kind: Kind,
     name: &str,
     language: Language,
-) -> Result<PathBuf, ScaffoldError> {
+) -> Result<Made, ScaffoldError> {
     if !valid_name(name) {
         return Err(ScaffoldError::BadName(name.to_string()));
+    }
+    if kind == Kind::System {
+        let dir = super::system::create_system(parent, name)?;
+        return Ok(Made { dir, system: None });
     }
     let dir = parent.join(name);
     if dir.exists() {
         return Err(ScaffoldError::Exists(dir));
     }
-    let files = files(kind, name, language)?;
+    let (files, tables) = files(kind, name, language)?;
+    // Checked before anything is written: a system that cannot take the
+    // plugin leaves no folder behind.
+    let system = super::system::system_manifest(parent)
+        .map(|path| super::system::with_plugin(&path, name, &tables).map(|text| (path, text)))
+        .transpose()?;
     for (path, text, executable) in &files {
         write(&dir.join(path), text, *executable)?;
     }
-    Ok(dir)
+    if let Some((path, text)) = &system {
+        write(path, text, false)?;
+    }
+    Ok(Made {
+        dir,
+        system: system.map(|(path, _)| path),
+    })
 }
 
 fn write(path: &Path, text: &str, executable: bool) -> Result<(), ScaffoldError> {
@@ -205,13 +246,17 @@ fn write(path: &Path, text: &str, executable: bool) -> Result<(), ScaffoldError>
 /// One file of the folder: path, text, whether it is executable.
 type NewFile = (String, String, bool);
 
-/// Every file of the folder.
-fn files(kind: Kind, name: &str, language: Language) -> Result<Vec<NewFile>, ScaffoldError> {
+/// Every file of the folder, and the plugin's tables.
+fn files(
+    kind: Kind,
+    name: &str,
+    language: Language,
+) -> Result<(Vec<NewFile>, Tables), ScaffoldError> {
     let snake = name.replace('-', "_");
     let names = [("name", name), ("snake", snake.as_str())];
-    let world = match kind {
-        Kind::Event => EVENT_WIT,
-        Kind::Response => RESPONSE_WIT,
+    let (world, partner) = match kind {
+        Kind::Event => (EVENT_WIT, PARTNER_OF_EVENT),
+        Kind::Response | Kind::System => (RESPONSE_WIT, PARTNER_OF_RESPONSE),
     };
     let mut files = vec![
         ("wit/world.wit".to_string(), fill(world, &names)?, false),
@@ -221,32 +266,19 @@ fn files(kind: Kind, name: &str, language: Language) -> Result<Vec<NewFile>, Sca
             false,
         ),
     ];
-    let partner = match kind {
-        Kind::Event => PARTNER_OF_EVENT,
-        Kind::Response => PARTNER_OF_RESPONSE,
-    };
     let partner = fill(partner, &names)?;
     let language_name = language.to_string();
-    let manifest = match language {
+    let (template, tables, values) = match language {
         Language::Rust => {
             files.extend(rust_files(kind, &names)?);
-            fill(
-                MANIFEST,
-                &[
-                    ("name", name),
-                    ("language", &language_name),
-                    (
-                        "wasm",
-                        &format!("target/wasm32-wasip2/release/{snake}.wasm"),
-                    ),
-                    ("command", "cargo build --release --target wasm32-wasip2"),
-                    (
-                        "watch",
-                        r#"["src/**/*.rs", "wit/**/*.wit", "Cargo.toml", "tools/**"]"#,
-                    ),
-                    ("partner", &partner),
-                ],
-            )?
+            let tables = Tables {
+                wasm: format!("target/wasm32-wasip2/release/{snake}.wasm"),
+                source: None,
+                command: "cargo build --release --target wasm32-wasip2".into(),
+                watch: r#"["src/**/*.rs", "wit/**/*.wit", "Cargo.toml", "tools/**"]"#.into(),
+                release: None,
+            };
+            (MANIFEST, tables, vec![])
         }
         // A script on the world's development runtime by default: an edit
         // is swapped in without a build; `--release` builds and runs the
@@ -259,21 +291,36 @@ fn files(kind: Kind, name: &str, language: Language) -> Result<Vec<NewFile>, Sca
                 files.extend(js_files(kind, &names)?);
                 ("app.js", "js", "package.json")
             };
-            fill(
+            let tools = format!(r#""wit/**/*.wit", "{project}", "tools/*""#);
+            let tables = Tables {
+                wasm: "target/dev.wasm".into(),
+                source: Some(main),
+                command: "sh tools/build --dev target/dev.wasm".into(),
+                watch: format!("[{tools}]"),
+                release: Some(Release {
+                    command: format!("sh tools/build target/{name}.wasm"),
+                    wasm: format!("target/{name}.wasm"),
+                    watch: format!(r#"["*.{extension}", {tools}]"#),
+                }),
+            };
+            (
                 SCRIPT_MANIFEST,
-                &[
-                    ("name", name),
-                    ("language", &language_name),
-                    ("main", main),
-                    ("extension", extension),
-                    ("project", project),
-                    ("partner", &partner),
-                ],
-            )?
+                tables,
+                vec![("main", main), ("extension", extension)],
+            )
         }
     };
+    let rendered = tables.render(name, None);
+    let mut values = values;
+    values.extend([
+        ("name", name),
+        ("language", language_name.as_str()),
+        ("tables", rendered.as_str()),
+        ("partner", partner.as_str()),
+    ]);
+    let manifest = fill(template, &values)?;
     files.push(("radar.toml".to_string(), manifest, false));
-    Ok(files)
+    Ok((files, tables))
 }
 
 /// `template` with each `{{key}}` replaced by its value. A placeholder
@@ -316,7 +363,7 @@ fn rust_files(kind: Kind, names: &[(&str, &str)]) -> Result<Vec<NewFile>, Scaffo
     }
     let code = match kind {
         Kind::Event => RUST_EVENT,
-        Kind::Response => RUST_RESPONSE,
+        Kind::Response | Kind::System => RUST_RESPONSE,
     };
     Ok(vec![
         ("Cargo.toml".into(), fill(RUST_CARGO, names)?, false),
@@ -348,7 +395,7 @@ fn rust_files(kind: Kind, names: &[(&str, &str)]) -> Result<Vec<NewFile>, Scaffo
 fn python_files(kind: Kind, names: &[(&str, &str)]) -> Result<Vec<NewFile>, ScaffoldError> {
     let code = match kind {
         Kind::Event => PYTHON_EVENT,
-        Kind::Response => PYTHON_RESPONSE,
+        Kind::Response | Kind::System => PYTHON_RESPONSE,
     };
     Ok(vec![
         ("app.py".into(), fill(code, names)?, false),
@@ -373,7 +420,7 @@ fn python_files(kind: Kind, names: &[(&str, &str)]) -> Result<Vec<NewFile>, Scaf
 fn js_files(kind: Kind, names: &[(&str, &str)]) -> Result<Vec<NewFile>, ScaffoldError> {
     let code = match kind {
         Kind::Event => JS_EVENT,
-        Kind::Response => JS_RESPONSE,
+        Kind::Response | Kind::System => JS_RESPONSE,
     };
     Ok(vec![
         ("app.js".into(), fill(code, names)?, false),
@@ -417,7 +464,7 @@ mod tests {
     fn every_language_gets_a_world_a_build_table_and_a_partner() {
         for language in [Language::Rust, Language::Python, Language::Js] {
             for kind in [Kind::Event, Kind::Response] {
-                let files = files(kind, "demo", language).expect("the templates fill");
+                let (files, _) = files(kind, "demo", language).expect("the templates fill");
                 let manifest = &files
                     .iter()
                     .find(|f| f.0 == "radar.toml")
@@ -448,7 +495,7 @@ mod tests {
     fn every_placeholder_is_filled_and_a_missing_value_is_an_error() {
         for language in [Language::Rust, Language::Python, Language::Js] {
             for kind in [Kind::Event, Kind::Response] {
-                for (path, text, _) in files(kind, "demo-two", language).expect("fills") {
+                for (path, text, _) in files(kind, "demo-two", language).expect("fills").0 {
                     let own = !path.starts_with("tools/") && !path.starts_with("wit/deps");
                     assert!(!(own && text.contains("{{")), "{path}:\n{text}");
                 }

@@ -1,0 +1,179 @@
+//! Systems of many plugins: `radar new system NAME` makes a folder with a
+//! `radar.toml` of its own, and `radar new event|response NAME`, run in a
+//! folder that has a `radar.toml`, makes the plugin's folder there and adds
+//! the plugin's tables to that manifest, with paths into the new folder, so
+//! that nobody writes `../` paths by hand.
+//!
+//! The tables are the same a plugin folder's own `radar.toml` holds
+//! ([`Tables`]), rendered relative to the system's folder. The system's
+//! manifest is appended to, never rewritten, so its comments and order
+//! stay as the user left them; the result is parsed before anything is
+//! written, and a plugin name the system has already is refused.
+
+use std::path::{Path, PathBuf};
+
+use super::scaffold::ScaffoldError;
+use crate::manifest::Manifest;
+
+/// A plugin's tables in a manifest (`[plugins.NAME]`, its `[build]` and,
+/// for a script, its `[release]`), with paths relative to the plugin's
+/// folder.
+pub(super) struct Tables {
+    /// The component `radar run` loads: the plugin's, or its world's
+    /// development runtime.
+    pub wasm: String,
+    /// The script run on the development runtime (`app.py`), if any.
+    pub source: Option<&'static str>,
+    /// The build command and what it watches (a TOML array).
+    pub command: String,
+    pub watch: String,
+    /// For a script: the self-contained component's command, file and
+    /// sources.
+    pub release: Option<Release>,
+}
+
+/// `[plugins.NAME.release]`.
+pub(super) struct Release {
+    pub command: String,
+    pub wasm: String,
+    pub watch: String,
+}
+
+impl Tables {
+    /// The tables as TOML, for a manifest in the plugin's own folder
+    /// (`folder` None) or in the system folder that holds it (`folder` its
+    /// name: paths go through it and the builds run in it).
+    pub(super) fn render(&self, name: &str, folder: Option<&str>) -> String {
+        let path = |p: &str| folder.map_or_else(|| p.to_string(), |f| format!("{f}/{p}"));
+        let mut out = format!("[plugins.{name}]\nwasm = \"{}\"\n", path(&self.wasm));
+        if let Some(source) = self.source {
+            out += &format!("source = \"{}\"\n", path(source));
+        }
+        out += "config = { interval_s = 1 }\n\n";
+        out += &format!("[plugins.{name}.build]\ncommand = \"{}\"\n", self.command);
+        if let Some(folder) = folder {
+            out += &format!("workdir = \"{folder}\"\n");
+        }
+        out += &format!("watch = {}\n", self.watch);
+        if let Some(release) = &self.release {
+            out += &format!(
+                "\n[plugins.{name}.release]\ncommand = \"{}\"\nwasm = \"{}\"\nwatch = {}\n",
+                release.command,
+                path(&release.wasm),
+                release.watch
+            );
+        }
+        out
+    }
+}
+
+/// The template of a system's `radar.toml`.
+const SYSTEM_MANIFEST: &str = include_str!("../../templates/system.toml");
+
+/// Makes `parent/NAME` with a system's `radar.toml` (no plugins yet:
+/// `radar new event|response` in it adds them); returns the folder.
+pub fn create_system(parent: &Path, name: &str) -> Result<PathBuf, ScaffoldError> {
+    let dir = parent.join(name);
+    if dir.exists() {
+        return Err(ScaffoldError::Exists(dir));
+    }
+    let write = |path: PathBuf, text: String| {
+        std::fs::create_dir_all(&dir)
+            .and_then(|()| std::fs::write(&path, text))
+            .map_err(|cause| ScaffoldError::Write { path, cause })
+    };
+    write(
+        dir.join("radar.toml"),
+        SYSTEM_MANIFEST.replace("{{name}}", name),
+    )?;
+    write(dir.join(".gitignore"), "target/\n".into())?;
+    Ok(dir)
+}
+
+/// The manifest of the system whose folder is `parent`, if it has one.
+pub(super) fn system_manifest(parent: &Path) -> Option<PathBuf> {
+    let path = parent.join("radar.toml");
+    path.is_file().then_some(path)
+}
+
+/// The system manifest at `path` with `name`'s tables added (paths into
+/// the plugin's folder `name`), checked; the caller writes it once the
+/// plugin's folder is made.
+pub(super) fn with_plugin(
+    path: &Path,
+    name: &str,
+    tables: &Tables,
+) -> Result<String, ScaffoldError> {
+    let refused = |cause: String| ScaffoldError::System {
+        path: path.to_path_buf(),
+        cause,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| refused(e.to_string()))?;
+    let existing: toml::Table = toml::from_str(&text).map_err(|e| {
+        refused(format!(
+            "it does not parse ({}); mend it, then add the plugin",
+            e.message().trim()
+        ))
+    })?;
+    let has = existing
+        .get("plugins")
+        .and_then(|p| p.as_table())
+        .is_some_and(|p| p.contains_key(name));
+    if has {
+        return Err(refused(format!("the system has a plugin `{name}` already")));
+    }
+    let mut combined = text;
+    if !combined.is_empty() && !combined.ends_with('\n') {
+        combined.push('\n');
+    }
+    combined.push('\n');
+    combined.push_str(&tables.render(name, Some(name)));
+    let dir = path.parent().unwrap_or(Path::new("."));
+    Manifest::parse(&combined, path, dir).map_err(|e| refused(e.to_string()))?;
+    Ok(combined)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn script_tables() -> Tables {
+        Tables {
+            wasm: "target/dev.wasm".into(),
+            source: Some("app.py"),
+            command: "sh tools/build --dev target/dev.wasm".into(),
+            watch: r#"["wit/**/*.wit"]"#.into(),
+            release: Some(Release {
+                command: "sh tools/build target/eye.wasm".into(),
+                wasm: "target/eye.wasm".into(),
+                watch: r#"["*.py"]"#.into(),
+            }),
+        }
+    }
+
+    #[test]
+    fn tables_in_a_system_point_into_the_plugins_folder() {
+        let own = script_tables().render("eye", None);
+        assert!(own.contains("wasm = \"target/dev.wasm\"\nsource = \"app.py\""));
+        assert!(!own.contains("workdir"));
+        let dir = tempfile::tempdir().expect("temp dir");
+        let system = create_system(dir.path(), "robot").expect("made");
+        let manifest = system.join("radar.toml");
+        let text = with_plugin(&manifest, "eye", &script_tables()).expect("added");
+        assert!(
+            text.starts_with("# The system `robot`"),
+            "comments kept: {text}"
+        );
+        let parsed = Manifest::parse(&text, &manifest, &system).expect("parses");
+        let builds = parsed.builds();
+        assert_eq!(builds[0].workdir, system.join("eye"));
+        assert_eq!(builds[0].wasm, system.join("eye/target/dev.wasm"));
+        assert_eq!(builds[0].script, Some(system.join("eye/app.py")));
+        std::fs::write(&manifest, &text).expect("write");
+        let again = with_plugin(&manifest, "eye", &script_tables()).expect_err("twice");
+        assert!(
+            again.to_string().contains("has a plugin `eye` already"),
+            "{again}"
+        );
+    }
+}
