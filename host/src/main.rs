@@ -83,6 +83,13 @@ enum Cmd {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    radar::on_first_compile(|plugin, bytes| {
+        eprintln!(
+            "radar: compiling `{plugin}` ({:.1} MB) for the first time; later runs load it \
+             from the cache",
+            bytes as f64 / 1e6
+        );
+    });
     let result = match cli.command {
         Some(Cmd::Run(args)) => cli::run::run(*args),
         Some(Cmd::Test(args)) => cli::test::test(args),

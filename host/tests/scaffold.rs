@@ -301,18 +301,38 @@ fn a_system_folder_takes_plugins_in_two_languages_that_build_and_run_together() 
         built.contains("built bumper") && built.contains("built dock"),
         "{built}"
     );
-    ok(&radar(
-        &system,
-        &[
-            "run",
-            "radar.toml",
-            "--for",
-            "10s",
-            "-q",
-            "--trace",
-            "t.jsonl",
-        ],
-    ));
+    // With a cache of its own: the first run says what it compiles (the
+    // Python runtime, the JavaScript one), the second has nothing to say.
+    let cache = tempfile::tempdir().expect("temp dir");
+    let run = || {
+        Command::new(env!("CARGO_BIN_EXE_radar"))
+            .current_dir(&system)
+            .args([
+                "run",
+                "radar.toml",
+                "--for",
+                "10s",
+                "-q",
+                "--trace",
+                "t.jsonl",
+            ])
+            .env("RADAR_CACHE_DIR", cache.path())
+            .output()
+            .expect("the radar binary runs")
+    };
+    let first = run();
+    ok(&first);
+    let said = String::from_utf8_lossy(&first.stderr);
+    for plugin in ["bumper", "dock"] {
+        assert!(
+            said.contains(&format!("radar: compiling `{plugin}` (")),
+            "{said}"
+        );
+    }
+    let second = run();
+    ok(&second);
+    let said = String::from_utf8_lossy(&second.stderr);
+    assert!(!said.contains("compiling"), "cached: {said}");
     let trace = trace_of(&system.join("t.jsonl"));
     let started: Vec<_> = trace
         .iter()

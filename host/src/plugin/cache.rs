@@ -5,6 +5,7 @@
 //! used artifacts deleted first.
 
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 use wasmtime::component::Component;
 use wasmtime::Engine;
@@ -21,6 +22,32 @@ pub(crate) fn default_cache_dir() -> Option<PathBuf> {
         return Some(PathBuf::from(dir).join("radar"));
     }
     std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache").join("radar"))
+}
+
+/// Who hears that a large component is being compiled because the cache
+/// does not have it: for a Python or JavaScript component (it carries an
+/// interpreter) that takes seconds, which a user should not sit through in
+/// silence. `radar` prints a line; the library prints nothing.
+static FIRST_COMPILE: OnceLock<fn(plugin: &str, bytes: usize)> = OnceLock::new();
+
+/// Components below this size compile in milliseconds: nobody is told.
+const TELL_FROM_BYTES: usize = 1 << 20;
+
+/// Sets the hook told `(plugin, component size in bytes)` before a
+/// component of 1 MiB or more is compiled for want of a cached artifact
+/// (once per process; later calls are ignored).
+pub fn on_first_compile(hook: fn(plugin: &str, bytes: usize)) {
+    let _ = FIRST_COMPILE.set(hook);
+}
+
+/// Tells the hook, if there is one, that `plugin`'s component (`bytes`
+/// long) is about to be compiled.
+pub(super) fn compiling(plugin: &str, bytes: usize) {
+    if bytes >= TELL_FROM_BYTES {
+        if let Some(hook) = FIRST_COMPILE.get() {
+            hook(plugin, bytes);
+        }
+    }
 }
 
 #[allow(unsafe_code)]

@@ -12,7 +12,7 @@ use sha2::{Digest, Sha256};
 use wasmtime::component::{types, Component, Linker};
 use wasmtime::{Config, Engine};
 
-use super::cache::{cache_budget, load_artifact, prune_cache, write_atomically};
+use super::cache::{cache_budget, compiling, load_artifact, prune_cache, write_atomically};
 use super::code::{export_index, is_slots_interface, PluginCode, EXPORTS};
 use super::store::PluginCtx;
 use super::world::validate;
@@ -350,6 +350,7 @@ impl Loader {
             self.compiled.insert(key, c.clone());
             return Ok(c);
         }
+        compiling(plugin, bytes.len());
         let component =
             Component::new(&flavour.engine, bytes).map_err(|e| not_component(format!("{e:#}")))?;
         if let (Some(path), Ok(artifact)) = (cached, component.serialize()) {

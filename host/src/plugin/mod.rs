@@ -21,6 +21,7 @@ mod store;
 mod world;
 
 pub(crate) use cache::default_cache_dir;
+pub use cache::on_first_compile;
 pub(crate) use code::{version_of, Kind, PluginCode};
 pub(crate) use instance::{describe_fault, Export, Fault, InstanceSetup, PluginInstance};
 pub use limits::Limits;
