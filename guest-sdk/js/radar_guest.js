@@ -13,8 +13,9 @@
 // interruption as its error, as the Rust SDK's `?` does. `interrupted(e)`
 // tells such an error from a bug.
 import { now as hostNow, sleep as hostSleep, yield as hostYield, interrupted as hostInterrupted } from 'radar:reactive/clock@0.1.0';
-import { log as hostLog } from 'radar:reactive/logging@0.1.0';
-import { get, keys } from 'radar:reactive/config@0.1.0';
+
+// Logging and configuration, shared with programs' helpers (radar_program.js).
+export * from './radar_base.js';
 
 /** Scheduler time in seconds since the system began to run. */
 export function now() {
@@ -50,34 +51,6 @@ export function stopRequested() {
 export function interrupted(error) {
     return error !== null && typeof error === 'object'
         && ['interrupt', 'exit', 'deactivate'].includes(error.payload);
-}
-
-export function log(level, message) { hostLog(level, message); }
-export function trace(message) { hostLog('trace', message); }
-export function debug(message) { hostLog('debug', message); }
-export function info(message) { hostLog('info', message); }
-export function warn(message) { hostLog('warn', message); }
-export function error(message) { hostLog('error', message); }
-
-/**
- * The configuration value `key`, parsed as the type of `fallback` (text if
- * there is none); `fallback` if it is missing or does not parse.
- */
-export function config(key, fallback) {
-    const text = get(key);
-    if (text === undefined || text === null) return fallback;
-    if (fallback === undefined || typeof fallback === 'string') return text;
-    if (typeof fallback === 'boolean') return ['true', '1', 'yes'].includes(text.trim().toLowerCase());
-    if (typeof fallback === 'number') {
-        const value = Number(text);
-        return Number.isNaN(value) ? fallback : value;
-    }
-    return text;
-}
-
-/** Every configured key, sorted. */
-export function configKeys() {
-    return keys();
 }
 
 // UTF-8 without TextEncoder, which not every engine has.

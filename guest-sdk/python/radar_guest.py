@@ -23,7 +23,12 @@ import json
 
 import wit_world
 from componentize_py_types import Err
-from wit_world.imports import clock, config as host_config, logging, types
+from wit_world.imports import config as host_config, logging, types
+
+try:  # every plugin world imports the clock; a program's world does not
+    from wit_world.imports import clock
+except ImportError:
+    clock = None
 
 class Interrupted(Err):
     """Raised by `sleep` and `yield_now` when the host asks the running slot

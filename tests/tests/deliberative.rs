@@ -44,7 +44,19 @@ fn the_built_in_example_runs_its_program_as_a_component_with_the_native_trace() 
 }
 
 fn constructs(greeting: Option<&str>) -> radar::RunReport {
-    let mut program = Deliberative::file(plugins::CONSTRUCTS_PROGRAM);
+    constructs_of(plugins::CONSTRUCTS_PROGRAM, greeting)
+}
+
+/// The constructs program in Rust, Python (`radar_program.py`) and
+/// JavaScript (`radar_program.js`).
+const CONSTRUCTS: [&str; 3] = [
+    plugins::CONSTRUCTS_PROGRAM,
+    plugins::CONSTRUCTS_PROGRAM_PY,
+    plugins::CONSTRUCTS_PROGRAM_JS,
+];
+
+fn constructs_of(program: &str, greeting: Option<&str>) -> radar::RunReport {
+    let mut program = Deliberative::file(program);
     if let Some(greeting) = greeting {
         program = program.config("greeting", greeting);
     }
@@ -142,6 +154,22 @@ fn every_construct_works_from_a_component() {
 }
 
 #[test]
+fn the_program_helpers_of_python_and_javascript_give_the_rust_programs_trace() {
+    for greeting in [Some("hello"), None] {
+        let rust = constructs_of(CONSTRUCTS[0], greeting);
+        for program in &CONSTRUCTS[1..] {
+            let other = constructs_of(program, greeting);
+            assert_eq!(other.program, rust.program, "{program}");
+            assert_eq!(
+                other.trace_json_lines(),
+                rust.trace_json_lines(),
+                "{program}, greeting {greeting:?}"
+            );
+        }
+    }
+}
+
+#[test]
 fn a_program_that_fails_ends_with_its_error_and_the_run_goes_on() {
     let report = constructs(None);
     assert_eq!(
@@ -180,4 +208,59 @@ fn a_component_that_is_not_a_program_is_refused() {
         .err()
         .expect("refused");
     assert!(err.to_string().contains("(deliberative)"), "{err}");
+}
+
+/// What the plugins of a run did and saw: their signals, slots, states,
+/// deliveries and logs, and the blackboard's writes (whoever wrote them),
+/// without the program's own connections, which differ in kind between a
+/// program with threads and one without.
+fn plugins_view(report: &radar::RunReport) -> Vec<serde_json::Value> {
+    records(report)
+        .into_iter()
+        .filter(|r| {
+            let kind = r["kind"].as_str().unwrap_or("");
+            let plugin = r["plugin"].as_str().unwrap_or("");
+            let to = r["to"].as_str().unwrap_or("");
+            match kind {
+                "signal" | "slot-begin" | "slot-end" | "state" | "log" | "activate"
+                | "deactivate" => !plugin.starts_with('('),
+                "deliver" => !to.starts_with('('),
+                "board-write" => true,
+                _ => false,
+            }
+        })
+        .map(|mut r| {
+            if r["kind"] == "board-write" && r["by"].as_str().is_some_and(|b| b.starts_with('(')) {
+                r["by"] = json!("(the program)");
+            }
+            r
+        })
+        .collect()
+}
+
+#[test]
+fn the_obstacle_program_in_python_and_javascript_uses_the_blackboard_as_the_native_one_does() {
+    let native = run(
+        example::obstacle(virtual_system()),
+        10,
+        example::obstacle_program,
+    );
+    for program in [plugins::OBSTACLE_PROGRAM_PY, plugins::OBSTACLE_PROGRAM_JS] {
+        let component = checked(
+            example::obstacle(virtual_system())
+                .deliberative(Deliberative::file(program))
+                .build()
+                .expect("builds")
+                .run(Some(Duration::from_secs(10)))
+                .expect("runs"),
+        );
+        assert_eq!(component.program, Some(Ok(())), "{program}");
+        let seen = plugins_view(&component);
+        assert_eq!(
+            count(&seen, json!({"kind": "board-write", "entry": "avoided"})),
+            2,
+            "{seen:#?}"
+        );
+        assert_eq!(seen, plugins_view(&native), "{program}");
+    }
 }
