@@ -38,15 +38,23 @@ function block(kind, name) {
 const pkg = (text.match(/\bpackage\s+([a-z][\w-]*:[a-z][\w-]*)(@[\w.+-]+)?\s*;/) || []).slice(1);
 const worldText = block('world', world);
 const imports = [];
-const reactive = worldText.match(/include\s+radar:reactive\/[a-z-]+(@[\w.+-]+)/);
-if (reactive) {
-    for (const name of ['clock', 'logging', 'config']) imports.push(`radar:reactive/${name}${reactive[1]}`);
+const reactive = worldText.match(/include\s+radar:reactive\/([a-z-]+)(@[\w.+-]+)/);
+const program = world === 'deliberative' || (reactive && reactive[1] === 'deliberative');
+if (reactive || world === 'deliberative') {
+    // What the included world imports: a program's the system, a plugin's
+    // the clock.
+    const version = reactive ? reactive[2] : '@0.1.0';
+    for (const name of [program ? 'system' : 'clock', 'logging', 'config']) {
+        imports.push(`radar:reactive/${name}${version}`);
+    }
 }
 for (const m of worldText.matchAll(/(?:^|[;{\s])import\s+([a-z][\w:/@.-]*)\s*;/g)) {
     imports.push(m[1].includes(':') ? m[1] : `${pkg[0]}/${m[1]}${pkg[1] || ''}`);
 }
-const lines = [fs.readFileSync(runtime, 'utf8')];
-imports.forEach((spec, i) => {
+let text0 = fs.readFileSync(runtime, 'utf8');
+if (program) text0 = text0.split("'./radar_guest.js';").join("'./radar_program.js';");
+const lines = [text0];
+[...new Set(imports)].forEach((spec, i) => {
     lines.push(`import * as __world${i} from ${JSON.stringify(spec)};`);
     lines.push(`WORLD_IMPORTS[${JSON.stringify(spec)}] = __world${i};`);
 });

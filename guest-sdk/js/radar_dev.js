@@ -16,7 +16,10 @@
 // ('radar:reactive/clock@0.1.0', 'local:sensor/board', ...). Its `export`s
 // are what the world's exports, generated below by dev_runtime.js, hand
 // each call to.
+// The helpers (a program's, `./radar_program.js`, in a runtime of the
+// deliberative world: dev_runtime.js writes these two lines so).
 import * as guest from './radar_guest.js';
+const HELPERS = './radar_guest.js';
 import { get } from 'radar:reactive/config@0.1.0';
 
 const SOURCE_KEY = 'radar.source';
@@ -30,10 +33,10 @@ const EXPORT = /export\s+(async\s+function\*?|function\*?|class|const|let|var)\s
 
 /** The module `spec` as the script `from` imports it. */
 function resolve(from, spec, files, modules) {
-    if (spec === './radar_guest.js') return guest;
+    if (spec === HELPERS) return guest;
     if (spec.startsWith('./')) return evaluate(spec.slice(2), files, modules);
     if (Object.prototype.hasOwnProperty.call(WORLD_IMPORTS, spec)) return WORLD_IMPORTS[spec];
-    const known = ['./radar_guest.js', ...Object.keys(files).map((f) => `./${f}`), ...Object.keys(WORLD_IMPORTS)];
+    const known = [HELPERS, ...Object.keys(files).map((f) => `./${f}`), ...Object.keys(WORLD_IMPORTS)];
     throw new Error(`${from}: cannot import '${spec}': the world does not import it (it can import: ${known.join(', ')})`);
 }
 

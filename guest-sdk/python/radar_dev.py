@@ -22,6 +22,11 @@ import json
 import sys
 
 import radar_guest  # noqa: F401  (in the runtime, for the plugin to import)
+
+try:  # a program's helpers, in a runtime of the deliberative world
+    import radar_program  # noqa: F401
+except ImportError:
+    pass
 import wit_world
 from wit_world.imports import config as _host_config
 

@@ -159,6 +159,9 @@ pub fn parse_bytes(text: &str) -> Result<usize, String> {
     Ok((value * scale) as usize)
 }
 
+/// How the deliberative program is named in `radar build`'s lines.
+const PROGRAM: &str = "(deliberative)";
+
 /// `[plugins.NAME]`.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -329,6 +332,14 @@ pub struct Build {
 pub struct DeliberativeEntry {
     /// The component file, relative to the manifest, or `builtin:NAME`.
     pub wasm: PathBuf,
+    /// For a development runtime of the deliberative world as `wasm`: the
+    /// program's script, relative to the manifest (as a plugin's `source`).
+    pub source: Option<PathBuf>,
+    /// How to build the component (`radar build`).
+    pub build: Option<BuildEntry>,
+    /// The self-contained component to ship (`radar build --release`,
+    /// `radar run --release`).
+    pub release: Option<ReleaseEntry>,
     /// Values the program reads through the `config` interface.
     #[serde(default)]
     pub config: BTreeMap<String, toml::Value>,
@@ -525,6 +536,9 @@ impl Manifest {
             for (key, value) in &d.config {
                 program = program.config(key, config_text(value));
             }
+            if let Some(source) = &d.source {
+                program = program.source(self.dir.join(source));
+            }
             if let Some(fuel) = d.fuel {
                 program = program.fuel(fuel);
             }
@@ -579,28 +593,66 @@ impl Manifest {
     /// development runtime because they have no `[release]` table.
     pub fn use_release(&mut self) -> Vec<String> {
         let mut scripts = Vec::new();
-        for (name, entry) in &mut self.plugins {
-            let Some(release) = entry.release.take() else {
-                if entry.source.is_some() {
-                    scripts.push(name.clone());
+        let program = self.deliberative.as_mut().map(|d| {
+            (
+                PROGRAM,
+                &mut d.wasm,
+                &mut d.source,
+                &mut d.build,
+                &mut d.release,
+            )
+        });
+        let plugins = self.plugins.iter_mut().map(|(name, e)| {
+            let name = name.as_str();
+            (
+                name,
+                &mut e.wasm,
+                &mut e.source,
+                &mut e.build,
+                &mut e.release,
+            )
+        });
+        for (name, wasm, source, build, release) in program.into_iter().chain(plugins) {
+            let Some(release) = release.take() else {
+                if source.is_some() {
+                    scripts.push(name.to_string());
                 }
                 continue;
             };
-            let build = entry.build.take();
-            entry.wasm = release.wasm;
-            entry.source = None;
-            entry.build = Some(BuildEntry {
+            let old = build.take();
+            *wasm = release.wasm;
+            *source = None;
+            *build = Some(BuildEntry {
                 command: release.command,
                 workdir: release
                     .workdir
-                    .or_else(|| build.as_ref().and_then(|b| b.workdir.clone())),
+                    .or_else(|| old.as_ref().and_then(|b| b.workdir.clone())),
                 watch: release
                     .watch
-                    .or_else(|| build.map(|b| b.watch))
+                    .or_else(|| old.map(|b| b.watch))
                     .unwrap_or_default(),
             });
         }
         scripts
+    }
+
+    /// The deliberative program's component file and build, if it has a
+    /// build command (`radar build` runs it; `--watch` does not swap a
+    /// program).
+    pub fn program_build(&self) -> Option<Build> {
+        let d = self.deliberative.as_ref()?;
+        let build = d.build.as_ref()?;
+        Some(Build {
+            plugin: PROGRAM.into(),
+            wasm: self.dir.join(&d.wasm),
+            command: Some(build.command.clone()),
+            workdir: build
+                .workdir
+                .as_ref()
+                .map_or_else(|| self.dir.clone(), |w| self.dir.join(w)),
+            watch: build.watch.clone(),
+            script: d.source.as_ref().map(|s| self.dir.join(s)),
+        })
     }
 
     /// Each plugin's component file and build (paths resolved), in name

@@ -56,7 +56,11 @@ const CONSTRUCTS: [&str; 3] = [
 ];
 
 fn constructs_of(program: &str, greeting: Option<&str>) -> radar::RunReport {
-    let mut program = Deliberative::file(program);
+    constructs_with(Deliberative::file(program), greeting)
+}
+
+fn constructs_with(program: Deliberative, greeting: Option<&str>) -> radar::RunReport {
+    let mut program = program;
     if let Some(greeting) = greeting {
         program = program.config("greeting", greeting);
     }
@@ -164,6 +168,28 @@ fn the_program_helpers_of_python_and_javascript_give_the_rust_programs_trace() {
                 other.trace_json_lines(),
                 rust.trace_json_lines(),
                 "{program}, greeting {greeting:?}"
+            );
+        }
+        // The same scripts on their world's development runtime.
+        for (runtime, script) in [
+            (
+                plugins::CONSTRUCTS_PROGRAM_PY_DEV,
+                "constructs-program-py/app.py",
+            ),
+            (
+                plugins::CONSTRUCTS_PROGRAM_JS_DEV,
+                "constructs-program-js/app.js",
+            ),
+        ] {
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../plugins")
+                .join(script);
+            let other = constructs_with(Deliberative::file(runtime).source(path), greeting);
+            assert_eq!(other.program, rust.program, "{script}");
+            assert_eq!(
+                other.trace_json_lines(),
+                rust.trace_json_lines(),
+                "{script} on its runtime, greeting {greeting:?}"
             );
         }
     }

@@ -22,8 +22,12 @@ pub fn build_all(manifest: Option<PathBuf>, release: bool, force: bool) -> Resul
         }
     }
     let mut failed = 0;
-    for build in manifest.builds().iter().filter(|b| b.command.is_some()) {
-        match workspace::build(build, force) {
+    let builds = manifest
+        .builds()
+        .into_iter()
+        .chain(manifest.program_build());
+    for build in builds.filter(|b| b.command.is_some()) {
+        match workspace::build(&build, force) {
             Ok(workspace::Built::Ran(took)) => say(format_args!(
                 "built {} in {:.1} s → {}",
                 build.plugin,

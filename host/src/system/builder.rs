@@ -488,9 +488,15 @@ impl SystemBuilder {
                     }
                     Source::Bytes(bytes) => bytes.clone(),
                 };
+                let script = d
+                    .script
+                    .as_deref()
+                    .map(|main| crate::script::pack(PROGRAM_NAME, main))
+                    .transpose()?;
                 Some(ProgramCode {
                     component: super::deliberative::load(&mut loader, PROGRAM_NAME, &bytes)?,
                     config: Arc::new(d.config),
+                    script,
                     fuel: d.fuel,
                     memory_bytes: d.memory_bytes,
                 })

@@ -51,6 +51,8 @@ use bindings::radar::reactive::system::{self, Busy as WitBusy, Host, Mode, Woke}
 pub(crate) struct ProgramCode {
     pub component: Component,
     pub config: Arc<BTreeMap<String, String>>,
+    /// The script a development runtime runs ([`crate::script`]).
+    pub script: Option<Arc<str>>,
     /// Fuel for the whole of `run` (compute between calls; waiting is free).
     pub fuel: u64,
     pub memory_bytes: usize,
@@ -347,7 +349,7 @@ pub(crate) fn run(
         log: LogState::new(name, base, usize::MAX),
         config: ConfigState {
             values: code.config.clone(),
-            script: None,
+            script: code.script.clone(),
         },
         table: ResourceTable::new(),
         wasi,

@@ -142,6 +142,8 @@ impl Plugin {
 #[derive(Clone, Debug)]
 pub struct Deliberative {
     pub(super) source: Source,
+    /// The program's script, for a development runtime.
+    pub(super) script: Option<PathBuf>,
     pub(super) config: BTreeMap<String, String>,
     pub(super) fuel: u64,
     pub(super) memory_bytes: usize,
@@ -161,6 +163,7 @@ impl Deliberative {
     fn new(source: Source) -> Self {
         Self {
             source,
+            script: None,
             config: BTreeMap::new(),
             fuel: 1_000_000_000_000,
             memory_bytes: 64 << 20,
@@ -170,6 +173,15 @@ impl Deliberative {
     /// A configuration value the program reads through `config`.
     pub fn config(mut self, key: impl Into<String>, value: impl Display) -> Self {
         self.config.insert(key.into(), value.to_string());
+        self
+    }
+
+    /// For a development runtime of the deliberative world as the
+    /// component: the program's script, its main file (`app.py`), with the
+    /// other files of its language beside it ([`crate::script`]), as for a
+    /// plugin. An edit of the script needs no build, only a new run.
+    pub fn source(mut self, main: impl Into<PathBuf>) -> Self {
+        self.script = Some(main.into());
         self
     }
 
