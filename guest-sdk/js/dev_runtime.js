@@ -69,4 +69,8 @@ for (const m of worldText.matchAll(/export\s+([a-z][\w-]*)\s*(:\s*func)?/g)) {
     for (const f of functions) lines.push(`    ${f}(...args) { return plugin().${name}.${f}(...args); },`);
     lines.push('};');
 }
+// The deliberative world's own export, when the world includes it.
+if (program && !/export\s+run\b/.test(worldText)) {
+    lines.push('export function run(...args) { return plugin().run(...args); }');
+}
 fs.writeFileSync(out, lines.join('\n') + '\n');

@@ -68,7 +68,7 @@ enum Cmd {
     /// Run in a folder with a radar.toml (a system: `radar new system
     /// NAME`), it adds the plugin's tables to that radar.toml too.
     New {
-        /// `event`, `response` or `system`.
+        /// `event`, `response`, `program` (deliberative) or `system`.
         kind: scaffold::Kind,
         /// The plugin's name: lowercase words joined by `-`.
         name: String,

@@ -33,6 +33,8 @@ struct Scaffold {
     _dir: tempfile::TempDir,
     folder: PathBuf,
     name: String,
+    /// How `radar build` names it: the plugin's name, `(deliberative)`.
+    built_as: String,
 }
 
 /// `radar new KIND NAME --lang LANG`, then `radar build`; a second `radar
@@ -45,17 +47,23 @@ fn scaffold(kind: &str, name: &str, lang: &str) -> Scaffold {
         "{made}"
     );
     let folder = dir.path().join(name);
+    let built_as = if kind == "program" {
+        "(deliberative)"
+    } else {
+        name
+    };
     let built = ok(&radar(&folder, &["build"]));
-    assert!(built.contains(&format!("built {name}")), "{built}");
+    assert!(built.contains(&format!("built {built_as}")), "{built}");
     let again = ok(&radar(&folder, &["build"]));
     assert!(
-        again.contains(&format!("{name} is up to date")),
+        again.contains(&format!("{built_as} is up to date")),
         "nothing changed, nothing built: {again}"
     );
     Scaffold {
         _dir: dir,
         folder,
         name: name.to_string(),
+        built_as: built_as.to_string(),
     }
 }
 
@@ -79,7 +87,10 @@ impl Scaffold {
     /// `radar build --release`, then a run of what it built.
     fn release_run(&self) -> Vec<serde_json::Value> {
         let built = ok(&radar(&self.folder, &["build", "--release"]));
-        assert!(built.contains(&format!("built {}", self.name)), "{built}");
+        assert!(
+            built.contains(&format!("built {}", self.built_as)),
+            "{built}"
+        );
         let trace = self.run(&["--release"]);
         let component = format!("target/{}.wasm", self.name);
         assert!(self.folder.join(&component).exists(), "{component}");
@@ -275,6 +286,52 @@ fn a_js_response_scaffold_runs_its_script_and_its_release() {
     script_response_works("js", "waver");
 }
 
+/// A program scaffold wires its built-in partners: it logs Responder's
+/// first result at 6 s and ends well.
+fn program_works(trace: &[serde_json::Value], lang: &str) {
+    let logged: Vec<_> = trace
+        .iter()
+        .filter(|r| r["kind"] == "log" && r["plugin"] == "(deliberative)")
+        .map(|r| (r["t"].clone(), r["message"].clone()))
+        .collect();
+    assert_eq!(logged.len(), 1, "{lang}: {logged:?}");
+    assert_eq!(logged[0].0, 6_000_000_000u64, "{lang}");
+    let message = logged[0].1.as_str().unwrap_or_default();
+    assert!(
+        message.starts_with("Responder exited with") && message.contains("ok"),
+        "{lang}: {message}"
+    );
+    assert!(
+        trace
+            .iter()
+            .any(|r| r["kind"] == "program-end" && r["outcome"] == "ok"),
+        "{lang}"
+    );
+}
+
+fn program_scaffold_works(lang: &str) {
+    let made = scaffold("program", &format!("wire-{lang}"), lang);
+    program_works(&made.run(&[]), lang);
+    if lang != "rust" {
+        program_works(&made.release_run(), lang);
+    }
+}
+
+#[test]
+fn a_rust_program_scaffold_wires_its_partners() {
+    program_scaffold_works("rust");
+}
+
+#[test]
+fn a_python_program_scaffold_wires_its_partners_as_a_script_and_as_its_release() {
+    program_scaffold_works("python");
+}
+
+#[test]
+fn a_js_program_scaffold_wires_its_partners_as_a_script_and_as_its_release() {
+    program_scaffold_works("js");
+}
+
 #[test]
 fn a_system_folder_takes_plugins_in_two_languages_that_build_and_run_together() {
     let dir = tempfile::tempdir().expect("temp dir");
@@ -345,6 +402,20 @@ fn a_system_folder_takes_plugins_in_two_languages_that_build_and_run_together() 
         [serde_json::json!(3), serde_json::json!(9)],
         "{trace:?}"
     );
+    // A program, then a second one: refused.
+    let added = ok(&radar(
+        &system,
+        &["new", "program", "wiring", "--lang", "python"],
+    ));
+    assert!(added.contains("added `wiring` to"), "{added}");
+    let out = radar(&system, &["new", "program", "again", "--lang", "js"]);
+    assert!(!out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("has a [deliberative] program already"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(!system.join("again").exists(), "nothing made");
 }
 
 #[test]

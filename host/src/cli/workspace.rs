@@ -68,10 +68,14 @@ pub fn new_plugin(
             "    radar new event NAME --lang rust|python|js      # adds a plugin to radar.toml"
         );
         println!("    radar new response NAME --lang rust|python|js");
+        println!(
+            "    radar new program NAME --lang rust|python|js    # adds the [deliberative] program"
+        );
         return Ok(());
     }
     let what = match kind {
         scaffold::Kind::Event => "event",
+        scaffold::Kind::Program => "program",
         _ => "response",
     };
     let script = language != scaffold::Language::Rust;
@@ -85,6 +89,11 @@ pub fn new_plugin(
     }
     println!("next:");
     println!("    cd {dir}");
+    if kind == scaffold::Kind::Program {
+        println!("    radar build                       # builds it");
+        println!("    radar run radar.toml --for 10s    # runs it with built-in partners");
+        return Ok(());
+    }
     if script {
         println!("    radar build                       # the development runtime (the first build installs the toolchain)");
         println!("    radar run radar.toml --for 10s    # runs it with a built-in partner");

@@ -26,6 +26,8 @@ pub enum Kind {
     Event,
     /// A response: `start`, `interrupt` and `exit` slots.
     Response,
+    /// A deliberative program: wires the system at run time.
+    Program,
     /// A system: a folder with a `radar.toml` that `radar new` run in it
     /// adds plugins to ([`super::system`]).
     System,
@@ -48,9 +50,10 @@ impl FromStr for Kind {
         match s {
             "event" => Ok(Self::Event),
             "response" => Ok(Self::Response),
+            "program" => Ok(Self::Program),
             "system" => Ok(Self::System),
             other => Err(format!(
-                "`{other}`: radar new makes an `event`, a `response` or a `system`"
+                "`{other}`: radar new makes an `event`, a `response`, a `program` or a `system`"
             )),
         }
     }
@@ -119,7 +122,12 @@ pub enum ScaffoldError {
 }
 
 const REACTIVE_WIT: &str = include_str!("../../../wit/reactive.wit");
+const DELIBERATIVE_WIT: &str = include_str!("../../../wit/deliberative.wit");
 const GUEST_SDK: &str = include_str!("../../../guest-sdk/src/lib.rs");
+const GUEST_SDK_PROGRAMS: &str = include_str!("../../../guest-sdk/src/deliberative.rs");
+const PYTHON_PROGRAM_HELPERS: &str = include_str!("../../../guest-sdk/python/radar_program.py");
+const JS_BASE: &str = include_str!("../../../guest-sdk/js/radar_base.js");
+const JS_PROGRAM_HELPERS: &str = include_str!("../../../guest-sdk/js/radar_program.js");
 const PYTHON_BUILD: &str = include_str!("../../../guest-sdk/python/build");
 const PYTHON_PINS: &str = include_str!("../../../guest-sdk/python/requirements.txt");
 const PYTHON_HELPERS: &str = include_str!("../../../guest-sdk/python/radar_guest.py");
@@ -149,9 +157,15 @@ macro_rules! template {
 }
 
 const EVENT_WIT: &Template = template!("event.wit");
+const PROGRAM_WIT: &Template = template!("program.wit");
+const PARTNER_OF_PROGRAM: &Template = template!("partner-program.toml");
+const RUST_PROGRAM: &Template = template!("rust/program.rs");
+const PYTHON_PROGRAM: &Template = template!("python/program.py");
+const JS_PROGRAM: &Template = template!("js/program.js");
 const RESPONSE_WIT: &Template = template!("response.wit");
 const MANIFEST: &Template = template!("radar.toml");
 const SCRIPT_MANIFEST: &Template = template!("radar-script.toml");
+const PROGRAM_MANIFEST: &Template = template!("radar-program.toml");
 const PARTNER_OF_EVENT: &Template = template!("partner-event.toml");
 const PARTNER_OF_RESPONSE: &Template = template!("partner-response.toml");
 const RUST_EVENT: &Template = template!("rust/event.rs");
@@ -256,6 +270,7 @@ fn files(
     let names = [("name", name), ("snake", snake.as_str())];
     let (world, partner) = match kind {
         Kind::Event => (EVENT_WIT, PARTNER_OF_EVENT),
+        Kind::Program => (PROGRAM_WIT, PARTNER_OF_PROGRAM),
         Kind::Response | Kind::System => (RESPONSE_WIT, PARTNER_OF_RESPONSE),
     };
     let mut files = vec![
@@ -265,20 +280,33 @@ fn files(
             REACTIVE_WIT.to_string(),
             false,
         ),
+        (
+            "wit/deps/reactive/deliberative.wit".to_string(),
+            DELIBERATIVE_WIT.to_string(),
+            false,
+        ),
     ];
+    let program = kind == Kind::Program;
     let partner = fill(partner, &names)?;
     let language_name = language.to_string();
     let (template, tables, values) = match language {
         Language::Rust => {
             files.extend(rust_files(kind, &names)?);
             let tables = Tables {
+                program,
                 wasm: format!("target/wasm32-wasip2/release/{snake}.wasm"),
                 source: None,
                 command: "cargo build --release --target wasm32-wasip2".into(),
                 watch: r#"["src/**/*.rs", "wit/**/*.wit", "Cargo.toml", "tools/**"]"#.into(),
                 release: None,
             };
-            (MANIFEST, tables, vec![])
+            let template = if program { PROGRAM_MANIFEST } else { MANIFEST };
+            let values = vec![
+                ("build", "builds it"),
+                ("release", ""),
+                ("again", " (`radar build` first)"),
+            ];
+            (template, tables, values)
         }
         // A script on the world's development runtime by default: an edit
         // is swapped in without a build; `--release` builds and runs the
@@ -293,6 +321,7 @@ fn files(
             };
             let tools = format!(r#""wit/**/*.wit", "{project}", "tools/*""#);
             let tables = Tables {
+                program,
                 wasm: "target/dev.wasm".into(),
                 source: Some(main),
                 command: "sh tools/build --dev target/dev.wasm".into(),
@@ -303,11 +332,23 @@ fn files(
                     watch: format!(r#"["*.{extension}", {tools}]"#),
                 }),
             };
-            (
-                SCRIPT_MANIFEST,
-                tables,
-                vec![("main", main), ("extension", extension)],
-            )
+            let template = if program {
+                PROGRAM_MANIFEST
+            } else {
+                SCRIPT_MANIFEST
+            };
+            let values = vec![
+                ("main", main),
+                ("extension", extension),
+                ("build", "builds this world's development runtime, once"),
+                (
+                    "release",
+                    "#     radar build --release            # the self-contained component, to ship\n\
+                     #     radar run radar.toml --release --for 10s   # runs that one instead\n",
+                ),
+                ("again", " (a script: no build)"),
+            ];
+            (template, tables, values)
         }
     };
     let rendered = tables.render(name, None);
@@ -361,12 +402,15 @@ fn rust_files(kind: Kind, names: &[(&str, &str)]) -> Result<Vec<NewFile>, Scaffo
             cause: format!("the guest SDK no longer reads its WIT with `{in_repo}`"),
         });
     }
-    let code = match kind {
-        Kind::Event => RUST_EVENT,
-        Kind::Response | Kind::System => RUST_RESPONSE,
+    let (code, feature) = match kind {
+        Kind::Event => (RUST_EVENT, "state"),
+        Kind::Program => (RUST_PROGRAM, "deliberative"),
+        Kind::Response | Kind::System => (RUST_RESPONSE, "state"),
     };
+    let mut values = names.to_vec();
+    values.push(("feature", feature));
     Ok(vec![
-        ("Cargo.toml".into(), fill(RUST_CARGO, names)?, false),
+        ("Cargo.toml".into(), fill(RUST_CARGO, &values)?, false),
         (
             "rust-toolchain.toml".into(),
             RUST_TOOLCHAIN.text.into(),
@@ -384,8 +428,18 @@ fn rust_files(kind: Kind, names: &[(&str, &str)]) -> Result<Vec<NewFile>, Scaffo
             false,
         ),
         (
+            "tools/radar-guest/src/deliberative.rs".into(),
+            GUEST_SDK_PROGRAMS.replace(in_repo, in_copy),
+            false,
+        ),
+        (
             "tools/radar-guest/wit/reactive.wit".into(),
             REACTIVE_WIT.into(),
+            false,
+        ),
+        (
+            "tools/radar-guest/wit/deliberative.wit".into(),
+            DELIBERATIVE_WIT.into(),
             false,
         ),
         (".gitignore".into(), "/target\nCargo.lock\n".into(), false),
@@ -395,6 +449,7 @@ fn rust_files(kind: Kind, names: &[(&str, &str)]) -> Result<Vec<NewFile>, Scaffo
 fn python_files(kind: Kind, names: &[(&str, &str)]) -> Result<Vec<NewFile>, ScaffoldError> {
     let code = match kind {
         Kind::Event => PYTHON_EVENT,
+        Kind::Program => PYTHON_PROGRAM,
         Kind::Response | Kind::System => PYTHON_RESPONSE,
     };
     Ok(vec![
@@ -403,6 +458,11 @@ fn python_files(kind: Kind, names: &[(&str, &str)]) -> Result<Vec<NewFile>, Scaf
         ("tools/build".into(), PYTHON_BUILD.into(), true),
         ("tools/requirements.txt".into(), PYTHON_PINS.into(), false),
         ("tools/radar_guest.py".into(), PYTHON_HELPERS.into(), false),
+        (
+            "tools/radar_program.py".into(),
+            PYTHON_PROGRAM_HELPERS.into(),
+            false,
+        ),
         (
             "tools/radar_dev.py".into(),
             PYTHON_DEV_RUNTIME.into(),
@@ -420,6 +480,7 @@ fn python_files(kind: Kind, names: &[(&str, &str)]) -> Result<Vec<NewFile>, Scaf
 fn js_files(kind: Kind, names: &[(&str, &str)]) -> Result<Vec<NewFile>, ScaffoldError> {
     let code = match kind {
         Kind::Event => JS_EVENT,
+        Kind::Program => JS_PROGRAM,
         Kind::Response | Kind::System => JS_RESPONSE,
     };
     Ok(vec![
@@ -429,6 +490,12 @@ fn js_files(kind: Kind, names: &[(&str, &str)]) -> Result<Vec<NewFile>, Scaffold
         ("tools/package.json".into(), JS_PINS.into(), false),
         ("tools/package-lock.json".into(), JS_LOCK.into(), false),
         ("tools/radar_guest.js".into(), JS_HELPERS.into(), false),
+        ("tools/radar_base.js".into(), JS_BASE.into(), false),
+        (
+            "tools/radar_program.js".into(),
+            JS_PROGRAM_HELPERS.into(),
+            false,
+        ),
         ("tools/radar_dev.js".into(), JS_DEV_RUNTIME.into(), false),
         (
             "tools/dev_runtime.js".into(),

@@ -19,6 +19,8 @@ use crate::manifest::Manifest;
 /// for a script, its `[release]`), with paths relative to the plugin's
 /// folder.
 pub(super) struct Tables {
+    /// A deliberative program's (`[deliberative]`), not a plugin's.
+    pub program: bool,
     /// The component `radar run` loads: the plugin's, or its world's
     /// development runtime.
     pub wasm: String,
@@ -45,19 +47,26 @@ impl Tables {
     /// name: paths go through it and the builds run in it).
     pub(super) fn render(&self, name: &str, folder: Option<&str>) -> String {
         let path = |p: &str| folder.map_or_else(|| p.to_string(), |f| format!("{f}/{p}"));
-        let mut out = format!("[plugins.{name}]\nwasm = \"{}\"\n", path(&self.wasm));
+        let table = if self.program {
+            "deliberative".to_string()
+        } else {
+            format!("plugins.{name}")
+        };
+        let mut out = format!("[{table}]\nwasm = \"{}\"\n", path(&self.wasm));
         if let Some(source) = self.source {
             out += &format!("source = \"{}\"\n", path(source));
         }
-        out += "config = { interval_s = 1 }\n\n";
-        out += &format!("[plugins.{name}.build]\ncommand = \"{}\"\n", self.command);
+        if !self.program {
+            out += "config = { interval_s = 1 }\n";
+        }
+        out += &format!("\n[{table}.build]\ncommand = \"{}\"\n", self.command);
         if let Some(folder) = folder {
             out += &format!("workdir = \"{folder}\"\n");
         }
         out += &format!("watch = {}\n", self.watch);
         if let Some(release) = &self.release {
             out += &format!(
-                "\n[plugins.{name}.release]\ncommand = \"{}\"\nwasm = \"{}\"\nwatch = {}\n",
+                "\n[{table}.release]\ncommand = \"{}\"\nwasm = \"{}\"\nwatch = {}\n",
                 release.command,
                 path(&release.wasm),
                 release.watch
@@ -115,11 +124,16 @@ pub(super) fn with_plugin(
             e.message().trim()
         ))
     })?;
+    if tables.program && existing.contains_key("deliberative") {
+        return Err(refused(
+            "the system has a [deliberative] program already (one a system)".into(),
+        ));
+    }
     let has = existing
         .get("plugins")
         .and_then(|p| p.as_table())
         .is_some_and(|p| p.contains_key(name));
-    if has {
+    if has && !tables.program {
         return Err(refused(format!("the system has a plugin `{name}` already")));
     }
     let mut combined = text;
@@ -139,6 +153,7 @@ mod tests {
 
     fn script_tables() -> Tables {
         Tables {
+            program: false,
             wasm: "target/dev.wasm".into(),
             source: Some("app.py"),
             command: "sh tools/build --dev target/dev.wasm".into(),
