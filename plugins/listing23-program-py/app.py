@@ -1,7 +1,8 @@
 """The deliberative part of the paper's Listing 2/3 in Python, a component
-of the radar:reactive/deliberative world: the same program as
-`plugins/listing23-program` (Rust), with the same trace. Connections are
-context managers, so RADAR's scoped connections are `with` blocks.
+of the radar:reactive/deliberative world, over the helpers of
+`radar_program`: the same program as `plugins/listing23-program` (Rust),
+with the same trace. Connections are context managers, so RADAR's scoped
+connections are `with` blocks.
 
     def do_loop():
         once TestEvent2 interrupt TestResponse
@@ -12,30 +13,7 @@ context managers, so RADAR's scoped connections are `with` blocks.
         while True: pass
 """
 
-import wit_world
-from wit_world.imports import system
-
-
-def connect(mode, source, target):
-    return system.connect(
-        system.Link(source, target, mode, None, system.Busy.DROP, 1, None)
-    )
-
-
-def whenever(source, target):
-    return connect(system.Mode.WHENEVER, source, target)
-
-
-def once(source, target):
-    return connect(system.Mode.ONCE, source, target)
-
-
-def sleep(seconds):
-    """Waits `seconds` of the system's time (this program has no anonymous
-    slots, so nothing else ends the wait)."""
-    deadline = system.now() + int(seconds * 1_000_000_000)
-    while not isinstance(system.wait(deadline, None), system.Woke_Deadline):
-        pass
+from radar_program import once, program, sleep, whenever
 
 
 def do_loop():
@@ -44,9 +22,11 @@ def do_loop():
             sleep(1)
 
 
-class WitWorld(wit_world.WitWorld):
-    def run(self) -> None:
-        with whenever("TestEvent", "TestResponse.start"):
-            do_loop()
-            while True:
-                sleep(3600)
+def main():
+    with whenever("TestEvent", "TestResponse"):
+        do_loop()
+        while True:
+            sleep(3600)
+
+
+WitWorld = program(main)
