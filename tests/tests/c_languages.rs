@@ -1,0 +1,143 @@
+//! Plugins in C and C++ (plugins/*-c, plugins/*-cpp, built from the same
+//! worlds in `plugins/wit/` by `guest-sdk/c/build`): the paper's Listing
+//! 2/3 with its event and response in C and C++ gives the all-Rust trace
+//! byte for byte, and an interrupted response ends as the Rust one does.
+//!
+//! They are built here, when the tests run, not by the fixtures' build
+//! script: the first build installs the pinned C toolchain (cargo builds
+//! wit-bindgen and wasm-tools, minutes on a fresh machine), which then runs
+//! beside the other tests instead of holding up the whole build.
+
+mod common;
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::{Mutex, OnceLock};
+use std::time::Duration;
+
+use common::*;
+use radar::{example, Plugin, RunReport};
+use radar_fixtures::plugins;
+use serde_json::json;
+
+/// `plugins/NAME` built with `guest-sdk/c/build`, once per test run.
+fn built(name: &str) -> PathBuf {
+    static BUILT: OnceLock<Mutex<HashMap<String, PathBuf>>> = OnceLock::new();
+    let mut built = BUILT
+        .get_or_init(Default::default)
+        .lock()
+        .unwrap_or_else(|e| e.into_inner());
+    if let Some(path) = built.get(name) {
+        return path.clone();
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let out = Path::new(radar_fixtures::TOOLCHAINS)
+        .join("../plugins/c")
+        .join(format!("{name}.wasm"));
+    let output = std::process::Command::new("sh")
+        .arg(root.join("guest-sdk/c/build"))
+        .arg(&out)
+        .current_dir(root.join("plugins").join(name))
+        .env("RADAR_TOOLCHAINS", radar_fixtures::TOOLCHAINS)
+        .output()
+        .expect("sh runs");
+    assert!(
+        output.status.success(),
+        "building plugins/{name} failed:\n{}{}",
+        String::from_utf8_lossy(&output.stdout),
+        String::from_utf8_lossy(&output.stderr)
+    );
+    built.insert(name.to_string(), out.clone());
+    out
+}
+
+fn listing23(test_event: &Path, test_response: &Path) -> RunReport {
+    let builder = example::listing23_with(
+        virtual_system(),
+        Plugin::file("TestEvent", test_event),
+        Plugin::file("TestResponse", test_response),
+    );
+    checked(
+        builder
+            .build()
+            .expect("the system builds")
+            .run_with(Some(Duration::from_secs(30)), example::listing23_program)
+            .expect("the system runs"),
+    )
+}
+
+#[test]
+fn c_and_cpp_events_and_responses_give_the_all_rust_trace() {
+    let rust = listing23(
+        Path::new(plugins::TEST_EVENT),
+        Path::new(plugins::TEST_RESPONSE),
+    );
+    for (event, response) in [
+        ("test-event-c", "test-response-cpp"),
+        ("test-event-cpp", "test-response-c"),
+    ] {
+        let mixed = listing23(&built(event), &built(response));
+        assert_eq!(
+            mixed.trace_json_lines(),
+            rust.trace_json_lines(),
+            "{event} with {response}"
+        );
+    }
+}
+
+/// TestResponse from `file`, started at 0 s and interrupted at 2.5 s.
+fn interrupted_response(file: &Path) -> RunReport {
+    let system = virtual_system().plugin(
+        Plugin::file("TestResponse", file)
+            .config("count_for_s", 10)
+            .config("interval_s", 1),
+    );
+    run(system, 4, |radar| {
+        radar.inject("TestResponse.start", json!(7))?;
+        radar.sleep(Duration::from_millis(2500))?;
+        radar.inject("TestResponse.interrupt", json!(null))
+    })
+}
+
+#[test]
+fn an_interrupted_sleep_ends_start_with_its_error_in_c_and_cpp() {
+    let rust = interrupted_response(Path::new(plugins::TEST_RESPONSE));
+    assert_eq!(
+        count(
+            &records(&rust),
+            json!({"kind": "signal", "signal": "exited", "payload": {"err": "interrupt"}})
+        ),
+        1
+    );
+    for name in ["test-response-c", "test-response-cpp"] {
+        assert_eq!(
+            interrupted_response(&built(name)).trace_json_lines(),
+            rust.trace_json_lines(),
+            "{name}"
+        );
+    }
+}
+
+#[test]
+fn a_c_build_is_reproducible() {
+    let first = std::fs::read(built("test-event-c")).expect("built");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let again = dir.path().join("again.wasm");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let status = std::process::Command::new("sh")
+        .arg(root.join("guest-sdk/c/build"))
+        .arg(&again)
+        .current_dir(root.join("plugins/test-event-c"))
+        .env("RADAR_TOOLCHAINS", radar_fixtures::TOOLCHAINS)
+        .status()
+        .expect("sh runs");
+    assert!(status.success());
+    let again = std::fs::read(again).expect("built again");
+    // Not assert_eq!: a failure would print both components.
+    assert!(
+        again == first,
+        "not the same bytes: {} and {} bytes",
+        first.len(),
+        again.len()
+    );
+}
