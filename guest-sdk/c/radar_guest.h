@@ -149,6 +149,41 @@ static inline bool radar_config_bool(const char *key, bool fallback) {
     return strcmp(text, "true") == 0 || strcmp(text, "1") == 0 || strcmp(text, "yes") == 0;
 }
 
+/// Hot swap, in a world that exports `snapshot: func() -> list<u8>` and
+/// `restore: func(state: list<u8>) -> result<_, string>`: a plain struct
+/// (no pointers) as the state a new version takes over.
+///
+///     static struct { uint32_t count; } state;
+///     void exports_my_event_snapshot(my_event_list_u8_t *ret) { RADAR_SAVE(state, ret); }
+///     bool exports_my_event_restore(my_event_list_u8_t *saved, my_event_string_t *err) {
+///         return RADAR_RESTORE(state, saved, err);
+///     }
+///
+/// A version whose struct has another size refuses the old bytes (`restore
+/// returned an error: the old version's state does not fit: ...`), and the
+/// swap rolls back.
+#define RADAR_SAVE(state, ret)                                                 \
+    do {                                                                       \
+        (ret)->len = sizeof(state);                                            \
+        (ret)->ptr = (uint8_t *)malloc(sizeof(state));                         \
+        memcpy((ret)->ptr, &(state), sizeof(state));                           \
+    } while (0)
+#define RADAR_RESTORE(state, saved, err)                                       \
+    (radar_state_fits_(sizeof(state), (saved)->len, (err))                     \
+         ? (memcpy(&(state), (saved)->ptr, sizeof(state)),                     \
+            RADAR_CAT(RADAR_WORLD, _list_u8_free)(saved), true)                \
+         : (RADAR_CAT(RADAR_WORLD, _list_u8_free)(saved), false))
+
+static inline bool radar_state_fits_(size_t size, size_t len, RADAR_STRING *err) {
+    char why[160];
+    if (size == len) return true;
+    snprintf(why, sizeof why,
+             "the old version's state does not fit: %zu bytes, this version keeps %zu", len,
+             size);
+    RADAR_CAT(RADAR_WORLD, _string_dup)(err, why);
+    return false;
+}
+
 #ifdef __cplusplus
 }
 #endif

@@ -164,7 +164,8 @@ fn script_event_works(lang: &str, name: &str) {
     let made = scaffold("event", name, lang);
     event_works(&made.run(&[]), name);
     event_works(&made.release_run(), name);
-    swaps_an_edit_in_and_keeps_its_state(&made, if lang == "js" { "app.js" } else { "app.py" });
+    let main = if lang == "js" { "app.js" } else { "app.py" };
+    swaps_an_edit_in_and_keeps_its_state(&made, main, false);
 }
 
 fn script_response_works(lang: &str, name: &str) {
@@ -173,10 +174,10 @@ fn script_response_works(lang: &str, name: &str) {
     response_works(&made.release_run(), name);
 }
 
-/// `radar run --clock real --watch`: an edit of the script (its log line)
-/// is swapped in with no build, and the count carries on across the swap
-/// (the scaffold's `State`).
-fn swaps_an_edit_in_and_keeps_its_state(made: &Scaffold, main: &str) {
+/// `radar run --clock real --watch`: an edit of the code (its log line) is
+/// swapped in (with no build for a script, rebuilt for C and C++), and the
+/// count carries on across the swap (the scaffold's state helpers).
+fn swaps_an_edit_in_and_keeps_its_state(made: &Scaffold, main: &str, built: bool) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_radar"))
         .current_dir(&made.folder)
         .args([
@@ -209,6 +210,11 @@ fn swaps_an_edit_in_and_keeps_its_state(made: &Scaffold, main: &str) {
     let text = std::fs::read_to_string(&path).expect("reads the script");
     let edited = text.replace("check ${state.checks}", "check ${state.checks}!");
     let edited = edited.replace("check {state.checks}", "check {state.checks}!");
+    let edited = edited.replace("\"check %u\"", "\"check %u!\"");
+    let edited = edited.replace(
+        "(\"check \" + std::to_string(state.checks))",
+        "(\"check \" + std::to_string(state.checks) + \"!\")",
+    );
     assert_ne!(text, edited, "the scaffold logs `check N`");
     std::fs::write(&path, edited).expect("edits the script");
     let saved = Instant::now();
@@ -227,7 +233,7 @@ fn swaps_an_edit_in_and_keeps_its_state(made: &Scaffold, main: &str) {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    assert!(!stdout.contains("watch: built"), "no build: {stdout}");
+    assert_eq!(stdout.contains("watch: built"), built, "{stdout}");
     let swapping = swapping.unwrap_or_else(|| panic!("no swap: {stdout}"));
     // A figure for the log, not a timed assertion.
     println!(
@@ -264,6 +270,31 @@ fn swaps_an_edit_in_and_keeps_its_state(made: &Scaffold, main: &str) {
         "the edit ran: {checks:?}"
     );
     assert!(!checks[0].ends_with('!'), "{checks:?}");
+}
+
+/// A C or C++ event scaffold builds, runs, and swaps an edit in with its
+/// state; the response runs.
+fn c_scaffolds_work(lang: &str) {
+    let event = scaffold("event", &format!("blink-{lang}"), lang);
+    event_works(&event.run(&[]), &event.name);
+    let main = if lang == "c" {
+        "plugin.c"
+    } else {
+        "plugin.cpp"
+    };
+    swaps_an_edit_in_and_keeps_its_state(&event, main, true);
+    let response = scaffold("response", &format!("wave-{lang}"), lang);
+    response_works(&response.run(&[]), &response.name);
+}
+
+#[test]
+fn c_event_and_response_scaffolds_build_run_and_reload_with_their_state() {
+    c_scaffolds_work("c");
+}
+
+#[test]
+fn cpp_event_and_response_scaffolds_build_run_and_reload_with_their_state() {
+    c_scaffolds_work("cpp");
 }
 
 #[test]

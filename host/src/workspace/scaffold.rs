@@ -42,6 +42,10 @@ pub enum Language {
     Python,
     /// JavaScript, built with jco (QuickJS engine).
     Js,
+    /// C, built with zig's clang and wit-bindgen's C bindings.
+    C,
+    /// C++, built as C is (the C bindings, from C++).
+    Cpp,
 }
 
 impl FromStr for Kind {
@@ -66,8 +70,10 @@ impl FromStr for Language {
             "rust" => Ok(Self::Rust),
             "python" | "py" => Ok(Self::Python),
             "js" | "javascript" => Ok(Self::Js),
+            "c" => Ok(Self::C),
+            "cpp" | "c++" => Ok(Self::Cpp),
             other => Err(format!(
-                "`{other}`: the languages are `rust`, `python` and `js`"
+                "`{other}`: the languages are `rust`, `python`, `js`, `c` and `cpp`"
             )),
         }
     }
@@ -79,6 +85,8 @@ impl fmt::Display for Language {
             Self::Rust => "rust",
             Self::Python => "python",
             Self::Js => "js",
+            Self::C => "c",
+            Self::Cpp => "cpp",
         })
     }
 }
@@ -92,6 +100,9 @@ pub enum ScaffoldError {
          starting with a letter (e.g. `hello-event`)"
     )]
     BadName(String),
+    /// What `radar new` does not make (yet).
+    #[error("{0}")]
+    Unsupported(String),
     /// The folder is there already.
     #[error("{0} exists already; choose another name or remove it")]
     Exists(PathBuf),
@@ -139,6 +150,10 @@ const PYTHON_DEV_RUNTIME: &str = include_str!("../../../guest-sdk/python/radar_d
 const PYTHON_DEV_GENERATOR: &str = include_str!("../../../guest-sdk/python/dev_runtime.py");
 const JS_DEV_RUNTIME: &str = include_str!("../../../guest-sdk/js/radar_dev.js");
 const JS_DEV_GENERATOR: &str = include_str!("../../../guest-sdk/js/dev_runtime.js");
+const C_BUILD: &str = include_str!("../../../guest-sdk/c/build");
+const C_REQUIREMENTS: &str = include_str!("../../../guest-sdk/c/requirements.txt");
+const C_PINS: &str = include_str!("../../../guest-sdk/c/pins.txt");
+const C_HELPERS: &str = include_str!("../../../guest-sdk/c/radar_guest.h");
 
 /// A file of `host/templates/`, with `{{key}}` placeholders [`fill`]s.
 struct Template {
@@ -162,6 +177,11 @@ const PARTNER_OF_PROGRAM: &Template = template!("partner-program.toml");
 const RUST_PROGRAM: &Template = template!("rust/program.rs");
 const PYTHON_PROGRAM: &Template = template!("python/program.py");
 const JS_PROGRAM: &Template = template!("js/program.js");
+const C_EVENT: &Template = template!("c/event.c");
+const C_RESPONSE: &Template = template!("c/response.c");
+const CPP_EVENT: &Template = template!("cpp/event.cpp");
+const CPP_RESPONSE: &Template = template!("cpp/response.cpp");
+const C_PROJECT: &Template = template!("c/radar-plugin.toml");
 const RESPONSE_WIT: &Template = template!("response.wit");
 const MANIFEST: &Template = template!("radar.toml");
 const SCRIPT_MANIFEST: &Template = template!("radar-script.toml");
@@ -211,6 +231,12 @@ pub fn create(
 ) -> Result<Made, ScaffoldError> {
     if !valid_name(name) {
         return Err(ScaffoldError::BadName(name.to_string()));
+    }
+    if kind == Kind::Program && matches!(language, Language::C | Language::Cpp) {
+        return Err(ScaffoldError::Unsupported(format!(
+            "radar new makes programs in rust, python and js, not in {language} (yet): \
+             a program wires the system, in any of those beside C or C++ plugins"
+        )));
     }
     if kind == Kind::System {
         let dir = super::system::create_system(parent, name)?;
@@ -307,6 +333,20 @@ fn files(
                 ("again", " (`radar build` first)"),
             ];
             (template, tables, values)
+        }
+        // Built, as Rust is: C compiles in a second or two.
+        Language::C | Language::Cpp => {
+            files.extend(c_files(kind, &names, language == Language::Cpp)?);
+            let tables = Tables {
+                program,
+                wasm: format!("target/{name}.wasm"),
+                source: None,
+                command: format!("sh tools/build target/{name}.wasm"),
+                watch: r#"["*.c", "*.cc", "*.cpp", "*.h", "wit/**/*.wit", "radar-plugin.toml", "tools/*"]"#
+                    .into(),
+                release: None,
+            };
+            (MANIFEST, tables, vec![])
         }
         // A script on the world's development runtime by default: an edit
         // is swapped in without a build; `--release` builds and runs the
@@ -446,6 +486,28 @@ fn rust_files(kind: Kind, names: &[(&str, &str)]) -> Result<Vec<NewFile>, Scaffo
     ])
 }
 
+fn c_files(kind: Kind, names: &[(&str, &str)], cpp: bool) -> Result<Vec<NewFile>, ScaffoldError> {
+    let (code, file) = match (kind, cpp) {
+        (Kind::Event, false) => (C_EVENT, "plugin.c"),
+        (Kind::Event, true) => (CPP_EVENT, "plugin.cpp"),
+        (_, false) => (C_RESPONSE, "plugin.c"),
+        (_, true) => (CPP_RESPONSE, "plugin.cpp"),
+    };
+    Ok(vec![
+        (file.into(), fill(code, names)?, false),
+        ("radar-plugin.toml".into(), fill(C_PROJECT, names)?, false),
+        ("tools/build".into(), C_BUILD.into(), true),
+        (
+            "tools/requirements.txt".into(),
+            C_REQUIREMENTS.into(),
+            false,
+        ),
+        ("tools/pins.txt".into(), C_PINS.into(), false),
+        ("tools/radar_guest.h".into(), C_HELPERS.into(), false),
+        (".gitignore".into(), "/target\n".into(), false),
+    ])
+}
+
 fn python_files(kind: Kind, names: &[(&str, &str)]) -> Result<Vec<NewFile>, ScaffoldError> {
     let code = match kind {
         Kind::Event => PYTHON_EVENT,
@@ -529,7 +591,13 @@ mod tests {
 
     #[test]
     fn every_language_gets_a_world_a_build_table_and_a_partner() {
-        for language in [Language::Rust, Language::Python, Language::Js] {
+        for language in [
+            Language::Rust,
+            Language::Python,
+            Language::Js,
+            Language::C,
+            Language::Cpp,
+        ] {
             for kind in [Kind::Event, Kind::Response] {
                 let (files, _) = files(kind, "demo", language).expect("the templates fill");
                 let manifest = &files
@@ -546,7 +614,7 @@ mod tests {
                     Path::new("."),
                 )
                 .expect("the manifest parses");
-                if language != Language::Rust {
+                if matches!(language, Language::Python | Language::Js) {
                     // A script on the development runtime, and a release.
                     assert!(manifest.contains("build --dev"), "{manifest}");
                     let entry = &parsed.plugins["demo"];
@@ -560,7 +628,13 @@ mod tests {
 
     #[test]
     fn every_placeholder_is_filled_and_a_missing_value_is_an_error() {
-        for language in [Language::Rust, Language::Python, Language::Js] {
+        for language in [
+            Language::Rust,
+            Language::Python,
+            Language::Js,
+            Language::C,
+            Language::Cpp,
+        ] {
             for kind in [Kind::Event, Kind::Response] {
                 for (path, text, _) in files(kind, "demo-two", language).expect("fills").0 {
                     let own = !path.starts_with("tools/") && !path.starts_with("wit/deps");

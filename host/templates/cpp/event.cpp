@@ -1,0 +1,41 @@
+// `{{name}}`: an event. `check` runs again and again while the event is
+// connected; returning true (with *ret set) triggers it with that payload.
+// Every `every`-th check (default 3) triggers, one check a second.
+#include <algorithm>
+#include <string>
+
+#include "radar_guest.h"
+
+namespace {
+
+// What the plugin keeps, also across a hot swap (RADAR_SAVE, RADAR_RESTORE):
+// a new build of this file carries on from the old one's count. A plain
+// struct: its bytes are the state.
+struct State {
+    uint32_t checks = 0;
+};
+
+State state;
+
+} // namespace
+
+extern "C" bool exports_{{snake}}_check(uint32_t *ret) {
+    if (!radar_sleep(radar_config_f64("interval_s", 1.0), nullptr)) {
+        return false; // deactivated meanwhile
+    }
+    state.checks += 1;
+    radar_log(RADAR_INFO, ("check " + std::to_string(state.checks)).c_str());
+    const int64_t every = std::max<int64_t>(radar_config_i64("every", 3), 1);
+    if (state.checks % every != 0) {
+        return false;
+    }
+    *ret = state.checks;
+    return true;
+}
+
+// Hand the state over on a hot swap.
+extern "C" void exports_{{snake}}_snapshot({{snake}}_list_u8_t *ret) { RADAR_SAVE(state, ret); }
+
+extern "C" bool exports_{{snake}}_restore({{snake}}_list_u8_t *saved, {{snake}}_string_t *err) {
+    return RADAR_RESTORE(state, saved, err);
+}
