@@ -9,8 +9,10 @@
 //! names an error (the compiler's first error), and changes nothing.
 
 mod build;
+mod error;
 pub mod scaffold;
 mod system;
+mod tables;
 mod watch;
 
 pub use build::{build, check_script, BuildFailure, Built};

@@ -17,7 +17,8 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
-use super::system::{Release, Tables};
+pub use super::error::ScaffoldError;
+use super::tables::{Release, Tables};
 
 /// What `radar new` makes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -29,7 +30,7 @@ pub enum Kind {
     /// A deliberative program: wires the system at run time.
     Program,
     /// A system: a folder with a `radar.toml` that `radar new` run in it
-    /// adds plugins to ([`super::system`]).
+    /// adds plugins to (`radar new system`).
     System,
 }
 
@@ -89,47 +90,6 @@ impl fmt::Display for Language {
             Self::Cpp => "cpp",
         })
     }
-}
-
-/// Why `radar new` made nothing.
-#[derive(Debug, thiserror::Error)]
-pub enum ScaffoldError {
-    /// The name cannot name a plugin, a WIT world and a package.
-    #[error(
-        "`{0}` cannot name a plugin: use lowercase words of letters and digits joined by `-`, \
-         starting with a letter (e.g. `hello-event`)"
-    )]
-    BadName(String),
-    /// What `radar new` does not make (yet).
-    #[error("{0}")]
-    Unsupported(String),
-    /// The folder is there already.
-    #[error("{0} exists already; choose another name or remove it")]
-    Exists(PathBuf),
-    /// The system's manifest cannot take the new plugin; nothing was made.
-    #[error("{}: {cause}", path.display())]
-    System {
-        /// The system's `radar.toml`.
-        path: PathBuf,
-        /// Why.
-        cause: String,
-    },
-    /// A template of `host/templates/` out of step with `radar new`.
-    #[error("template {template}: {cause}")]
-    Template {
-        /// The template's path in Radar's repository.
-        template: &'static str,
-        /// What does not fit.
-        cause: String,
-    },
-    /// Writing the files failed.
-    #[error("cannot write {path}: {cause}")]
-    Write {
-        /// The file.
-        path: PathBuf,
-        /// The error.
-        cause: std::io::Error,
-    },
 }
 
 const REACTIVE_WIT: &str = include_str!("../../../wit/reactive.wit");

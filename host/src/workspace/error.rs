@@ -1,0 +1,45 @@
+//! Why `radar new` made nothing: one error type for the plugin folders
+//! ([`super::scaffold`]) and the systems they join.
+
+use std::path::PathBuf;
+
+/// Why `radar new` made nothing.
+#[derive(Debug, thiserror::Error)]
+pub enum ScaffoldError {
+    /// The name cannot name a plugin, a WIT world and a package.
+    #[error(
+        "`{0}` cannot name a plugin: use lowercase words of letters and digits joined by `-`, \
+         starting with a letter (e.g. `hello-event`)"
+    )]
+    BadName(String),
+    /// What `radar new` does not make (yet).
+    #[error("{0}")]
+    Unsupported(String),
+    /// The folder is there already.
+    #[error("{0} exists already; choose another name or remove it")]
+    Exists(PathBuf),
+    /// The system's manifest cannot take the new plugin; nothing was made.
+    #[error("{}: {cause}", path.display())]
+    System {
+        /// The system's `radar.toml`.
+        path: PathBuf,
+        /// Why.
+        cause: String,
+    },
+    /// A template of `host/templates/` out of step with `radar new`.
+    #[error("template {template}: {cause}")]
+    Template {
+        /// The template's path in Radar's repository.
+        template: &'static str,
+        /// What does not fit.
+        cause: String,
+    },
+    /// Writing the files failed.
+    #[error("cannot write {path}: {cause}")]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// The error.
+        cause: std::io::Error,
+    },
+}
