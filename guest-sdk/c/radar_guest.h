@@ -59,6 +59,10 @@ static inline uint64_t radar_nanos(double seconds) {
     return seconds > 0 ? (uint64_t)(seconds * 1e9) : 0;
 }
 
+// A plugin's clock; a program's world has the system's instead
+// (radar_program.h).
+#ifndef RADAR_PROGRAM_WORLD
+
 /// Scheduler time in seconds since the system began to run.
 static inline double radar_now(void) {
     return (double)radar_reactive_clock_now() / 1e9;
@@ -87,6 +91,8 @@ static inline bool radar_yield(radar_interruption_t *why) {
     if (why) *why = reason;
     return false;
 }
+
+#endif // RADAR_PROGRAM_WORLD
 
 /// Records `message` in the trace at `level`.
 static inline void radar_log(radar_level_t level, const char *message) {

@@ -273,7 +273,7 @@ fn swaps_an_edit_in_and_keeps_its_state(made: &Scaffold, main: &str, built: bool
 }
 
 /// A C or C++ event scaffold builds, runs, and swaps an edit in with its
-/// state; the response runs.
+/// state; the response and the program run.
 fn c_scaffolds_work(lang: &str) {
     let event = scaffold("event", &format!("blink-{lang}"), lang);
     event_works(&event.run(&[]), &event.name);
@@ -285,15 +285,17 @@ fn c_scaffolds_work(lang: &str) {
     swaps_an_edit_in_and_keeps_its_state(&event, main, true);
     let response = scaffold("response", &format!("wave-{lang}"), lang);
     response_works(&response.run(&[]), &response.name);
+    let program = scaffold("program", &format!("wire-{lang}"), lang);
+    program_works(&program.run(&[]), lang);
 }
 
 #[test]
-fn c_event_and_response_scaffolds_build_run_and_reload_with_their_state() {
+fn c_scaffolds_build_run_and_reload_with_their_state() {
     c_scaffolds_work("c");
 }
 
 #[test]
-fn cpp_event_and_response_scaffolds_build_run_and_reload_with_their_state() {
+fn cpp_scaffolds_build_run_and_reload_with_their_state() {
     c_scaffolds_work("cpp");
 }
 

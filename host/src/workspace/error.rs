@@ -12,9 +12,6 @@ pub enum ScaffoldError {
          starting with a letter (e.g. `hello-event`)"
     )]
     BadName(String),
-    /// What `radar new` does not make (yet).
-    #[error("{0}")]
-    Unsupported(String),
     /// The folder is there already.
     #[error("{0} exists already; choose another name or remove it")]
     Exists(PathBuf),

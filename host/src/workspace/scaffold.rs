@@ -114,6 +114,7 @@ const C_BUILD: &str = include_str!("../../../guest-sdk/c/build");
 const C_REQUIREMENTS: &str = include_str!("../../../guest-sdk/c/requirements.txt");
 const C_PINS: &str = include_str!("../../../guest-sdk/c/pins.txt");
 const C_HELPERS: &str = include_str!("../../../guest-sdk/c/radar_guest.h");
+const C_PROGRAM_HELPERS: &str = include_str!("../../../guest-sdk/c/radar_program.h");
 
 /// A file of `host/templates/`, with `{{key}}` placeholders [`fill`]s.
 struct Template {
@@ -142,6 +143,8 @@ const C_RESPONSE: &Template = template!("c/response.c");
 const CPP_EVENT: &Template = template!("cpp/event.cpp");
 const CPP_RESPONSE: &Template = template!("cpp/response.cpp");
 const C_PROJECT: &Template = template!("c/radar-plugin.toml");
+const C_PROGRAM: &Template = template!("c/program.c");
+const CPP_PROGRAM: &Template = template!("cpp/program.cpp");
 const RESPONSE_WIT: &Template = template!("response.wit");
 const MANIFEST: &Template = template!("radar.toml");
 const SCRIPT_MANIFEST: &Template = template!("radar-script.toml");
@@ -191,12 +194,6 @@ pub fn create(
 ) -> Result<Made, ScaffoldError> {
     if !valid_name(name) {
         return Err(ScaffoldError::BadName(name.to_string()));
-    }
-    if kind == Kind::Program && matches!(language, Language::C | Language::Cpp) {
-        return Err(ScaffoldError::Unsupported(format!(
-            "radar new makes programs in rust, python and js, not in {language} (yet): \
-             a program wires the system, in any of those beside C or C++ plugins"
-        )));
     }
     if kind == Kind::System {
         let dir = super::system::create_system(parent, name)?;
@@ -450,6 +447,8 @@ fn c_files(kind: Kind, names: &[(&str, &str)], cpp: bool) -> Result<Vec<NewFile>
     let (code, file) = match (kind, cpp) {
         (Kind::Event, false) => (C_EVENT, "plugin.c"),
         (Kind::Event, true) => (CPP_EVENT, "plugin.cpp"),
+        (Kind::Program, false) => (C_PROGRAM, "program.c"),
+        (Kind::Program, true) => (CPP_PROGRAM, "program.cpp"),
         (_, false) => (C_RESPONSE, "plugin.c"),
         (_, true) => (CPP_RESPONSE, "plugin.cpp"),
     };
@@ -464,6 +463,11 @@ fn c_files(kind: Kind, names: &[(&str, &str)], cpp: bool) -> Result<Vec<NewFile>
         ),
         ("tools/pins.txt".into(), C_PINS.into(), false),
         ("tools/radar_guest.h".into(), C_HELPERS.into(), false),
+        (
+            "tools/radar_program.h".into(),
+            C_PROGRAM_HELPERS.into(),
+            false,
+        ),
         (".gitignore".into(), "/target\n".into(), false),
     ])
 }
