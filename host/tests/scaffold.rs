@@ -180,15 +180,10 @@ fn script_response_works(lang: &str, name: &str) {
 fn swaps_an_edit_in_and_keeps_its_state(made: &Scaffold, main: &str, built: bool) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_radar"))
         .current_dir(&made.folder)
-        .args([
-            "run",
-            "radar.toml",
-            "--clock",
-            "real",
-            "--for",
-            "6s",
-            "--watch",
-        ])
+        .args(["run", "radar.toml", "--clock", "real", "--watch"])
+        // A build (C, C++) takes a second or two more, on a busy machine
+        // several: its run is longer, so that checks follow the swap.
+        .args(["--for", if built { "14s" } else { "6s" }])
         .args(["--trace", "w.jsonl"])
         .env("RADAR_TOOLCHAINS", radar_fixtures::TOOLCHAINS)
         .stdout(std::process::Stdio::piped())
