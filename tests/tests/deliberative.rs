@@ -290,3 +290,19 @@ fn the_obstacle_program_in_python_and_javascript_uses_the_blackboard_as_the_nati
         assert_eq!(seen, plugins_view(&native), "{program}");
     }
 }
+
+#[test]
+fn a_program_that_traps_ends_with_what_its_interpreter_said() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let script = dir.path().join("app.py");
+    std::fs::write(&script, "raise ValueError('no map loaded')\n").expect("writes");
+    let report = constructs_with(
+        Deliberative::file(plugins::CONSTRUCTS_PROGRAM_PY_DEV).source(&script),
+        None,
+    );
+    let Some(Err(failure)) = &report.program else {
+        panic!("the program fails: {:?}", report.program);
+    };
+    let text = failure.to_string();
+    assert!(text.contains("ValueError: no map loaded"), "{text}");
+}

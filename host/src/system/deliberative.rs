@@ -327,11 +327,14 @@ pub(crate) fn run(
             system::add_to_linker::<ProgramCtx, HasSelf<ProgramCtx>>(&mut linker, |ctx| ctx)
         });
     linked.map_err(|e| format!("cannot link the program: {e:#}"))?;
+    // An interpreter's uncaught exception is written here before it traps:
+    // its last line says why the program ended.
+    let stderr = crate::capability::stderr::StderrTail::default();
     let wasi = crate::capability::wasi::context(WasiSetup {
         base: &base,
         seed,
         grants: &WasiGrants::default(),
-        stderr: None,
+        stderr: Some(stderr.clone()),
     })
     .map_err(|e| e.to_string())?;
     static MAILBOXES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
@@ -374,6 +377,9 @@ pub(crate) fn run(
     drop(store);
     match outcome {
         Ok(result) => result,
-        Err(e) => Err(crate::plugin::describe_fault(&e)),
+        Err(e) => Err(match stderr.last_line() {
+            Some(line) => format!("{line} ({})", crate::plugin::describe_fault(&e)),
+            None => crate::plugin::describe_fault(&e),
+        }),
     }
 }
