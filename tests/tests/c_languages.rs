@@ -13,10 +13,8 @@ mod common;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, OnceLock};
-use std::time::Duration;
 
 use common::*;
-use radar::{example, Plugin, RunReport};
 use radar_fixtures::plugins;
 use serde_json::json;
 
@@ -51,24 +49,9 @@ fn built(name: &str) -> PathBuf {
     out
 }
 
-fn listing23(test_event: &Path, test_response: &Path) -> RunReport {
-    let builder = example::listing23_with(
-        virtual_system(),
-        Plugin::file("TestEvent", test_event),
-        Plugin::file("TestResponse", test_response),
-    );
-    checked(
-        builder
-            .build()
-            .expect("the system builds")
-            .run_with(Some(Duration::from_secs(30)), example::listing23_program)
-            .expect("the system runs"),
-    )
-}
-
 #[test]
 fn c_and_cpp_events_and_responses_give_the_all_rust_trace() {
-    let rust = listing23(
+    let rust = listing23_with_files(
         Path::new(plugins::TEST_EVENT),
         Path::new(plugins::TEST_RESPONSE),
     );
@@ -76,27 +59,13 @@ fn c_and_cpp_events_and_responses_give_the_all_rust_trace() {
         ("test-event-c", "test-response-cpp"),
         ("test-event-cpp", "test-response-c"),
     ] {
-        let mixed = listing23(&built(event), &built(response));
+        let mixed = listing23_with_files(built(event), built(response));
         assert_eq!(
             mixed.trace_json_lines(),
             rust.trace_json_lines(),
             "{event} with {response}"
         );
     }
-}
-
-/// TestResponse from `file`, started at 0 s and interrupted at 2.5 s.
-fn interrupted_response(file: &Path) -> RunReport {
-    let system = virtual_system().plugin(
-        Plugin::file("TestResponse", file)
-            .config("count_for_s", 10)
-            .config("interval_s", 1),
-    );
-    run(system, 4, |radar| {
-        radar.inject("TestResponse.start", json!(7))?;
-        radar.sleep(Duration::from_millis(2500))?;
-        radar.inject("TestResponse.interrupt", json!(null))
-    })
 }
 
 #[test]
@@ -111,7 +80,7 @@ fn an_interrupted_sleep_ends_start_with_its_error_in_c_and_cpp() {
     );
     for name in ["test-response-c", "test-response-cpp"] {
         assert_eq!(
-            interrupted_response(&built(name)).trace_json_lines(),
+            interrupted_response(built(name)).trace_json_lines(),
             rust.trace_json_lines(),
             "{name}"
         );

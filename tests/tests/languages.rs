@@ -14,30 +14,13 @@ use radar::{example, Plugin, RunReport};
 use radar_fixtures::plugins;
 use serde_json::json;
 
-/// Listing 2/3 for 30 s of virtual time with TestEvent and TestResponse
-/// from these component files.
-fn listing23(test_event: &str, test_response: &str) -> RunReport {
-    let builder = example::listing23_with(
-        virtual_system(),
-        Plugin::file("TestEvent", test_event),
-        Plugin::file("TestResponse", test_response),
-    );
-    checked(
-        builder
-            .build()
-            .expect("the system builds")
-            .run_with(Some(Duration::from_secs(30)), example::listing23_program)
-            .expect("the system runs"),
-    )
-}
-
 fn all_rust() -> RunReport {
-    listing23(plugins::TEST_EVENT, plugins::TEST_RESPONSE)
+    listing23_with_files(plugins::TEST_EVENT, plugins::TEST_RESPONSE)
 }
 
 #[test]
 fn a_python_event_and_a_javascript_response_give_the_all_rust_trace() {
-    let mixed = listing23(plugins::TEST_EVENT_PY, plugins::TEST_RESPONSE_JS);
+    let mixed = listing23_with_files(plugins::TEST_EVENT_PY, plugins::TEST_RESPONSE_JS);
     assert_eq!(mixed.trace_json_lines(), all_rust().trace_json_lines());
     // The embedded example (what `radar run` runs) gives it too.
     let embedded = checked(
@@ -52,22 +35,8 @@ fn a_python_event_and_a_javascript_response_give_the_all_rust_trace() {
 
 #[test]
 fn a_javascript_event_and_a_python_response_give_the_all_rust_trace() {
-    let mixed = listing23(plugins::TEST_EVENT_JS, plugins::TEST_RESPONSE_PY);
+    let mixed = listing23_with_files(plugins::TEST_EVENT_JS, plugins::TEST_RESPONSE_PY);
     assert_eq!(mixed.trace_json_lines(), all_rust().trace_json_lines());
-}
-
-/// TestResponse from `file`, started at 0 s and interrupted at 2.5 s.
-fn interrupted_response(file: &str) -> RunReport {
-    let system = virtual_system().plugin(
-        Plugin::file("TestResponse", file)
-            .config("count_for_s", 10)
-            .config("interval_s", 1),
-    );
-    run(system, 4, |radar| {
-        radar.inject("TestResponse.start", json!(7))?;
-        radar.sleep(Duration::from_millis(2500))?;
-        radar.inject("TestResponse.interrupt", json!(null))
-    })
 }
 
 #[test]
@@ -109,8 +78,8 @@ fn fuel_per_plugin_is_the_same_run_to_run_in_every_language() {
             plugins::TEST_RESPONSE_PY,
         ),
     ] {
-        let first = listing23(event, response).fuel;
-        let second = listing23(event, response).fuel;
+        let first = listing23_with_files(event, response).fuel;
+        let second = listing23_with_files(event, response).fuel;
         assert_eq!(first, second, "{name}: fuel differs between two runs");
         assert!(first.values().all(|&f| f > 0), "{name}: {first:?}");
         seen.insert(name, first);

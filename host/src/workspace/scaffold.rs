@@ -536,6 +536,14 @@ fn js_files(kind: Kind, names: &[(&str, &str)]) -> Result<Vec<NewFile>, Scaffold
 mod tests {
     use super::*;
 
+    const LANGUAGES: [Language; 5] = [
+        Language::Rust,
+        Language::Python,
+        Language::Js,
+        Language::C,
+        Language::Cpp,
+    ];
+
     #[test]
     fn names_are_lowercase_words_joined_by_dashes() {
         assert!(valid_name("hello"));
@@ -555,13 +563,7 @@ mod tests {
 
     #[test]
     fn every_language_gets_a_world_a_build_table_and_a_partner() {
-        for language in [
-            Language::Rust,
-            Language::Python,
-            Language::Js,
-            Language::C,
-            Language::Cpp,
-        ] {
+        for language in LANGUAGES {
             for kind in [Kind::Event, Kind::Response] {
                 let (files, _) = files(kind, "demo", language).expect("the templates fill");
                 let manifest = &files
@@ -592,13 +594,7 @@ mod tests {
 
     #[test]
     fn every_placeholder_is_filled_and_a_missing_value_is_an_error() {
-        for language in [
-            Language::Rust,
-            Language::Python,
-            Language::Js,
-            Language::C,
-            Language::Cpp,
-        ] {
+        for language in LANGUAGES {
             for kind in [Kind::Event, Kind::Response] {
                 for (path, text, _) in files(kind, "demo-two", language).expect("fills").0 {
                     let own = !path.starts_with("tools/") && !path.starts_with("wit/deps");

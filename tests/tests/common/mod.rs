@@ -180,3 +180,40 @@ pub fn activations(trace: &[serde_json::Value], plugin: &str) -> Vec<(f64, u64)>
     })
     .collect()
 }
+
+/// Listing 2/3 for 30 s of virtual time with TestEvent and TestResponse
+/// from these component files, in any language.
+pub fn listing23_with_files(
+    test_event: impl AsRef<std::path::Path>,
+    test_response: impl AsRef<std::path::Path>,
+) -> RunReport {
+    let builder = radar::example::listing23_with(
+        virtual_system(),
+        Plugin::file("TestEvent", test_event.as_ref()),
+        Plugin::file("TestResponse", test_response.as_ref()),
+    );
+    checked(
+        builder
+            .build()
+            .expect("the system builds")
+            .run_with(
+                Some(Duration::from_secs(30)),
+                radar::example::listing23_program,
+            )
+            .expect("the system runs"),
+    )
+}
+
+/// TestResponse from `file`, started at 0 s and interrupted at 2.5 s.
+pub fn interrupted_response(file: impl AsRef<std::path::Path>) -> RunReport {
+    let system = virtual_system().plugin(
+        Plugin::file("TestResponse", file.as_ref())
+            .config("count_for_s", 10)
+            .config("interval_s", 1),
+    );
+    run(system, 4, |radar| {
+        radar.inject("TestResponse.start", serde_json::json!(7))?;
+        radar.sleep(Duration::from_millis(2500))?;
+        radar.inject("TestResponse.interrupt", serde_json::json!(null))
+    })
+}
