@@ -47,8 +47,12 @@ typedef struct {
 /// An anonymous slot's handler: the payload (JSON text) and its context.
 typedef void (*radar_handler_t)(const char *payload, void *context);
 
+// One copy for the whole program, whichever of its files include this
+// header (weak: the linker keeps one).
+#define RADAR_ONE_COPY __attribute__((weak))
+
 /// The host's message of the last call that failed.
-static char radar_program_error_[512];
+RADAR_ONE_COPY char radar_program_error_[512];
 
 static inline bool radar_failed_(RADAR_STRING *err) {
     size_t n = err->len < sizeof radar_program_error_ - 1 ? err->len
@@ -100,11 +104,12 @@ static inline bool radar_once(const char *from, const char *to, radar_connection
 
 /// The anonymous slots' handlers, by connection id.
 #define RADAR_MAX_SLOTS 32
-static struct {
+struct radar_slot_ {
     uint64_t id;
     radar_handler_t handler;
     void *context;
-} radar_slots_[RADAR_MAX_SLOTS];
+};
+RADAR_ONE_COPY struct radar_slot_ radar_slots_[RADAR_MAX_SLOTS];
 
 static inline uint64_t radar_first_id_(radar_connection_t c) {
     RADAR_CAT(RADAR_WORLD, _list_u64_t) ids;

@@ -60,10 +60,15 @@ class Connection {
         return this.handle ? Array.from(this.handle.ids(), Number) : [];
     }
 
-    /** Keeps it for the rest of the run, whatever its scope. */
+    /** Keeps it for the rest of the run, whatever its scope (an anonymous
+     * slot keeps its handler). */
     keep() {
-        if (this.handle) this.handle.keep();
-        this.close();
+        const handle = this.handle;
+        this.handle = undefined;
+        if (handle) {
+            handle.keep();
+            handle[Symbol.dispose]();
+        }
     }
 
     /** Removes it now (unless kept). */

@@ -55,10 +55,12 @@ class Connection:
         return self._handle.ids() if self._handle else []
 
     def keep(self) -> None:
-        """Keeps it for the rest of the run, whatever becomes of this object."""
-        if self._handle:
-            self._handle.keep()
-            self.close()
+        """Keeps it for the rest of the run, whatever becomes of this object
+        (an anonymous slot keeps its handler)."""
+        handle, self._handle = self._handle, None
+        if handle is not None:
+            handle.keep()
+            handle.__exit__(None, None, None)
 
     def close(self) -> None:
         """Removes it now (unless kept)."""

@@ -589,13 +589,14 @@ impl Manifest {
     /// The manifest as `--release` runs it: each plugin with a
     /// `[release]` table runs its release component (not a script on a
     /// development runtime), built by the release command from the release
-    /// sources. Returns the plugins that still run a script on a
-    /// development runtime because they have no `[release]` table.
+    /// sources. Returns the tables (`plugins.X`, `deliberative`) that still
+    /// run a script on a development runtime because they have no
+    /// `[release]` table: their development build stays.
     pub fn use_release(&mut self) -> Vec<String> {
         let mut scripts = Vec::new();
         let program = self.deliberative.as_mut().map(|d| {
             (
-                PROGRAM,
+                "deliberative".to_string(),
                 &mut d.wasm,
                 &mut d.source,
                 &mut d.build,
@@ -603,19 +604,18 @@ impl Manifest {
             )
         });
         let plugins = self.plugins.iter_mut().map(|(name, e)| {
-            let name = name.as_str();
             (
-                name,
+                format!("plugins.{name}"),
                 &mut e.wasm,
                 &mut e.source,
                 &mut e.build,
                 &mut e.release,
             )
         });
-        for (name, wasm, source, build, release) in program.into_iter().chain(plugins) {
+        for (table, wasm, source, build, release) in program.into_iter().chain(plugins) {
             let Some(release) = release.take() else {
                 if source.is_some() {
-                    scripts.push(name.to_string());
+                    scripts.push(table);
                 }
                 continue;
             };

@@ -388,10 +388,10 @@ pub fn run(args: RunArgs) -> Result<()> {
             }
             let mut manifest = Manifest::load(path)?;
             if args.release {
-                for plugin in manifest.use_release() {
+                for table in manifest.use_release() {
                     eprintln!(
-                        "radar: note: `{plugin}` has no [plugins.{plugin}.release] table; it runs \
-                         its script on the development runtime"
+                        "radar: note: [{table}] has no [{table}.release] table; it runs its \
+                         script on the development runtime"
                     );
                 }
             }

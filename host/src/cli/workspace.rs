@@ -14,10 +14,10 @@ pub fn build_all(manifest: Option<PathBuf>, release: bool, force: bool) -> Resul
     let path = manifest.unwrap_or_else(|| PathBuf::from("radar.toml"));
     let mut manifest = Manifest::load(&path)?;
     if release {
-        for plugin in manifest.use_release() {
+        for table in manifest.use_release() {
             eprintln!(
-                "radar: `{plugin}` runs a script on a development runtime and has no \
-                 [plugins.{plugin}.release] table: nothing to ship is built for it"
+                "radar: [{table}] runs a script on a development runtime and has no \
+                 [{table}.release] table: its runtime is built, nothing to ship"
             );
         }
     }
@@ -82,6 +82,12 @@ pub fn new_plugin(
     println!("made {what} `{name}` ({language}) in {dir}");
     if let Some(system) = &made.system {
         println!("added `{name}` to {}", system.display());
+        if kind == scaffold::Kind::Program {
+            println!(
+                "note: its code wires Trigger and Responder, the built-in partners of its own \
+                 radar.toml: name the system's plugins there"
+            );
+        }
         println!("next: connect it in [[connect]] tables (docs/manifest.md), then");
         println!("    radar build                       # builds what changed");
         println!("    radar run radar.toml --for 10s");

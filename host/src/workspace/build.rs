@@ -163,9 +163,11 @@ fn first_error(text: &str) -> Option<String> {
 
 /// The build's inputs as one hash: the command, the folder it runs in and
 /// each watched source (path and bytes, in path order). None when it
-/// watches nothing (then it always runs).
+/// watches nothing, or names sources outside its folder (`../wit/*.wit`),
+/// which are not hashed: then it always runs.
 fn inputs_key(build: &Build, command: &str) -> Option<String> {
-    if build.watch.is_empty() {
+    let outside = |p: &String| p.starts_with('/') || p.split('/').any(|part| part == "..");
+    if build.watch.is_empty() || build.watch.iter().any(outside) {
         return None;
     }
     let mut sources = Vec::new();
@@ -321,6 +323,12 @@ mod tests {
         assert!(
             matches!(super::build(&b, false), Ok(Built::Ran(_))),
             "no sources named"
+        );
+        b.watch = vec!["*.py".into(), "../wit/*.wit".into()];
+        assert!(matches!(super::build(&b, false), Ok(Built::Ran(_))));
+        assert!(
+            matches!(super::build(&b, false), Ok(Built::Ran(_))),
+            "sources outside its folder"
         );
     }
 

@@ -303,7 +303,13 @@ fn files(
                     .into(),
                 release: None,
             };
-            (MANIFEST, tables, vec![])
+            let template = if program { PROGRAM_MANIFEST } else { MANIFEST };
+            let values = vec![
+                ("build", "builds it"),
+                ("release", ""),
+                ("again", " (`radar build` first)"),
+            ];
+            (template, tables, values)
         }
         // A script on the world's development runtime by default: an edit
         // is swapped in without a build; `--release` builds and runs the

@@ -83,7 +83,15 @@ pub(super) fn with_plugin(
     combined.push('\n');
     combined.push_str(&tables.render(name, Some(name)));
     let dir = path.parent().unwrap_or(Path::new("."));
-    Manifest::parse(&combined, path, dir).map_err(|e| refused(e.to_string()))?;
+    // A program may come first, into a system with no plugins yet (which
+    // does not run until one is added).
+    let no_plugins = existing
+        .get("plugins")
+        .and_then(|p| p.as_table())
+        .is_none_or(|p| p.is_empty());
+    if !(tables.program && no_plugins) {
+        Manifest::parse(&combined, path, dir).map_err(|e| refused(e.to_string()))?;
+    }
     Ok(combined)
 }
 
@@ -131,5 +139,24 @@ mod tests {
             again.to_string().contains("has a plugin `eye` already"),
             "{again}"
         );
+    }
+
+    #[test]
+    fn a_program_may_come_first_into_an_empty_system_and_only_once() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let system = create_system(dir.path(), "robot").expect("made");
+        let manifest = system.join("radar.toml");
+        let program = Tables {
+            program: true,
+            ..script_tables()
+        };
+        let text = with_plugin(&manifest, "wiring", &program).expect("added");
+        assert!(
+            text.contains("[deliberative]\nwasm = \"wiring/target/dev.wasm\""),
+            "{text}"
+        );
+        std::fs::write(&manifest, &text).expect("write");
+        let again = with_plugin(&manifest, "other", &program).expect_err("a second");
+        assert!(again.to_string().contains("program already"), "{again}");
     }
 }
