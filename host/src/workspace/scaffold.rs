@@ -273,34 +273,29 @@ fn files(
     let partner = fill(partner, &names)?;
     let language_name = language.to_string();
     let (template, tables, values) = match language {
-        Language::Rust => {
-            files.extend(rust_files(kind, &names)?);
-            let tables = Tables {
-                program,
-                wasm: format!("target/wasm32-wasip2/release/{snake}.wasm"),
-                source: None,
-                command: "cargo build --release --target wasm32-wasip2".into(),
-                watch: r#"["src/**/*.rs", "wit/**/*.wit", "Cargo.toml", "tools/**"]"#.into(),
-                release: None,
+        // Built: Rust and C (a second or two) are rebuilt for each edit.
+        Language::Rust | Language::C | Language::Cpp => {
+            let (wasm, command, watch) = if language == Language::Rust {
+                files.extend(rust_files(kind, &names)?);
+                (
+                    format!("target/wasm32-wasip2/release/{snake}.wasm"),
+                    "cargo build --release --target wasm32-wasip2".to_string(),
+                    r#"["src/**/*.rs", "wit/**/*.wit", "Cargo.toml", "tools/**"]"#,
+                )
+            } else {
+                files.extend(c_files(kind, &names, language == Language::Cpp)?);
+                (
+                    format!("target/{name}.wasm"),
+                    format!("sh tools/build target/{name}.wasm"),
+                    r#"["*.c", "*.cc", "*.cpp", "*.h", "wit/**/*.wit", "radar-plugin.toml", "tools/*"]"#,
+                )
             };
-            let template = if program { PROGRAM_MANIFEST } else { MANIFEST };
-            let values = vec![
-                ("build", "builds it"),
-                ("release", ""),
-                ("again", " (`radar build` first)"),
-            ];
-            (template, tables, values)
-        }
-        // Built, as Rust is: C compiles in a second or two.
-        Language::C | Language::Cpp => {
-            files.extend(c_files(kind, &names, language == Language::Cpp)?);
             let tables = Tables {
                 program,
-                wasm: format!("target/{name}.wasm"),
+                wasm,
                 source: None,
-                command: format!("sh tools/build target/{name}.wasm"),
-                watch: r#"["*.c", "*.cc", "*.cpp", "*.h", "wit/**/*.wit", "radar-plugin.toml", "tools/*"]"#
-                    .into(),
+                command,
+                watch: watch.into(),
                 release: None,
             };
             let template = if program { PROGRAM_MANIFEST } else { MANIFEST };
