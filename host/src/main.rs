@@ -72,7 +72,7 @@ enum Cmd {
         kind: scaffold::Kind,
         /// The plugin's name: lowercase words joined by `-`.
         name: String,
-        /// `rust`, `python` or `js`.
+        /// `rust`, `python`, `js`, `c` or `cpp`.
         #[arg(long, default_value = "rust")]
         lang: scaffold::Language,
         /// Where to make the folder (default: here).

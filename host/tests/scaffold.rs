@@ -11,8 +11,8 @@ fn radar(cwd: &Path, args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_radar"))
         .current_dir(cwd)
         .args(args)
-        // Share the toolchains the fixtures installed (a user's scaffold
-        // installs its own under its target/).
+        // Share the toolchains the fixtures installed (a user's scaffolds
+        // share theirs under ~/.cache/radar/toolchains).
         .env("RADAR_TOOLCHAINS", radar_fixtures::TOOLCHAINS)
         .output()
         .expect("the radar binary runs")
@@ -148,8 +148,12 @@ fn response_works(trace: &[serde_json::Value], name: &str) {
 }
 
 #[test]
-fn a_rust_event_scaffold_builds_and_runs() {
-    event_works(&scaffold("event", "ticker", "rust").run(&[]), "ticker");
+fn a_rust_event_scaffold_builds_runs_and_reloads_with_its_state() {
+    let made = scaffold("event", "ticker", "rust");
+    event_works(&made.run(&[]), "ticker");
+    // cargo rebuilds the crate on a save (its dependencies are built):
+    // seconds on a busy machine, so the run is longer.
+    swaps_an_edit_in_and_keeps_its_state(&made, "src/lib.rs", true, "30s");
 }
 
 #[test]
@@ -165,25 +169,70 @@ fn script_event_works(lang: &str, name: &str) {
     event_works(&made.run(&[]), name);
     event_works(&made.release_run(), name);
     let main = if lang == "js" { "app.js" } else { "app.py" };
-    swaps_an_edit_in_and_keeps_its_state(&made, main, false);
+    swaps_an_edit_in_and_keeps_its_state(&made, main, false, "6s");
 }
 
 fn script_response_works(lang: &str, name: &str) {
     let made = scaffold("response", name, lang);
     response_works(&made.run(&[]), name);
     response_works(&made.release_run(), name);
+    let main = if lang == "js" { "app.js" } else { "app.py" };
+    swaps_a_running_response_after_its_activation(&made, main);
 }
 
-/// `radar run --clock real --watch`: an edit of the code (its log line) is
-/// swapped in (with no build for a script, rebuilt for C and C++), and the
-/// count carries on across the swap (the scaffold's state helpers).
-fn swaps_an_edit_in_and_keeps_its_state(made: &Scaffold, main: &str, built: bool) {
+/// `radar run --clock real --watch` of a response scaffold, started every
+/// 4 s by its partner (4 → 7 s, 8 → 11 s): an edit saved while the first
+/// activation runs is swapped in after it (drain), and the second runs
+/// the edit with the count of starts carried over.
+fn swaps_a_running_response_after_its_activation(made: &Scaffold, main: &str) {
+    let (stdout, trace) = watch_and_edit(made, main, "13s", Duration::from_millis(5500), |text| {
+        text.replace("step {step}", "step {step}!")
+            .replace("step ${step}", "step ${step}!")
+    });
+    assert!(!stdout.contains("watch: built"), "{stdout}");
+    let swap = trace
+        .iter()
+        .find(|r| r["kind"] == "swap")
+        .unwrap_or_else(|| panic!("a swap record: {stdout}"));
+    assert_eq!(swap["state"], "moved", "{swap}");
+    assert_eq!(swap["policy"], "drain", "{swap}");
+    let logs: Vec<(u64, String)> = trace
+        .iter()
+        .filter(|r| r["kind"] == "log" && r["plugin"] == made.name.as_str())
+        .map(|r| {
+            (
+                r["t"].as_u64().expect("t"),
+                r["message"].as_str().expect("message").to_string(),
+            )
+        })
+        .collect();
+    let swapped_at = swap["t"].as_u64().expect("t");
+    let (before, after): (Vec<_>, Vec<_>) = logs.iter().partition(|(t, _)| *t < swapped_at);
+    assert!(
+        before.iter().any(|(_, m)| m.contains("(start 1)"))
+            && before.iter().any(|(_, m)| m == "step 3"),
+        "the first activation ran to its end on the old version: {logs:?}"
+    );
+    assert!(
+        after.iter().any(|(_, m)| m.contains("(start 2)"))
+            && after.iter().any(|(_, m)| m == "step 1!"),
+        "the second ran the edit, its count carried over: {logs:?}"
+    );
+}
+
+/// `radar run --clock real --watch` for `run_for`, `main` edited by
+/// `edit` `after` the run began; what the run printed and its trace.
+fn watch_and_edit(
+    made: &Scaffold,
+    main: &str,
+    run_for: &str,
+    after: Duration,
+    edit: impl Fn(&str) -> String,
+) -> (String, Vec<serde_json::Value>) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_radar"))
         .current_dir(&made.folder)
         .args(["run", "radar.toml", "--clock", "real", "--watch"])
-        // A build (C, C++) takes a second or two more, on a busy machine
-        // several: its run is longer, so that checks follow the swap.
-        .args(["--for", if built { "14s" } else { "6s" }])
+        .args(["--for", run_for])
         .args(["--trace", "w.jsonl"])
         .env("RADAR_TOOLCHAINS", radar_fixtures::TOOLCHAINS)
         .stdout(std::process::Stdio::piped())
@@ -200,18 +249,12 @@ fn swaps_an_edit_in_and_keeps_its_state(made: &Scaffold, main: &str, built: bool
             break;
         }
     }
-    std::thread::sleep(Duration::from_millis(2500));
+    std::thread::sleep(after);
     let path = made.folder.join(main);
-    let text = std::fs::read_to_string(&path).expect("reads the script");
-    let edited = text.replace("check ${state.checks}", "check ${state.checks}!");
-    let edited = edited.replace("check {state.checks}", "check {state.checks}!");
-    let edited = edited.replace("\"check %u\"", "\"check %u!\"");
-    let edited = edited.replace(
-        "(\"check \" + std::to_string(state.checks))",
-        "(\"check \" + std::to_string(state.checks) + \"!\")",
-    );
-    assert_ne!(text, edited, "the scaffold logs `check N`");
-    std::fs::write(&path, edited).expect("edits the script");
+    let text = std::fs::read_to_string(&path).expect("reads the code");
+    let edited = edit(&text);
+    assert_ne!(text, edited, "the edit changes {main}");
+    std::fs::write(&path, edited).expect("edits the code");
     let saved = Instant::now();
     let mut swapping = None;
     for line in lines {
@@ -228,14 +271,32 @@ fn swaps_an_edit_in_and_keeps_its_state(made: &Scaffold, main: &str, built: bool
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    assert_eq!(stdout.contains("watch: built"), built, "{stdout}");
     let swapping = swapping.unwrap_or_else(|| panic!("no swap: {stdout}"));
     // A figure for the log, not a timed assertion.
     println!(
         "{main}: saved → swap requested in {} ms",
         swapping.as_millis()
     );
-    let trace = trace_of(&made.folder.join("w.jsonl"));
+    (stdout, trace_of(&made.folder.join("w.jsonl")))
+}
+
+/// `radar run --clock real --watch`: an edit of the code (its log line) is
+/// swapped in (with no build for a script, rebuilt for Rust, C and C++),
+/// and the count carries on across the swap (the scaffold's state
+/// helpers).
+fn swaps_an_edit_in_and_keeps_its_state(made: &Scaffold, main: &str, built: bool, run_for: &str) {
+    let (stdout, trace) =
+        watch_and_edit(made, main, run_for, Duration::from_millis(2500), |text| {
+            text.replace("check ${state.checks}", "check ${state.checks}!")
+                .replace("check {state.checks}", "check {state.checks}!")
+                .replace("\"check %u\"", "\"check %u!\"")
+                .replace(
+                    "(\"check \" + std::to_string(state.checks))",
+                    "(\"check \" + std::to_string(state.checks) + \"!\")",
+                )
+                .replace("\"check {checks}\"", "\"check {checks}!\"")
+        });
+    assert_eq!(stdout.contains("watch: built"), built, "{stdout}");
     let swap = trace
         .iter()
         .find(|r| r["kind"] == "swap")
@@ -277,7 +338,7 @@ fn c_scaffolds_work(lang: &str) {
     } else {
         "plugin.cpp"
     };
-    swaps_an_edit_in_and_keeps_its_state(&event, main, true);
+    swaps_an_edit_in_and_keeps_its_state(&event, main, true, "14s");
     let response = scaffold("response", &format!("wave-{lang}"), lang);
     response_works(&response.run(&[]), &response.name);
     let program = scaffold("program", &format!("wire-{lang}"), lang);
@@ -444,6 +505,58 @@ fn a_system_folder_takes_plugins_in_two_languages_that_build_and_run_together() 
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(!system.join("again").exists(), "nothing made");
+}
+
+/// A system of built plugins: a Rust event and a C response added with
+/// `radar new` inside it, built by one `radar build`, run together.
+#[test]
+fn a_system_folder_takes_rust_and_c_plugins_that_build_and_run_together() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    ok(&radar(dir.path(), &["new", "system", "rover"]));
+    let system = dir.path().join("rover");
+    for (kind, name, lang) in [("event", "bumper", "rust"), ("response", "dock", "c")] {
+        let added = ok(&radar(&system, &["new", kind, name, "--lang", lang]));
+        assert!(added.contains(&format!("added `{name}` to")), "{added}");
+        assert!(
+            !added.contains("development runtime"),
+            "a built language: {added}"
+        );
+    }
+    let manifest = system.join("radar.toml");
+    let mut text = std::fs::read_to_string(&manifest).expect("manifest");
+    text.push_str(
+        "\n[[connect]]\nmode = \"whenever\"\nfrom = \"bumper.triggered\"\nto = \"dock.start\"\n",
+    );
+    std::fs::write(&manifest, text).expect("connects them");
+    let built = ok(&radar(&system, &["build"]));
+    assert!(
+        built.contains("built bumper") && built.contains("built dock"),
+        "{built}"
+    );
+    ok(&radar(
+        &system,
+        &[
+            "run",
+            "radar.toml",
+            "--for",
+            "10s",
+            "-q",
+            "--trace",
+            "t.jsonl",
+        ],
+    ));
+    let trace = trace_of(&system.join("t.jsonl"));
+    let started: Vec<_> = trace
+        .iter()
+        .filter(|r| r["kind"] == "signal" && r["plugin"] == "dock" && r["signal"] == "started")
+        .map(|r| r["payload"].clone())
+        .collect();
+    // bumper triggers at 3, 6 and 9 s; dock, busy for 3 s, takes 3 and 9.
+    assert_eq!(
+        started,
+        [serde_json::json!(3), serde_json::json!(9)],
+        "{trace:?}"
+    );
 }
 
 #[test]

@@ -65,11 +65,11 @@ pub fn new_plugin(
         println!("next:");
         println!("    cd {dir}");
         println!(
-            "    radar new event NAME --lang rust|python|js      # adds a plugin to radar.toml"
+            "    radar new event NAME --lang rust|python|js|c|cpp     # adds a plugin to radar.toml"
         );
-        println!("    radar new response NAME --lang rust|python|js");
+        println!("    radar new response NAME --lang rust|python|js|c|cpp");
         println!(
-            "    radar new program NAME --lang rust|python|js    # adds the [deliberative] program"
+            "    radar new program NAME --lang rust|python|js|c|cpp   # adds the [deliberative] program"
         );
         return Ok(());
     }
@@ -78,7 +78,12 @@ pub fn new_plugin(
         scaffold::Kind::Program => "program",
         _ => "response",
     };
-    let script = language != scaffold::Language::Rust;
+    // Python and JavaScript run as scripts on a development runtime; Rust,
+    // C and C++ are built (in about a second for C).
+    let script = matches!(
+        language,
+        scaffold::Language::Python | scaffold::Language::Js
+    );
     println!("made {what} `{name}` ({language}) in {dir}");
     if let Some(system) = &made.system {
         println!("added `{name}` to {}", system.display());

@@ -1,4 +1,4 @@
-//! `radar new event|response NAME --lang rust|python|js`: a folder with a
+//! `radar new event|response NAME --lang rust|python|js|c|cpp`: a folder with a
 //! complete small plugin that builds and runs as it is, as `spin new` and
 //! `cargo new` make them.
 //!
