@@ -85,6 +85,9 @@ pub struct Manifest {
     pub ros2: Option<crate::network::ros2::Ros2Settings>,
     #[serde(skip)]
     dir: PathBuf,
+    /// The file itself (absolute where it could be made so).
+    #[serde(skip)]
+    path: PathBuf,
     /// Whether plugins go to the agents their `node` names (not in a
     /// replay, which runs the whole system here).
     #[serde(skip, default = "placed")]
@@ -159,8 +162,9 @@ pub fn parse_bytes(text: &str) -> Result<usize, String> {
     Ok((value * scale) as usize)
 }
 
-/// How the deliberative program is named in `radar build`'s lines.
-const PROGRAM: &str = "(deliberative)";
+/// How the deliberative program is named in `radar build`'s lines and in
+/// errors.
+pub const PROGRAM: &str = "(deliberative)";
 
 /// `[plugins.NAME]`.
 #[derive(Debug, Deserialize)]
@@ -424,6 +428,7 @@ impl Manifest {
             })
         })?;
         manifest.dir = dir.to_path_buf();
+        manifest.path = dir.join(path.file_name().unwrap_or_default());
         if let Some(builtin) = manifest
             .deliberative
             .as_ref()
@@ -509,6 +514,11 @@ impl Manifest {
         self.place_on_agents = false;
     }
 
+    /// The manifest's file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
     /// The folder the manifest's paths are relative to.
     pub fn dir(&self) -> &Path {
         &self.dir
@@ -525,6 +535,7 @@ impl Manifest {
     /// Adds the manifest's plugins, and its deliberative program if it has
     /// one, to a system builder, with the system's limits.
     pub fn add_plugins(&self, mut builder: SystemBuilder) -> SystemBuilder {
+        builder = builder.from_manifest(&self.path);
         if let Some(ByteSize(bytes)) = self.limits.as_ref().and_then(|l| l.memory) {
             builder = builder.memory_budget(bytes);
         }
@@ -556,8 +567,12 @@ impl Manifest {
             if let Some(source) = &entry.source {
                 plugin = plugin.source(self.dir.join(source));
             }
-            if let Some(node) = entry.node.as_ref().filter(|_| self.place_on_agents) {
-                plugin = plugin.on_node(node);
+            if let Some(node) = &entry.node {
+                plugin = if self.place_on_agents {
+                    plugin.on_node(node)
+                } else {
+                    plugin.on_node_here(node)
+                };
             }
             for (key, value) in &entry.config {
                 plugin = plugin.config(key, config_text(value));

@@ -6,27 +6,50 @@
 use std::path::Path;
 
 use radar::error::RadarError;
-use radar::manifest::Manifest;
+use radar::manifest::{Manifest, PROGRAM};
 
 /// `error` from building or starting the system of the manifest at
-/// `path`, with the fix when Radar knows it.
-pub fn building(error: RadarError, manifest: &Manifest, path: &Path) -> anyhow::Error {
+/// `path`, with the fix when Radar knows it; `release`: the run asked for
+/// the release components (`radar run --release`), which `radar build
+/// --release` makes.
+pub fn building(
+    error: RadarError,
+    manifest: &Manifest,
+    path: &Path,
+    release: bool,
+) -> anyhow::Error {
     let shown = path.display();
     match &error {
         RadarError::UnknownPlugin { name, .. } => match line_of(path, name) {
             Some(line) => anyhow::anyhow!("{shown}:{line}: {error}"),
             None => error.into(),
         },
-        RadarError::Read { plugin, cause, .. }
-            if cause.kind() == std::io::ErrorKind::NotFound
-                && manifest
+        RadarError::Read { plugin, cause, .. } if cause.kind() == std::io::ErrorKind::NotFound => {
+            let built = if plugin == PROGRAM {
+                manifest
+                    .deliberative
+                    .as_ref()
+                    .is_some_and(|d| d.build.is_some())
+            } else {
+                manifest
                     .plugins
                     .get(plugin)
-                    .is_some_and(|p| p.build.is_some()) =>
-        {
-            anyhow::anyhow!(
-                "{error}: it is built by `radar build {shown}` (plugins.{plugin}.build)"
-            )
+                    .is_some_and(|p| p.build.is_some())
+            };
+            if !built {
+                return error.into();
+            }
+            let table = if plugin == PROGRAM {
+                "deliberative".to_string()
+            } else {
+                format!("plugins.{plugin}")
+            };
+            let (flag, table) = if release {
+                (" --release", format!("{table}.release"))
+            } else {
+                ("", format!("{table}.build"))
+            };
+            anyhow::anyhow!("{error}: it is built by `radar build{flag} {shown}` ({table})")
         }
         _ => error.into(),
     }
