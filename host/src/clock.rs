@@ -108,7 +108,12 @@ const PENDING_LOG_BYTES: usize = 16 << 20;
 
 struct Timers {
     seq: u64,
-    queue: BTreeMap<TimerKey, Waker>,
+    /// Each timer's waker, and whether it counts in `fired`.
+    queue: BTreeMap<TimerKey, (Waker, bool)>,
+    /// Timers fired so far, those of inputs applied at their time aside:
+    /// where an input from outside came among the run's own timers (see
+    /// `TimedInput::wakes`).
+    fired: u64,
 }
 
 /// The clock and timer queue of one system; cheap to clone.
@@ -143,6 +148,7 @@ impl TimeBase {
             timers: Mutex::new(Timers {
                 seq: 0,
                 queue: BTreeMap::new(),
+                fired: 0,
             }),
             logs: Mutex::new(PendingLogs::default()),
             has_logs: AtomicBool::new(false),
@@ -167,9 +173,14 @@ impl TimeBase {
     }
 
     /// The virtual time `fuel` units of compute take (0 unless fuel is
-    /// time), rounded up so that any compute takes some time.
-    pub fn fuel_nanos(&self, fuel: u64) -> u64 {
-        match self.0.fuel_per_second {
+    /// time), rounded up so that any compute takes some time: at `rate`
+    /// (fuel a second) when given, else at the clock's own.
+    pub fn fuel_nanos(&self, fuel: u64, rate: Option<u64>) -> u64 {
+        match self
+            .0
+            .fuel_per_second
+            .map(|own| rate.filter(|r| *r > 0).unwrap_or(own))
+        {
             Some(rate) if fuel > 0 => {
                 let nanos = (u128::from(fuel) * 1_000_000_000).div_ceil(u128::from(rate));
                 u64::try_from(nanos).unwrap_or(u64::MAX)
@@ -186,20 +197,25 @@ impl TimeBase {
         }
     }
 
-    fn add(&self, deadline: u64, waker: Waker) -> TimerKey {
+    fn add(&self, deadline: u64, waker: Waker, counted: bool) -> TimerKey {
         let mut t = self.lock();
         t.seq += 1;
         let key = (deadline, t.seq);
-        t.queue.insert(key, waker);
+        t.queue.insert(key, (waker, counted));
         key
     }
 
     fn refresh(&self, key: TimerKey, waker: &Waker) {
-        if let Some(w) = self.lock().queue.get_mut(&key) {
+        if let Some((w, _)) = self.lock().queue.get_mut(&key) {
             if !w.will_wake(waker) {
                 *w = waker.clone();
             }
         }
+    }
+
+    /// The run's own timers fired so far (see [`TimeBase::input_sleep`]).
+    pub fn fired(&self) -> u64 {
+        self.lock().fired
     }
 
     fn cancel(&self, key: TimerKey) {
@@ -225,7 +241,9 @@ impl TimeBase {
                 if entry.key().0 > now {
                     break;
                 }
-                due.push(entry.remove());
+                let (waker, counted) = entry.remove();
+                t.fired += u64::from(counted);
+                due.push(waker);
             }
             due
         };
@@ -284,7 +302,29 @@ impl TimeBase {
             deadline,
             key: None,
             stop,
+            counted: true,
         }
+    }
+
+    /// A sleep until an input's time: not one of the run's own timers, so
+    /// not counted in [`TimeBase::fired`] (a recording's input and its
+    /// replay must count alike whether the input came by a timer or from
+    /// outside).
+    pub fn input_sleep(&self, deadline: u64) -> Sleep {
+        Sleep {
+            base: self.clone(),
+            deadline,
+            key: None,
+            stop: None,
+            counted: false,
+        }
+    }
+
+    /// Counts a wait that ended without a timer because its deadline had
+    /// passed already (an event's check that took longer than its period),
+    /// as the same wait would count on a clock that is never late.
+    pub fn note_wake(&self) {
+        self.lock().fired += 1;
     }
 }
 
@@ -371,6 +411,8 @@ pub(crate) struct Sleep {
     deadline: u64,
     key: Option<TimerKey>,
     stop: Option<Arc<StopFlag>>,
+    /// One of the run's own timers (see [`TimeBase::fired`]).
+    counted: bool,
 }
 
 impl Future for Sleep {
@@ -389,7 +431,9 @@ impl Future for Sleep {
         match self.key {
             Some(key) => self.base.refresh(key, cx.waker()),
             None => {
-                let key = self.base.add(self.deadline, cx.waker().clone());
+                let key = self
+                    .base
+                    .add(self.deadline, cx.waker().clone(), self.counted);
                 self.key = Some(key);
             }
         }
@@ -456,10 +500,10 @@ mod tests {
         let base = TimeBase::new(ClockKind::Virtual);
         let log = Arc::new(StdMutex::new(Vec::new()));
         let waker = |l| Waker::from(Arc::new(Label(l, log.clone())));
-        base.add(200, waker("late"));
-        base.add(100, waker("first"));
-        base.add(100, waker("second"));
-        base.add(100, waker("third"));
+        base.add(200, waker("late"), true);
+        base.add(100, waker("first"), true);
+        base.add(100, waker("second"), false);
+        base.add(100, waker("third"), true);
         assert_eq!(base.next_deadline(), Some(100));
         base.advance_to(100);
         base.fire_due(100);
@@ -468,6 +512,10 @@ mod tests {
             ["first", "second", "third"]
         );
         assert_eq!(base.next_deadline(), Some(200));
+        // An input's timer is not one of the run's own: not counted.
+        assert_eq!(base.fired(), 2);
+        base.note_wake();
+        assert_eq!(base.fired(), 3);
     }
 
     #[test]

@@ -19,6 +19,16 @@ pub(crate) struct ClockState {
     /// The store's fuel level when the running call's compute was last
     /// turned into time (see [`TimeBase::fuel_nanos`]).
     pub fuel_mark: u64,
+    /// Fuel as time: the plugin's own rate, if it has one.
+    pub fuel_rate: Option<u64>,
+}
+
+impl ClockState {
+    /// The virtual time `fuel` units of this plugin's compute take (0
+    /// unless fuel is time).
+    pub fn compute_nanos(&self, fuel: u64) -> u64 {
+        self.base.fuel_nanos(fuel, self.fuel_rate)
+    }
 }
 
 /// The clock's view of a store's state.
@@ -86,7 +96,7 @@ pub(crate) fn pending_compute<T: ClockView>(store: &StoreContextMut<'_, T>) -> (
     }
     let left = store.get_fuel().unwrap_or(0);
     let used = state.fuel_mark.saturating_sub(left);
-    (left, state.base.fuel_nanos(used))
+    (left, state.compute_nanos(used))
 }
 
 /// Turns the running call's compute since the last charge into time: the

@@ -260,6 +260,10 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, out: Outbox, loader: Arc<Mutex<Loade
                         budget: Arc::new(MemoryBudget::from_machine()),
                         watch: Arc::new(RunWatch::new(None)),
                         remote: None,
+                        // Counted, and faults injected, by the coordinator.
+                        faults: Arc::default(),
+                        // The agent's clock runs at the plugin's rate already.
+                        fuel_rate: None,
                     };
                     link.drive(code.instantiate_here(setup), &stop)
                         .ok_or_else(|| Fault::new("the coordinator left"))

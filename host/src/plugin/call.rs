@@ -1,6 +1,8 @@
 //! What a call into a plugin is, wherever the plugin runs: the functions
 //! Radar calls ([`Export`]) and how a call ends badly ([`Fault`]).
 
+use std::time::Duration;
+
 use wasmtime::{Trap, WasmBacktrace};
 
 use crate::watchdog::RunStopped;
@@ -17,6 +19,9 @@ pub(crate) struct Fault {
     /// The call was ended because the run is being stopped (a signal, a
     /// stall): not the plugin's fault, and not recorded as one.
     pub run_stopped: bool,
+    /// An injected fault (see [`super::faults`]): the plugin is reset this
+    /// long after it.
+    pub reset_after: Option<Duration>,
 }
 
 impl Fault {
@@ -28,6 +33,7 @@ impl Fault {
                 .map(|b| b.to_string().trim_end().to_string()),
             out_of_fuel: matches!(err.downcast_ref::<Trap>(), Some(Trap::OutOfFuel)),
             run_stopped: err.downcast_ref::<RunStopped>().is_some(),
+            reset_after: None,
         }
     }
 
@@ -38,6 +44,7 @@ impl Fault {
             backtrace: None,
             out_of_fuel: false,
             run_stopped: false,
+            reset_after: None,
         }
     }
 

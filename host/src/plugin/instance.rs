@@ -12,6 +12,7 @@ use wasmtime::component::{Func, ResourceTable, Val};
 use wasmtime::Store;
 
 use super::code::PluginCode;
+use super::faults::FaultPlan;
 use super::limits::Limits;
 use super::remote::{Opening, Remote, RemoteInstance};
 use super::store::PluginCtx;
@@ -61,12 +62,20 @@ pub(crate) struct InstanceSetup {
     pub watch: Arc<RunWatch>,
     /// The agent the plugin runs on, if it is placed on one.
     pub remote: Option<Remote>,
+    /// Its calls and instantiations counted, and the faults to inject
+    /// (see [`super::faults`]).
+    pub faults: Arc<FaultPlan>,
+    /// Fuel as time: this plugin's own rate, fuel a second (a simulation
+    /// varies it), instead of the clock's.
+    pub fuel_rate: Option<u64>,
 }
 
 /// One live instance of a plugin: in its own store here, or on an agent
 /// (`super::remote`), called alike.
 pub(crate) struct PluginInstance {
     inner: Inner,
+    /// Counts its calls; the faults to inject.
+    faults: Arc<FaultPlan>,
 }
 
 enum Inner {
@@ -88,6 +97,10 @@ impl PluginCode {
     /// A new instance for `setup`: in this process, or on the agent the
     /// plugin is placed on.
     pub async fn instantiate(&self, setup: InstanceSetup) -> Result<PluginInstance, Fault> {
+        if let Some(fault) = setup.faults.on_instantiation() {
+            return Err(fault);
+        }
+        let faults = setup.faults.clone();
         let inner = match setup.remote.clone() {
             Some(remote) => Inner::Remote(
                 RemoteInstance::open(
@@ -100,6 +113,7 @@ impl PluginCode {
                         config: (*setup.config).clone(),
                         limits: setup.limits.clone(),
                         seed: setup.seed,
+                        fuel_rate: setup.fuel_rate,
                     },
                     remote,
                 )
@@ -107,7 +121,7 @@ impl PluginCode {
             ),
             None => Inner::Local(self.instantiate_here(setup).await?),
         };
-        Ok(PluginInstance { inner })
+        Ok(PluginInstance { inner, faults })
     }
 
     /// Which of the functions Radar calls the component exports.
@@ -146,6 +160,7 @@ impl PluginCode {
                 base: setup.base.clone(),
                 stop: setup.stop.clone(),
                 fuel_mark: setup.limits.fuel_per_call,
+                fuel_rate: setup.fuel_rate,
             },
             log: LogState::new(
                 setup.name.clone(),
@@ -309,7 +324,7 @@ impl LocalInstance {
         // Fuel as time: the compute not yet counted takes its time now, so
         // that what follows the call (its end, its result) comes later.
         let clock = self.store.data().clock();
-        let compute = clock.base.fuel_nanos(clock.fuel_mark.saturating_sub(left));
+        let compute = clock.compute_nanos(clock.fuel_mark.saturating_sub(left));
         if compute > 0 && !stopped {
             let deadline = clock.base.now().saturating_add(compute);
             let _ = clock.base.sleep_until(deadline, None).await;
@@ -363,6 +378,9 @@ impl PluginInstance {
     ) -> Result<Option<Val>, Fault> {
         if !self.has(export) {
             return Err(Fault::missing(export.name()));
+        }
+        if let Some(fault) = self.faults.on_call() {
+            return Err(fault);
         }
         match &mut self.inner {
             Inner::Local(local) => local.call_export(export, params, has_result).await,

@@ -13,6 +13,7 @@
 mod cache;
 mod call;
 mod code;
+mod faults;
 mod instance;
 mod limits;
 mod loader;
@@ -23,6 +24,8 @@ mod world;
 pub(crate) use cache::default_cache_dir;
 pub use cache::on_first_compile;
 pub(crate) use code::{version_of, Kind, PluginCode};
+pub(crate) use faults::FaultPlan;
+pub use faults::{FaultKind, InjectedFault};
 pub(crate) use instance::{describe_fault, Export, Fault, InstanceSetup, PluginInstance};
 pub use limits::Limits;
 pub(crate) use loader::Loader;

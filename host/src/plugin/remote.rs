@@ -242,6 +242,7 @@ impl From<WireFault> for Fault {
             backtrace: f.backtrace,
             out_of_fuel: f.out_of_fuel,
             run_stopped: f.run_stopped,
+            reset_after: None,
         }
     }
 }
@@ -399,6 +400,8 @@ pub(crate) struct Opening {
     pub config: BTreeMap<String, String>,
     pub limits: Limits,
     pub seed: u64,
+    /// Fuel as time: the plugin's own rate, if it has one.
+    pub fuel_rate: Option<u64>,
 }
 
 /// A live instance on an agent, seen from the coordinator.
@@ -446,7 +449,10 @@ impl RemoteInstance {
             config: setup.config,
             limits: setup.limits,
             seed: setup.seed,
-            fuel_per_second: setup.base.fuel_per_second(),
+            fuel_per_second: setup
+                .base
+                .fuel_per_second()
+                .map(|own| setup.fuel_rate.unwrap_or(own)),
             now: setup.base.now(),
         };
         this.send(&message, &code.bytes)?;

@@ -284,6 +284,10 @@ impl State {
                 .get_or_insert_with(|| (0, format!("{plugin}: {}", fault.cause)));
             *count += 1;
         }
+        self.faults.0 += 1;
+        if self.faults.1.is_none() {
+            self.faults.1 = Some((plugin.to_string(), self.now(), fault.cause.clone()));
+        }
         self.record(Entry::Fault {
             plugin: plugin.clone(),
             error: fault.cause.clone(),
@@ -307,6 +311,7 @@ impl State {
             self.withdraw_start(pid, request, reason);
         }
         let lost = fault.cause.starts_with("node-lost");
+        let reset_after = fault.reset_after;
         self.emit(
             pid,
             Signal::Faulted,
@@ -314,14 +319,12 @@ impl State {
         );
         // Lost with an agent that is back already (it restarted before its
         // loss was seen): taken back at once, as its return would.
-        let back = self.plugins[pid]
-            .def
-            .remote
-            .as_ref()
-            .is_some_and(|r| lost && r.link.is_alive(&r.node));
-        if back {
+        if lost && self.plugins[pid].def.node.is_some() && self.node_is_up(pid) {
             let name = self.plugins[pid].def.name.clone();
             let _ = self.request_reset(&name, true);
+        }
+        if let Some(after) = reset_after {
+            self.reset_later(pid, after);
         }
     }
 
@@ -364,7 +367,12 @@ impl State {
                 let waiting = core.clone();
                 let external = injection.external;
                 let task = async move {
-                    let _ = waiting.base.sleep_until(at, None).await;
+                    let wait = if external {
+                        waiting.base.input_sleep(at)
+                    } else {
+                        waiting.base.sleep_until(at, None)
+                    };
+                    let _ = wait.await;
                     waiting.with(|st| st.inject(injection));
                 };
                 // An input's own task is not one of the run's moves.

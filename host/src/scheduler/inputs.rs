@@ -42,11 +42,20 @@ pub(crate) struct StaticInput {
 /// had made by then (see the module docs).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Place {
-    /// The scheduler's moves at that instant before it.
+    /// The scheduler's moves at that instant before it (virtual clock).
     pub step: u64,
     /// The trace records made before it.
     pub records: Option<u64>,
+    /// The run's timers fired before it (real clock): a replay applies it
+    /// before the next one fires, if that comes first.
+    pub wakes: Option<u64>,
 }
+
+/// How much earlier than its recorded time a real-clock input may be
+/// applied to keep its place among the timers: about how late a real
+/// clock wakes at worst. A replay that has parted from its recording
+/// (more timers than it had) does not move inputs further.
+const EARLY_AT_MOST: u64 = 50_000_000;
 
 /// What a static input does.
 pub(crate) enum StaticWhat {
@@ -74,6 +83,8 @@ pub(crate) enum StaticWhat {
     Reset(String),
     /// An agent lost.
     NodeLost(String),
+    /// An agent back.
+    NodeBack(String),
     /// A refused command's record.
     Refused {
         command: String,
@@ -106,7 +117,18 @@ pub(crate) struct PlacedInput {
     after: u64,
     /// The trace records the recording had made before it.
     records: Option<u64>,
+    /// Real clock: the timers fired before it.
+    wakes: Option<u64>,
     action: Action,
+}
+
+impl PlacedInput {
+    /// Whether, at `now` with `fired` timers fired, the input goes in
+    /// before the timers due now fire: it came before the next timer in
+    /// the recording, whose clock was late.
+    pub(super) fn before_timers(&self, now: u64, fired: u64) -> bool {
+        self.wakes.is_some_and(|w| w <= fired) && self.at.saturating_sub(now) <= EARLY_AT_MOST
+    }
 }
 
 /// Static inputs with recorded places, in order.
@@ -199,6 +221,7 @@ impl State {
                 at: duration_nanos(at),
                 after: place.step,
                 records: place.records,
+                wakes: place.wakes,
                 action,
             })
             .collect())
@@ -209,7 +232,7 @@ impl State {
         let at = duration_nanos(at);
         let waiting = core.clone();
         let task = async move {
-            let _ = waiting.base.sleep_until(at, None).await;
+            let _ = waiting.base.input_sleep(at).await;
             waiting.with(|st| st.apply(action));
         };
         self.spawn(input_task(core.clone(), task));
@@ -251,6 +274,7 @@ impl State {
                 self.disconnect(id, "closed");
             }
             Action::Outside(StaticWhat::NodeLost(node)) => self.node_lost(&node),
+            Action::Outside(StaticWhat::NodeBack(node)) => self.node_back(&node),
             Action::Outside(StaticWhat::Reset(plugin)) => {
                 let _ = self.request_reset(&plugin, true);
             }
@@ -276,13 +300,18 @@ impl State {
         if !due {
             return false;
         }
+        self.apply_next(placed);
+        true
+    }
+
+    /// Applies the first placed input now, whatever its time.
+    pub(super) fn apply_next(&mut self, placed: &mut Placed) {
         if let Some(input) = placed.pop_front() {
             if let Some(expected) = input.records {
                 self.check_replay_position(expected, &input.action);
             }
             self.apply(input.action);
         }
-        true
     }
 
     /// A replay's first divergence, if the records made before this input
@@ -302,6 +331,7 @@ impl State {
             Action::Outside(StaticWhat::Disconnect(id)) => format!("the end of connection {id}"),
             Action::Outside(StaticWhat::Reset(plugin)) => format!("the reset of {plugin}"),
             Action::Outside(StaticWhat::NodeLost(node)) => format!("the loss of agent {node}"),
+            Action::Outside(StaticWhat::NodeBack(node)) => format!("the return of agent {node}"),
             Action::Outside(_) => "a refused command".to_string(),
         };
         self.trace.divergence = Some(format!(

@@ -67,6 +67,7 @@ impl State {
         self.record_input(Input::NodeLost {
             node: node.to_string(),
         });
+        self.nodes_down.insert(node.to_string());
         let cause = format!("node-lost: agent `{node}` was lost (its liveliness token went)");
         for pid in self.on_node(node) {
             let entry = &self.plugins[pid];
@@ -88,6 +89,10 @@ impl State {
     /// then taken back at once (see `fault`): its instance was on the
     /// agent that went.
     pub(super) fn node_back(&mut self, node: &str) {
+        self.record_input(Input::NodeBack {
+            node: node.to_string(),
+        });
+        self.nodes_down.remove(node);
         for pid in self.on_node(node) {
             let entry = &self.plugins[pid];
             if entry.lifecycle == Lifecycle::Error {
@@ -97,16 +102,42 @@ impl State {
         }
     }
 
+    /// The plugins placed on agent `node` (running there, or here in a
+    /// replay or a scenario).
     fn on_node(&self, node: &str) -> Vec<usize> {
         (0..self.plugins.len())
-            .filter(|pid| {
-                self.plugins[*pid]
-                    .def
-                    .remote
-                    .as_ref()
-                    .is_some_and(|r| r.node == node)
-            })
+            .filter(|pid| self.plugins[*pid].def.node.as_deref() == Some(node))
             .collect()
+    }
+
+    /// Whether the agent plugin `pid` is placed on is there now.
+    pub(super) fn node_is_up(&self, pid: usize) -> bool {
+        let def = &self.plugins[pid].def;
+        match (&def.remote, &def.node) {
+            (Some(remote), _) => remote.link.is_alive(&remote.node),
+            (None, Some(node)) => !self.nodes_down.contains(node),
+            (None, None) => true,
+        }
+    }
+
+    /// Resets plugin `pid` `after` from now, as an operator or a supervisor
+    /// would after a fault (an injected fault says when: see
+    /// `crate::plugin::InjectedFault`).
+    pub(super) fn reset_later(&mut self, pid: usize, after: std::time::Duration) {
+        let Some(core) = self.core.upgrade() else {
+            return;
+        };
+        let at = self
+            .now()
+            .saturating_add(crate::clock::duration_nanos(after));
+        let name = self.plugins[pid].def.name.clone();
+        self.spawn(Box::pin(async move {
+            let _ = core.base.sleep_until(at, None).await;
+            core.with(|st| {
+                // Taken back already (a swap, another reset): nothing to do.
+                let _ = st.request_reset(&name, false);
+            });
+        }));
     }
 
     /// A plugin's state as deliberative code sees it.

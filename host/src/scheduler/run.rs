@@ -23,7 +23,7 @@ use crate::executor::{Executor, LocalTask, TaskId};
 use crate::limiter::MemoryBudget;
 use crate::payload::PayloadType;
 use crate::plugin::{InstanceSetup, Kind};
-use crate::trace::inputs::{Input, InputRecorder};
+use crate::trace::inputs::{Input, InputRecorder, Origin};
 use crate::trace::{Entry, Record};
 use crate::watchdog::RunWatch;
 
@@ -41,6 +41,10 @@ pub(crate) struct RunEnd {
     pub livelock: Option<u64>,
     /// Fuel each plugin's calls used, by plugin name.
     pub fuel: BTreeMap<String, u64>,
+    /// Calls made into each plugin, and instances made of it, by name.
+    pub calls: BTreeMap<String, (u64, u64)>,
+    /// Plugin faults: how many, and the first (plugin, time, cause).
+    pub faults: (u64, Option<(String, u64, String)>),
     /// A replay that parted from its recording: where.
     pub divergence: Option<String>,
     /// Plugins that faulted on a limit of the machine.
@@ -147,8 +151,11 @@ impl Scheduler {
         let plugins: Vec<PluginEntry> = plugins
             .into_iter()
             .enumerate()
-            .map(|(i, def)| {
+            .map(|(i, mut def)| {
                 by_name.insert(def.name.clone(), i);
+                let faults = Arc::new(crate::plugin::FaultPlan::new(std::mem::take(
+                    &mut def.faults,
+                )));
                 let lifecycle = match def.code.kind {
                     Kind::Event { .. } => Lifecycle::Inactive,
                     Kind::Response { .. } => Lifecycle::Active,
@@ -159,6 +166,7 @@ impl Scheduler {
                     def,
                     stop: Arc::new(StopFlag::default()),
                     fuel_used: Arc::default(),
+                    faults,
                     lifecycle,
                     actor: None,
                     reset_requested: false,
@@ -202,6 +210,8 @@ impl Scheduler {
             board: board::Blackboard::new(board),
             mailboxes: HashMap::new(),
             machine_limit: None,
+            nodes_down: std::collections::BTreeSet::new(),
+            faults: (0, None),
             budget,
             watch: watch.clone(),
         };
@@ -246,11 +256,25 @@ impl Scheduler {
         self.core.with(|st| {
             st.record_input(Input::Recording {
                 clock: kind.as_str().into(),
+                manifest: None,
             });
             for pid in 0..count {
                 let entry = &st.plugins[pid];
                 let (plugin, version) = (entry.name.to_string(), entry.def.code.version.clone());
-                st.record_input(Input::Plugin { plugin, version });
+                // A recording keeps the components its run began with.
+                let wasm = st
+                    .trace
+                    .inputs
+                    .as_mut()
+                    .map(|recorder| match &entry.def.origin {
+                        Some(path) => recorder.component(&Origin::File(path.clone()), &version),
+                        None => recorder.component_bytes(&entry.def.code.bytes, &version),
+                    });
+                st.record_input(Input::Plugin {
+                    plugin,
+                    version,
+                    wasm,
+                });
             }
             for pid in 0..count {
                 let entry = &st.plugins[pid];
@@ -349,6 +373,19 @@ impl Scheduler {
                 ClockKind::Virtual => match next {
                     Some(d) if self.limit.is_none_or(|l| d <= l) => {
                         self.core.base.advance_to(d);
+                        let fired = self.core.base.fired();
+                        if self
+                            .placed
+                            .front()
+                            .is_some_and(|input| input.before_timers(d, fired))
+                        {
+                            // A real-clock recording's input that came
+                            // before these timers fired there.
+                            let placed = &mut self.placed;
+                            self.core.with(|st| st.apply_next(placed));
+                            self.absorb();
+                            continue;
+                        }
                         self.core.base.fire_due(d);
                     }
                     _ => {
@@ -419,6 +456,16 @@ impl Scheduler {
                 })
                 .collect()
         });
+        let calls = self.core.with(|st| {
+            st.plugins
+                .iter()
+                .map(|p| {
+                    let counts = (p.faults.calls(), p.faults.instantiations());
+                    (p.name.to_string(), counts)
+                })
+                .collect()
+        });
+        let faults = self.core.with(|st| std::mem::take(&mut st.faults));
         let stopped = self.watch.stopping();
         let (trace, program_outcome, trace_errors, divergence, machine_limit) =
             self.core.with(|st| {
@@ -463,6 +510,8 @@ impl Scheduler {
             trace_errors,
             livelock,
             fuel,
+            calls,
+            faults,
             divergence,
             machine_limit,
             stopped,

@@ -110,6 +110,15 @@ pub(crate) struct PluginDef {
     pub wasi: Arc<crate::capability::wasi::WasiGrants>,
     /// The agent it runs on, if it is placed on one.
     pub remote: Option<crate::plugin::remote::Remote>,
+    /// The agent it is placed on in the manifest, also when the run keeps
+    /// it here (a replay, a scenario): what `node-lost` inputs apply to.
+    pub node: Option<String>,
+    /// Its component file (or script), as a recording copies it.
+    pub origin: Option<std::path::PathBuf>,
+    /// Faults to inject into it (`radar test --simulate`, `[[fault]]`).
+    pub faults: Vec<crate::plugin::InjectedFault>,
+    /// Fuel as time: its own rate, fuel a second.
+    pub fuel_rate: Option<u64>,
 }
 
 pub(super) struct PluginEntry {
@@ -118,6 +127,8 @@ pub(super) struct PluginEntry {
     pub(super) stop: Arc<StopFlag>,
     /// Fuel its calls have used (see [`InstanceSetup::fuel_used`]).
     pub(super) fuel_used: Arc<std::sync::atomic::AtomicU64>,
+    /// Its calls and instantiations, and the faults to inject.
+    pub(super) faults: Arc<crate::plugin::FaultPlan>,
     pub(super) lifecycle: Lifecycle,
     pub(super) actor: Option<Waker>,
     pub(super) reset_requested: bool,
@@ -265,6 +276,11 @@ pub(crate) struct State {
     /// Plugins that faulted on a limit of the machine: how many, and the
     /// first one's fault.
     pub(super) machine_limit: Option<(usize, String)>,
+    /// Agents lost and not back yet.
+    pub(super) nodes_down: std::collections::BTreeSet<String>,
+    /// Plugin faults in the run: how many, and the first (plugin, time,
+    /// cause).
+    pub(super) faults: (u64, Option<(String, u64, String)>),
     /// The memory all plugins may take together.
     pub(super) budget: Arc<MemoryBudget>,
     pub(super) watch: Arc<RunWatch>,
@@ -364,6 +380,8 @@ impl State {
                 budget: self.budget.clone(),
                 watch: self.watch.clone(),
                 remote: entry.def.remote.clone(),
+                faults: entry.faults.clone(),
+                fuel_rate: entry.def.fuel_rate,
             },
         )
     }
@@ -416,9 +434,12 @@ impl State {
                 | Input::Reset { .. }
                 | Input::Refused { .. }
                 | Input::NodeLost { .. }
+                | Input::NodeBack { .. }
         );
         let virtual_clock = self.base.kind() == ClockKind::Virtual;
         let step = (placed && virtual_clock).then(|| self.moves_now());
+        // Under the real clock, its place among the run's timers.
+        let wakes = (placed && !virtual_clock).then(|| self.base.fired());
         let end = matches!(input, Input::End { .. });
         let records = self
             .trace
@@ -437,6 +458,7 @@ impl State {
                 t,
                 step,
                 records,
+                wakes,
                 input,
             });
         }

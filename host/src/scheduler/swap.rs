@@ -298,7 +298,7 @@ impl Core {
                 }
                 return;
             }
-            Transition::Swap(pending) => pending,
+            Transition::Swap(pending) => *pending,
         };
         // At the safe point the check a `restart` interrupted is over: the
         // request has done its work, whatever becomes of the swap (left set,

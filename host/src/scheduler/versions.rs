@@ -29,5 +29,5 @@ pub(crate) enum Transition {
     /// `reset` of a plugin in `error`: a fresh instance of the same code.
     Reset,
     /// A swap that reached the plugin's safe point.
-    Swap(PendingSwap),
+    Swap(Box<PendingSwap>),
 }

@@ -1,6 +1,7 @@
 //! Building a [`System`](crate::System): its plugins compiled and checked, its static
 //! connections and timed inputs, its trace sinks and limits.
 
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::rc::Rc;
 use std::sync::atomic::Ordering;
@@ -22,7 +23,7 @@ use crate::clock::ClockKind;
 use crate::error::RadarError;
 use crate::limiter::MemoryBudget;
 use crate::plugin::remote::Remote;
-use crate::plugin::{default_cache_dir, Agents, Limits, Loader};
+use crate::plugin::{default_cache_dir, Agents, InjectedFault, Limits, Loader};
 use crate::ports::{Mode, SwapPolicy};
 use crate::scheduler::board::BoardUser;
 use crate::scheduler::{LinkSpec, LinkTarget, Place, PluginDef, StaticInput, StaticWhat};
@@ -56,6 +57,15 @@ pub struct SystemBuilder {
     memory_budget: Option<usize>,
     stall_timeout: Option<Duration>,
     agents: Option<Agents>,
+    /// Faults to inject, by plugin.
+    faults: BTreeMap<String, Vec<InjectedFault>>,
+    /// Fuel as time, plugin by plugin.
+    fuel_rates: BTreeMap<String, u64>,
+    /// A recording's components as its run began, by plugin: its version,
+    /// and the copy beside the recording.
+    recorded: BTreeMap<String, (String, String)>,
+    /// The manifest the system comes from, named in a recording.
+    manifest: Option<PathBuf>,
 }
 
 impl Default for SystemBuilder {
@@ -81,6 +91,10 @@ impl Default for SystemBuilder {
             memory_budget: None,
             stall_timeout: Some(crate::watchdog::DEFAULT_STALL_TIMEOUT),
             agents: None,
+            faults: BTreeMap::new(),
+            fuel_rates: BTreeMap::new(),
+            recorded: BTreeMap::new(),
+            manifest: None,
         }
     }
 }
@@ -117,6 +131,28 @@ impl SystemBuilder {
             system: agents.system.clone(),
             link: agents.link.clone(),
         })
+    }
+
+    /// Injects `fault` into `plugin` (`docs/testing.md#faults`): a trap or
+    /// fuel exhaustion at its n-th call, or a failed n-th instantiation.
+    pub fn fault(mut self, plugin: impl Into<String>, fault: InjectedFault) -> Self {
+        self.faults.entry(plugin.into()).or_default().push(fault);
+        self
+    }
+
+    /// Fuel as time: `plugin` computes at its own rate, `fuel_per_second`
+    /// (with [`SystemBuilder::fuel_as_time`], which gives the others').
+    pub fn fuel_rate(mut self, plugin: impl Into<String>, fuel_per_second: u64) -> Self {
+        self.fuel_rates.insert(plugin.into(), fuel_per_second);
+        self
+    }
+
+    /// Names the manifest the system comes from: a recording says so in
+    /// its first line, for `radar test --shadow`
+    /// ([`Manifest::add_to`](crate::manifest::Manifest::add_to) calls it).
+    pub fn from_manifest(mut self, path: impl Into<PathBuf>) -> Self {
+        self.manifest = Some(path.into());
+        self
     }
 
     /// The clock the system runs on (default: virtual).
@@ -237,6 +273,7 @@ impl SystemBuilder {
             t,
             step,
             records,
+            wakes,
             input,
         } in inputs
         {
@@ -244,9 +281,12 @@ impl SystemBuilder {
             // A recording's inputs carry their place in their instant: they
             // are applied there, not where a timer would put them; and the
             // records made before them, which the replay checks.
-            let place = step.map(|step| Place {
-                step,
+            // A real-clock recording's inputs carry their place among the
+            // run's timers.
+            let place = (step.is_some() || wakes.is_some()).then(|| Place {
+                step: step.unwrap_or(0),
                 records: *records,
+                wakes: *wakes,
             });
             let what = match input {
                 Input::Inject { to, payload } => StaticWhat::Inject {
@@ -294,6 +334,7 @@ impl SystemBuilder {
                 Input::Disconnect { id } => StaticWhat::Disconnect(*id),
                 Input::Reset { plugin } => StaticWhat::Reset(plugin.clone()),
                 Input::NodeLost { node } => StaticWhat::NodeLost(node.clone()),
+                Input::NodeBack { node } => StaticWhat::NodeBack(node.clone()),
                 Input::Refused {
                     command,
                     from,
@@ -307,6 +348,15 @@ impl SystemBuilder {
                     digest: Some(digest),
                 } => {
                     self.replay_end = records.map(|r| (r, digest.clone()));
+                    continue;
+                }
+                Input::Plugin {
+                    plugin,
+                    version,
+                    wasm: Some(wasm),
+                } => {
+                    self.recorded
+                        .insert(plugin.clone(), (version.clone(), wasm.clone()));
                     continue;
                 }
                 Input::Recording { .. } | Input::Plugin { .. } | Input::End { .. } => continue,
@@ -423,6 +473,10 @@ impl SystemBuilder {
         let mut defs: Vec<PluginDef> = Vec::new();
         let mut names = std::collections::HashSet::new();
         let agents = self.agents.clone();
+        let mut faults = self.faults;
+        let mut fuel_rates = self.fuel_rates;
+        let mut recorded = self.recorded;
+        let mut from_recording = Vec::new();
         for p in self.plugins {
             if p.name.is_empty() || p.name.contains(|c: char| c == '.' || c.is_whitespace()) {
                 return Err(RadarError::BadName(p.name));
@@ -444,14 +498,45 @@ impl SystemBuilder {
                     cause: format!("its WASI directory {} is not a directory", host.display()),
                 });
             }
-            let mut code = match &p.source {
+            let runtime = match &p.source {
                 Source::File(path) => loader.load_file(&p.name, path)?,
                 Source::Bytes(bytes) => loader.load_bytes(&p.name, bytes)?,
             };
-            if let Some(main) = &p.script {
-                code = loader.with_script(&p.name, &code, main)?;
+            let mut code = match &p.script {
+                Some(main) => loader.with_script(&p.name, &runtime, main)?,
+                None => runtime.clone(),
+            };
+            let mut origin = match (&p.script, &p.source) {
+                (Some(main), _) => Some(main.clone()),
+                (None, Source::File(path)) => Some(path.clone()),
+                (None, Source::Bytes(_)) => None,
+            };
+            // A replay runs the version its recording began with, which
+            // the recording keeps, when the manifest's has changed since.
+            if let Some((version, wasm)) = recorded.remove(&p.name) {
+                let path = PathBuf::from(&wasm);
+                let replayed = if crate::script::is_script(&path) {
+                    loader.with_script(&p.name, &runtime, &path)
+                } else {
+                    loader.load_file(&p.name, &path)
+                };
+                match replayed {
+                    Ok(old) if old.version == version && code.version != version => {
+                        code = old;
+                        origin = Some(path.clone());
+                        from_recording.push((p.name.clone(), path));
+                    }
+                    // The recorded script on a rebuilt runtime, a copy
+                    // gone: the manifest's version runs (and the replay
+                    // says it changed).
+                    _ => {
+                        if let Some(main) = &p.script {
+                            code = loader.with_script(&p.name, &runtime, main)?;
+                        }
+                    }
+                }
             }
-            let remote = match &p.node {
+            let remote = match p.node.as_ref().filter(|_| p.placed) {
                 None => None,
                 Some(node) => Some(Self::placement(agents.as_ref(), &p, node)?),
             };
@@ -463,7 +548,18 @@ impl SystemBuilder {
                 grants: Arc::new(p.grants),
                 wasi: Arc::new(p.wasi),
                 remote,
+                node: p.node,
+                origin,
+                faults: faults.remove(&p.name).unwrap_or_default(),
+                fuel_rate: fuel_rates.remove(&p.name),
                 name: p.name,
+            });
+        }
+        // A fault or a rate for a plugin the system does not have.
+        if let Some(name) = faults.keys().chain(fuel_rates.keys()).next() {
+            return Err(RadarError::UnknownPlugin {
+                name: name.clone(),
+                hint: crate::suggest::hint(name, defs.iter().map(|d| d.name.as_str())),
             });
         }
         let users: Vec<BoardUser<'_>> = defs
@@ -513,9 +609,13 @@ impl SystemBuilder {
         }
         let recorder = match &self.record {
             None => None,
-            Some(path) => Some(InputRecorder::create(path).map_err(|e| {
-                RadarError::Recording(format!("cannot create {}: {e}", path.display()))
-            })?),
+            Some(path) => Some(
+                InputRecorder::create(path)
+                    .map_err(|e| {
+                        RadarError::Recording(format!("cannot create {}: {e}", path.display()))
+                    })?
+                    .with_manifest(self.manifest.clone()),
+            ),
         };
         let (tx, rx) = unbounded();
         let budget = Arc::new(match self.memory_budget {
@@ -537,6 +637,7 @@ impl SystemBuilder {
             plugins: defs,
             links: self.links.into_iter().map(|l| l.spec).collect(),
             inputs,
+            from_recording,
             board,
             program,
             sinks: self.sinks,

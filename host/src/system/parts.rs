@@ -30,6 +30,8 @@ pub struct Plugin {
     pub(super) grants: Grants,
     pub(super) wasi: WasiGrants,
     pub(super) node: Option<String>,
+    /// Whether it runs on its `node` (else here, the node only a name).
+    pub(super) placed: bool,
 }
 
 impl Plugin {
@@ -54,6 +56,7 @@ impl Plugin {
             grants: Grants::default(),
             wasi: WasiGrants::default(),
             node: None,
+            placed: false,
         }
     }
 
@@ -63,6 +66,16 @@ impl Plugin {
     /// [`SystemBuilder::agents`](crate::SystemBuilder::agents).
     pub fn on_node(mut self, node: impl Into<String>) -> Self {
         self.node = Some(node.into());
+        self.placed = true;
+        self
+    }
+
+    /// Names the agent the plugin is placed on while running it here (a
+    /// replay of a distributed run, a scenario): the loss of that agent
+    /// (a `node-lost` input) still faults it.
+    pub fn on_node_here(mut self, node: impl Into<String>) -> Self {
+        self.node = Some(node.into());
+        self.placed = false;
         self
     }
 

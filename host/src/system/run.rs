@@ -3,6 +3,7 @@
 
 use std::collections::BTreeMap;
 use std::fmt::Display;
+use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -37,6 +38,9 @@ pub struct System {
     pub(super) plugins: Vec<PluginDef>,
     pub(super) links: Vec<LinkSpec>,
     pub(super) inputs: Vec<StaticInput>,
+    /// Plugins that run the component their replayed recording began
+    /// with, not the manifest's, and where it is.
+    pub(super) from_recording: Vec<(String, PathBuf)>,
     pub(super) board: BTreeMap<String, crate::payload::PayloadType>,
     pub(super) program: Option<ProgramCode>,
     pub(super) sinks: Vec<Box<dyn TraceSink>>,
@@ -79,6 +83,17 @@ pub struct RunReport {
     /// used in the run, all its instances together, instantiation aside.
     /// Deterministic for a given compiler: the same run uses the same fuel.
     pub fuel: BTreeMap<String, u64>,
+    /// Calls Radar made into each plugin (checks, slots, snapshots), all
+    /// its instances together: what an injected fault's `call` counts.
+    pub calls: BTreeMap<String, u64>,
+    /// Instances made of each plugin (or tried): what an injected fault's
+    /// `instantiation` counts.
+    pub instantiations: BTreeMap<String, u64>,
+    /// How many times a plugin faulted (trapped, ran out of fuel or
+    /// memory, lost its agent) in the run, whatever the trace kept.
+    pub faults: u64,
+    /// The first fault: the plugin, when, and the cause.
+    pub first_fault: Option<(String, Duration, String)>,
     /// A replay ([`SystemBuilder::inputs`](crate::SystemBuilder::inputs) from a virtual-clock recording)
     /// that parted from its recording: where it first did.
     pub replay_divergence: Option<String>,
@@ -103,6 +118,13 @@ impl System {
     /// The clock this system runs on.
     pub fn clock(&self) -> ClockKind {
         self.clock
+    }
+
+    /// The plugins that run the component (or script) the replayed
+    /// recording began with, because the manifest's has changed since, and
+    /// the copy the recording kept.
+    pub fn from_recording(&self) -> &[(String, PathBuf)] {
+        &self.from_recording
     }
 
     /// Each plugin's version (the first 12 hex digits of its component's
@@ -293,6 +315,17 @@ impl System {
             trace_errors: end.trace_errors,
             livelock: end.livelock.map(Duration::from_nanos),
             fuel: end.fuel,
+            calls: end
+                .calls
+                .iter()
+                .map(|(p, (c, _))| (p.clone(), *c))
+                .collect(),
+            instantiations: end.calls.into_iter().map(|(p, (_, i))| (p, i)).collect(),
+            faults: end.faults.0,
+            first_fault: end
+                .faults
+                .1
+                .map(|(plugin, t, cause)| (plugin, Duration::from_nanos(t), cause)),
             replay_divergence: end.divergence,
             machine_limit: end.machine_limit,
             stopped: end.stopped.map(|s| (s.reason.to_string(), s.message)),

@@ -74,15 +74,50 @@ impl fmt::Display for Violation {
 
 /// Checks `records` against the laws above; empty when the trace obeys them.
 pub fn check(records: &[Record]) -> Vec<Violation> {
-    let mut checker = Checker::default();
-    for (index, record) in records.iter().enumerate() {
-        checker.index = index;
-        checker.t = record.t;
-        checker.step(&record.entry);
+    let mut laws = Laws::default();
+    for record in records {
+        laws.observe(record);
     }
-    checker.index = records.len();
-    checker.close_window();
-    checker.violations
+    laws.finish()
+}
+
+/// The laws checked record by record, as a run makes them: for a trace too
+/// long to keep (a soak's), as a trace sink would see it.
+#[derive(Default)]
+pub struct Laws {
+    checker: Checker,
+    seen: usize,
+}
+
+impl Laws {
+    /// At most this many violations are kept (the count goes on).
+    pub const MOST_KEPT: usize = 1_000;
+
+    /// Takes the next record.
+    pub fn observe(&mut self, record: &Record) {
+        self.checker.index = self.seen;
+        self.checker.t = record.t;
+        self.checker.step(&record.entry);
+        self.seen += 1;
+        self.checker.violations.truncate(Self::MOST_KEPT);
+    }
+
+    /// Records taken so far.
+    pub fn records(&self) -> usize {
+        self.seen
+    }
+
+    /// The violations so far (a window still open is judged at the end).
+    pub fn violations(&self) -> &[Violation] {
+        &self.checker.violations
+    }
+
+    /// The trace ended: every violation.
+    pub fn finish(mut self) -> Vec<Violation> {
+        self.checker.index = self.seen;
+        self.checker.close_window();
+        self.checker.violations
+    }
 }
 
 /// The violations with the records around each (at most `most` of them), for

@@ -220,6 +220,25 @@ fn time_of(record: Option<&Json>) -> Option<f64> {
 
 impl fmt::Display for Divergence {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.write_as(f, ["expected", "produced", "expected", "actual"])
+    }
+}
+
+impl Divergence {
+    /// The divergence with its two sides named otherwise than expected
+    /// and actual: `[count word of the left, count word of the right,
+    /// left, right]`.
+    pub fn named(&self, names: [&str; 4]) -> String {
+        struct Named<'a>(&'a Divergence, [&'a str; 4]);
+        impl fmt::Display for Named<'_> {
+            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                self.0.write_as(f, self.1)
+            }
+        }
+        Named(self, names).to_string()
+    }
+
+    fn write_as(&self, f: &mut fmt::Formatter<'_>, names: [&str; 4]) -> fmt::Result {
         let at = time_of(self.expected.first()).or_else(|| time_of(self.actual.first()));
         write!(f, "first difference at record {}", self.index + 1)?;
         if let Some(t) = at {
@@ -227,8 +246,8 @@ impl fmt::Display for Divergence {
         }
         writeln!(
             f,
-            "; {} records expected, {} produced",
-            self.lengths.0, self.lengths.1
+            "; {} records {}, {} {}",
+            self.lengths.0, names[0], self.lengths.1, names[1]
         )?;
         let first = self.index + 1 - self.before.len();
         for (i, r) in self.before.iter().enumerate() {
@@ -243,9 +262,9 @@ impl fmt::Display for Divergence {
             }
             Ok(())
         };
-        writeln!(f, "  expected:")?;
+        writeln!(f, "  {}:", names[2])?;
         side(f, "-", &self.expected)?;
-        writeln!(f, "  actual:")?;
+        writeln!(f, "  {}:", names[3])?;
         side(f, "+", &self.actual)
     }
 }

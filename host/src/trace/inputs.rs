@@ -46,9 +46,30 @@ pub struct TimedInput {
     /// says so.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub records: Option<u64>,
+    /// Recorded under the real clock: how many of the run's timers had
+    /// fired before the input (a check's period, a sleep). A real clock
+    /// wakes late, so an input may come after a timer's deadline and still
+    /// before the timer fired; a replay, whose timers fire on time, applies
+    /// the input before the timer that followed it, to see what the
+    /// original saw.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wakes: Option<u64>,
     /// What came in.
     #[serde(flatten)]
     pub input: Input,
+}
+
+impl TimedInput {
+    /// `input` at `t` nanoseconds, with no recorded place.
+    pub fn at(t: u64, input: Input) -> Self {
+        Self {
+            t,
+            step: None,
+            records: None,
+            wakes: None,
+            input,
+        }
+    }
 }
 
 /// What came in from outside, or what a recording says about its run.
@@ -132,10 +153,19 @@ pub enum Input {
         /// The agent.
         node: String,
     },
+    /// An agent came back: its faulted plugins are instantiated again.
+    NodeBack {
+        /// The agent.
+        node: String,
+    },
     /// A recording's first line: the clock it was made on.
     Recording {
         /// `virtual` or `real`.
         clock: String,
+        /// The manifest the recorded system came from, if it came from one
+        /// (what `radar test --shadow` runs the recording against).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        manifest: Option<String>,
     },
     /// A plugin's version when the recorded run began.
     Plugin {
@@ -143,6 +173,11 @@ pub enum Input {
         plugin: String,
         /// Its version.
         version: String,
+        /// Its component (or script) as the run began, copied beside the
+        /// recording: what a replay runs when the manifest's has changed
+        /// since.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        wasm: Option<String>,
     },
     /// The recorded run ended here; under the virtual clock, with how many
     /// trace records it made (`records`) and a digest of them, which a
@@ -167,14 +202,21 @@ fn drain() -> String {
 pub fn parse(text: &str, dir: &Path) -> Result<Vec<TimedInput>, ParseError> {
     let mut inputs = parse_lines::<TimedInput>(text)?;
     for (line, input) in &mut inputs {
-        if let Input::Swap { wasm, policy, .. } = &mut input.input {
+        if let Input::Swap { policy, .. } = &input.input {
             if policy != "drain" && policy != "restart" {
                 return Err(ParseError {
                     line: *line,
                     cause: format!("swap policy `{policy}`: expected drain or restart"),
                 });
             }
-            if !wasm.starts_with("builtin:") && Path::new(wasm).is_relative() {
+        }
+        let wasm = match &mut input.input {
+            Input::Swap { wasm, .. } => Some(wasm),
+            Input::Plugin { wasm, .. } => wasm.as_mut(),
+            _ => None,
+        };
+        if let Some(wasm) = wasm {
+            if !wasm.starts_with("builtin:") && Path::new(wasm.as_str()).is_relative() {
                 *wasm = dir.join(&*wasm).display().to_string();
             }
         }
@@ -244,6 +286,8 @@ pub struct InputRecorder {
     out: BufWriter<File>,
     path: PathBuf,
     error: Option<String>,
+    /// The manifest of the system recorded, for the first line.
+    manifest: Option<PathBuf>,
 }
 
 impl InputRecorder {
@@ -253,7 +297,15 @@ impl InputRecorder {
             out: BufWriter::new(File::create(path)?),
             path: path.to_path_buf(),
             error: None,
+            manifest: None,
         })
+    }
+
+    /// Names the manifest the recorded system comes from (in the
+    /// recording's first line).
+    pub fn with_manifest(mut self, manifest: Option<PathBuf>) -> Self {
+        self.manifest = manifest;
+        self
     }
 
     /// Writes one line.
@@ -261,7 +313,23 @@ impl InputRecorder {
         if self.error.is_some() {
             return;
         }
-        let line = serde_json::to_string(input).unwrap_or_default();
+        let line = match (&input.input, &self.manifest) {
+            (
+                Input::Recording {
+                    clock,
+                    manifest: None,
+                },
+                Some(path),
+            ) => serde_json::to_string(&TimedInput {
+                input: Input::Recording {
+                    clock: clock.clone(),
+                    manifest: Some(path.display().to_string()),
+                },
+                ..input.clone()
+            }),
+            _ => serde_json::to_string(input),
+        }
+        .unwrap_or_default();
         if let Err(e) = writeln!(self.out, "{line}") {
             self.error = Some(format!("{}: {e}", self.path.display()));
         }
@@ -273,10 +341,7 @@ impl InputRecorder {
         match origin {
             Origin::Builtin(name) => format!("builtin:{name}"),
             Origin::File(source) => {
-                let folder_name = format!(
-                    "{}.components",
-                    self.path.file_name().unwrap_or_default().to_string_lossy()
-                );
+                let folder_name = self.components_folder();
                 let folder = self.path.with_file_name(&folder_name);
                 // A script goes with the files of its folder, into a
                 // folder of its own.
@@ -309,6 +374,34 @@ impl InputRecorder {
                 }
             }
         }
+    }
+
+    /// What a `plugin` line's `wasm` field says for a component known only
+    /// by its bytes (a built-in): they are written beside the recording.
+    pub(crate) fn component_bytes(&mut self, bytes: &[u8], version: &str) -> String {
+        let folder_name = self.components_folder();
+        let folder = self.path.with_file_name(&folder_name);
+        let copy = folder.join(format!("{version}.wasm"));
+        let written = std::fs::create_dir_all(&folder).and_then(|()| {
+            if copy.exists() {
+                Ok(())
+            } else {
+                std::fs::write(&copy, bytes)
+            }
+        });
+        if let Err(e) = written {
+            self.error
+                .get_or_insert_with(|| format!("cannot write {}: {e}", copy.display()));
+        }
+        format!("{folder_name}/{version}.wasm")
+    }
+
+    /// `FILE.components`: where components go beside the recording.
+    fn components_folder(&self) -> String {
+        format!(
+            "{}.components",
+            self.path.file_name().unwrap_or_default().to_string_lossy()
+        )
     }
 
     /// Flushes the file; the first error, if a write failed.

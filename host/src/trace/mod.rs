@@ -19,7 +19,7 @@ mod lines;
 mod record;
 mod sink;
 
-pub use check::{check, explain, Violation, WITHDRAWN};
+pub use check::{check, explain, Laws, Violation, WITHDRAWN};
 pub(crate) use kept::KeptTrace;
 pub use lines::{parse_json_lines, to_json_lines, to_values, ParseError};
 pub use record::{Entry, Name, Record};

@@ -48,6 +48,10 @@ pub struct McapTrace<W: Write + Seek + Send> {
     writer: Option<Writer<W>>,
     channels: HashMap<(String, String), u16>,
     sequence: u32,
+    /// The last record's time: a trace's records come in time order, and
+    /// MCAP orders them by it, so one that goes back could not be read
+    /// back where it was.
+    last_t: u64,
     pending: Vec<Record>,
     error: Option<ViewError>,
 }
@@ -63,6 +67,7 @@ impl<W: Write + Seek + Send> McapTrace<W> {
             writer: Some(options.create(out)?),
             channels: HashMap::new(),
             sequence: 0,
+            last_t: 0,
             pending: Vec::new(),
             error: None,
         })
@@ -76,6 +81,13 @@ impl<W: Write + Seek + Send> McapTrace<W> {
                 String::from_utf8_lossy(&line[..line.len().min(80)])
             ))
         })?;
+        if head.t < self.last_t {
+            return Err(ViewError::NotARecord(format!(
+                "its time goes back (t = {} after {}): a trace's records come in time order",
+                head.t, self.last_t
+            )));
+        }
+        self.last_t = head.t;
         let writer = self
             .writer
             .as_mut()
