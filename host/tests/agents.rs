@@ -172,6 +172,8 @@ fn a_lost_agent_faults_its_plugins_and_takes_them_back_when_it_returns() {
         .arg(dir.path().join("radar.toml"))
         .args(["--clock", "real", "--for", "40s", "-q", "--trace"])
         .arg(&trace)
+        // The agent's loss faults Avoid: expected here.
+        .arg("--allow-faults")
         .env("XDG_RUNTIME_DIR", &run_dir)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())

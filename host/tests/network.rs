@@ -235,7 +235,13 @@ from = "Counter.triggered"
 to = "R.start"
 "#
     .replace("TRAP", plugins::TRAP_RESPONSE);
-    let run = Running::start("swapped", &system, "", &["--clock", "real", "--for", "30s"]);
+    // Trap faults on purpose: the run says so, and exits 0 all the same.
+    let run = Running::start(
+        "swapped",
+        &system,
+        "",
+        &["--clock", "real", "--for", "30s", "--allow-faults"],
+    );
     let watcher = Command::new(env!("CARGO_BIN_EXE_radar"))
         .args([
             "ctl",
@@ -286,6 +292,11 @@ to = "R.start"
     run.ok(&["stop"]);
     let (out, dir) = run.finish(Duration::from_secs(30));
     assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stderr).contains("radar: Trap faulted at "),
+        "{}",
+        text(&out.stderr)
+    );
     let (trace, _) = lawful_trace(&dir.path().join("trace.jsonl"));
     assert!(
         trace.contains(r#""kind":"reset","plugin":"Trap""#),

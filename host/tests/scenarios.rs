@@ -291,8 +291,21 @@ fn a_replay_with_a_changed_plugin_names_it_and_the_first_divergence() {
     let out = replay();
     assert!(out.status.success(), "{}", text(&out.stderr));
 
-    // R is now another component: the replay says so, and where it parts.
+    // R is now another component: the replay runs the one the recording
+    // began with, kept beside it, and says so.
     write_manifest("builtin:count-up");
+    let out = replay();
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stderr).contains(
+            "replay: `R` has changed since the recording: the replay runs the version the \
+             recording began with ("
+        ),
+        "{}",
+        text(&out.stderr)
+    );
+    // Without the copies, the replay says R changed, and where it parts.
+    std::fs::remove_dir_all(dir.path().join("in.jsonl.components")).expect("rm copies");
     let out = replay();
     assert!(!out.status.success());
     let stderr = text(&out.stderr);

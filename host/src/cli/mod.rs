@@ -8,6 +8,8 @@ pub mod fixes;
 pub mod graph;
 pub mod ros2;
 pub mod run;
+pub mod shadow;
+pub mod simulate;
 pub mod test;
 pub mod trace;
 pub mod view;

@@ -115,6 +115,10 @@ pub struct RunArgs {
     /// CAP_SYS_NICE or an RLIMIT_RTPRIO that allows it).
     #[arg(long, value_name = "PRIORITY")]
     realtime: Option<u8>,
+    /// A plugin that faults is no failure of the run: exit 0 all the same
+    /// (without it, a run in which a plugin faulted exits with status 3).
+    #[arg(long)]
+    allow_faults: bool,
     /// Real clock: pin the scheduler's thread to this CPU (from 0).
     #[arg(long)]
     cpu: Option<usize>,
@@ -427,7 +431,7 @@ pub fn run(args: RunArgs) -> Result<()> {
             let system = manifest
                 .add_to(builder)
                 .build()
-                .map_err(|e| super::fixes::building(e, &manifest, path))?;
+                .map_err(|e| super::fixes::building(e, &manifest, path, args.release))?;
             if let Some(bridge) = &mut ros2 {
                 bridge.start(&system, network.as_ref())?;
             }
@@ -466,7 +470,7 @@ pub fn run(args: RunArgs) -> Result<()> {
             }
             system
                 .run(run_for)
-                .map_err(|e| super::fixes::building(e, &manifest, path))?
+                .map_err(|e| super::fixes::building(e, &manifest, path, args.release))?
         }
     };
     if let Some(bridge) = ros2.take() {
@@ -536,8 +540,28 @@ pub fn run(args: RunArgs) -> Result<()> {
             report.ended_at.as_secs_f64()
         ));
     }
+    if let Some((plugin, at, cause)) = &report.first_fault {
+        // Said even with -q: a fault is what a user must not miss.
+        let more = match report.faults {
+            1 => String::new(),
+            n => format!(" ({} faults in all)", n),
+        };
+        eprintln!(
+            "radar: {plugin} faulted at {:.3} s: {cause}{more}",
+            at.as_secs_f64()
+        );
+        if !args.allow_faults {
+            // Its own status, so that scripts tell it from a run that
+            // could not be made (docs/cli.md#radar-run).
+            std::process::exit(FAULTED);
+        }
+    }
     Ok(())
 }
+
+/// `radar run`'s exit status when a plugin faulted (without
+/// `--allow-faults`).
+const FAULTED: i32 = 3;
 
 /// Ctrl-C, SIGTERM or SIGHUP stop the run as its user asked: the call
 /// computing now ends, the trace is written to its end with a `stopped`
@@ -558,9 +582,19 @@ fn stop_on_signals(system: &System) {
 /// part from it: say which plugins changed, before the run.
 fn warn_of_changed_plugins(replay: Option<&[TimedInput]>, system: &System) {
     let Some(inputs) = replay else { return };
+    for (plugin, copy) in system.from_recording() {
+        eprintln!(
+            "radar: replay: `{plugin}` has changed since the recording: the replay runs the \
+             version the recording began with ({})",
+            copy.display()
+        );
+    }
     let now = system.versions();
     for input in inputs {
-        if let Input::Plugin { plugin, version } = &input.input {
+        if let Input::Plugin {
+            plugin, version, ..
+        } = &input.input
+        {
             match now.get(plugin) {
                 Some(v) if v == version => {}
                 Some(v) => eprintln!(
@@ -590,7 +624,7 @@ fn expect_trace(
     let recorded_real = replay.is_some_and(|inputs| {
         inputs
             .iter()
-            .any(|i| matches!(&i.input, Input::Recording { clock } if clock == "real"))
+            .any(|i| matches!(&i.input, Input::Recording { clock, .. } if clock == "real"))
     });
     let tolerance = tolerance.unwrap_or(if recorded_real {
         REAL_RECORDING_TOLERANCE

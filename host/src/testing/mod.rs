@@ -35,7 +35,12 @@ use crate::system::{Link, Plugin, Radar, RunReport, System, SystemBuilder};
 use crate::trace::compare::{compare, load_values, Comparison};
 use crate::trace::{inputs, to_values, Entry, Record};
 
+pub mod expect;
+pub mod fuzz;
 pub mod scenario;
+pub mod settings;
+pub mod shadow;
+pub mod simulate;
 
 /// `secs` seconds, for timed inputs and assertions.
 pub fn secs(secs: f64) -> Duration {

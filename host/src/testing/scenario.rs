@@ -24,17 +24,17 @@
 //! trace obeys the laws of `docs/semantics.md#conservation` and equals the expected one; a
 //! failure says which law, or shows the first differing record.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use serde::Deserialize;
-
+use super::expect::Expectations;
+use super::settings::{run_length, CompareSettings, Settings};
 use crate::clock::ClockKind;
-use crate::manifest::{parse_duration, Manifest};
-use crate::plugin::{Agents, Limits};
+use crate::manifest::Manifest;
+use crate::plugin::{Agents, InjectedFault, Limits};
 use crate::system::{RunReport, System};
 use crate::trace::compare::{compare, parse_values, Comparison};
 use crate::trace::inputs::{self, Input, TimedInput};
@@ -47,122 +47,6 @@ pub const INPUTS: &str = "inputs.jsonl";
 pub const EXPECT: &str = "expect.jsonl";
 /// Settings.
 pub const SETTINGS: &str = "scenario.toml";
-
-/// `scenario.toml`.
-#[derive(Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Settings {
-    /// Virtual time to run: `"30s"`, or a number of seconds.
-    #[serde(rename = "for", alias = "duration")]
-    pub run_for: Option<toml::Value>,
-    /// Seed of the random sources plugins see.
-    pub seed: Option<u64>,
-    /// What the scenario shows (for people).
-    pub description: Option<String>,
-    /// Fuel settings: a table, or a number (the budget of one call).
-    #[serde(default)]
-    pub fuel: FuelSettings,
-    /// What the comparison looks at: a table, or the list of kinds.
-    #[serde(default)]
-    pub compare: CompareSettings,
-    /// The record kinds compared (the same as `compare.kinds`).
-    pub kinds: Option<Vec<String>>,
-}
-
-/// `[fuel]` of `scenario.toml`.
-#[derive(Debug, Default, Deserialize)]
-#[serde(from = "FuelForm")]
-pub struct FuelSettings {
-    /// Fuel a call may burn, for plugins whose manifest entry sets none.
-    pub per_call: Option<u64>,
-    /// Fuel as time: virtual time advances one second per this much fuel.
-    pub per_second: Option<u64>,
-}
-
-#[derive(Deserialize)]
-#[serde(untagged)]
-enum FuelForm {
-    Budget(u64),
-    Table {
-        #[serde(alias = "budget")]
-        per_call: Option<u64>,
-        #[serde(alias = "as_time", alias = "fuel_per_second")]
-        per_second: Option<u64>,
-    },
-}
-
-impl From<FuelForm> for FuelSettings {
-    fn from(form: FuelForm) -> Self {
-        match form {
-            FuelForm::Budget(per_call) => Self {
-                per_call: Some(per_call),
-                per_second: None,
-            },
-            FuelForm::Table {
-                per_call,
-                per_second,
-            } => Self {
-                per_call,
-                per_second,
-            },
-        }
-    }
-}
-
-/// `[compare]` of `scenario.toml`.
-#[derive(Debug, Default, Deserialize)]
-#[serde(from = "CompareForm")]
-pub struct CompareSettings {
-    /// Record kinds compared (default: all).
-    pub kinds: Option<Vec<String>>,
-    /// `by-order` (default) or `exact`.
-    pub versions: Option<String>,
-    /// Fields never compared (default: `backtrace`).
-    pub ignore: Option<Vec<String>>,
-}
-
-#[derive(Deserialize)]
-#[serde(untagged)]
-enum CompareForm {
-    Kinds(Vec<String>),
-    Table {
-        kinds: Option<Vec<String>>,
-        versions: Option<String>,
-        ignore: Option<Vec<String>>,
-    },
-}
-
-impl From<CompareForm> for CompareSettings {
-    fn from(form: CompareForm) -> Self {
-        match form {
-            CompareForm::Kinds(kinds) => Self {
-                kinds: Some(kinds),
-                ..Self::default()
-            },
-            CompareForm::Table {
-                kinds,
-                versions,
-                ignore,
-            } => Self {
-                kinds,
-                versions,
-                ignore,
-            },
-        }
-    }
-}
-
-/// `for`: a duration text or a number of seconds.
-fn run_length(value: &toml::Value) -> Result<Duration, String> {
-    match value {
-        toml::Value::String(text) => parse_duration(text),
-        toml::Value::Integer(secs) if *secs >= 0 => Ok(Duration::from_secs(*secs as u64)),
-        toml::Value::Float(secs) if *secs >= 0.0 => Ok(Duration::from_secs_f64(*secs)),
-        other => Err(format!(
-            "`{other}`: expected a duration such as \"30s\", or seconds"
-        )),
-    }
-}
 
 /// A scenario that cannot be run as written.
 #[derive(Debug, thiserror::Error)]
@@ -181,11 +65,31 @@ pub struct Scenario {
     /// The folder.
     pub dir: PathBuf,
     manifest: Manifest,
-    inputs: Vec<TimedInput>,
     settings: Settings,
-    run_for: Duration,
     comparison: Comparison,
+    expectations: Expectations,
+    /// The run as written: its inputs, faults and compute.
+    spec: RunSpec,
     agents: Option<Agents>,
+}
+
+/// One run of a scenario: its timed inputs, the faults injected, how
+/// compute takes time, how long it lasts. [`Scenario::spec`] is the run
+/// as the folder writes it; a simulation's seed varies it.
+#[derive(Clone, Debug, Default)]
+pub struct RunSpec {
+    /// Timed inputs, in time order.
+    pub inputs: Vec<TimedInput>,
+    /// Faults injected, by plugin.
+    pub faults: BTreeMap<String, Vec<InjectedFault>>,
+    /// Fuel as time: fuel a second, for plugins without their own rate.
+    pub fuel_per_second: Option<u64>,
+    /// Fuel as time, plugin by plugin.
+    pub fuel_rates: BTreeMap<String, u64>,
+    /// The seed of the random sources plugins see.
+    pub seed: Option<u64>,
+    /// Virtual time to run.
+    pub run_for: Duration,
 }
 
 /// How a scenario went.
@@ -197,6 +101,19 @@ pub enum Verdict {
     Blessed,
     /// Why it failed (several lines: the divergence or the broken laws).
     Failed(String),
+}
+
+/// Why a run fails, judged without an expected trace: what a simulation
+/// judges every seed by, and plain `radar test` before comparing.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Failure {
+    /// What broke, as a key that stays the same while a failing case is
+    /// made smaller: `law conservation`, `never Avoid.faulted`, ...
+    pub key: String,
+    /// When it showed, in nanoseconds, if it did at a time.
+    pub t: Option<u64>,
+    /// What happened (several lines).
+    pub message: String,
 }
 
 /// One scenario's result.
@@ -218,7 +135,11 @@ impl Scenario {
             name: name.clone(),
             cause,
         };
-        let manifest = Manifest::load(&dir.join(MANIFEST)).map_err(|e| fail(e.to_string()))?;
+        let mut manifest = Manifest::load(&dir.join(MANIFEST)).map_err(|e| fail(e.to_string()))?;
+        // A scenario runs its plugins here, whatever agents they are placed
+        // on (their trace is the one of the distributed run): the agents'
+        // names stay, so that a lost agent can be simulated.
+        manifest.run_everything_here();
         let settings: Settings = match std::fs::read_to_string(dir.join(SETTINGS)) {
             Ok(text) => {
                 toml::from_str(&text).map_err(|e| fail(format!("{SETTINGS}: {}", e.message())))?
@@ -251,14 +172,31 @@ impl Scenario {
         if let Some(kinds) = &settings.kinds {
             comparison.kinds = Some(kinds.iter().cloned().collect());
         }
+        let expectations =
+            Expectations::parse(&settings.expect).map_err(|e| fail(format!("{SETTINGS}: {e}")))?;
+        let mut faults: BTreeMap<String, Vec<InjectedFault>> = BTreeMap::new();
+        for table in &settings.fault {
+            let fault = table
+                .fault()
+                .map_err(|e| fail(format!("{SETTINGS}: {e}")))?;
+            faults.entry(table.plugin.clone()).or_default().push(fault);
+        }
+        let spec = RunSpec {
+            inputs,
+            faults,
+            fuel_per_second: settings.fuel.per_second,
+            fuel_rates: settings.fuel.rates.clone(),
+            seed: settings.seed,
+            run_for,
+        };
         Ok(Self {
             name,
             dir: dir.to_path_buf(),
             manifest,
-            inputs,
             settings,
-            run_for,
             comparison,
+            expectations,
+            spec,
             agents: None,
         })
     }
@@ -272,14 +210,35 @@ impl Scenario {
         self
     }
 
+    /// The run as the folder writes it.
+    pub fn spec(&self) -> &RunSpec {
+        &self.spec
+    }
+
+    /// `scenario.toml`.
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+
+    /// The system, `radar.toml`.
+    pub fn manifest(&self) -> &Manifest {
+        &self.manifest
+    }
+
     /// Runs the system under the virtual clock with the scenario's inputs
     /// and settings.
     pub fn run(&self) -> Result<RunReport, String> {
+        self.run_spec(&self.spec)
+    }
+
+    /// Runs the system under the virtual clock as `spec` says; the names
+    /// `[expect]` uses are checked against the system first.
+    pub fn run_spec(&self, spec: &RunSpec) -> Result<RunReport, String> {
         // Every record kept: the laws and the expected trace judge it whole.
         let mut builder = System::builder()
             .clock(ClockKind::Virtual)
             .trace_limit(None);
-        if let Some(seed) = self.settings.seed {
+        if let Some(seed) = spec.seed {
             builder = builder.seed(seed);
         }
         if let Some(per_call) = self.settings.fuel.per_call {
@@ -288,43 +247,95 @@ impl Scenario {
                 ..Limits::default()
             });
         }
-        if let Some(rate) = self.settings.fuel.per_second {
+        if let Some(rate) = spec.fuel_per_second {
             builder = builder.fuel_as_time(rate);
+        }
+        for (plugin, rate) in &spec.fuel_rates {
+            builder = builder.fuel_rate(plugin, *rate);
+        }
+        for (plugin, faults) in &spec.faults {
+            for fault in faults {
+                builder = builder.fault(plugin, fault.clone());
+            }
         }
         if let Some(agents) = &self.agents {
             builder = builder.agents(agents.clone());
         }
-        let builder = self.manifest.add_to(builder).inputs(&self.inputs);
+        let builder = self.manifest.add_to(builder).inputs(&spec.inputs);
         let system = builder.build().map_err(|e| e.to_string())?;
-        system.run(Some(self.run_for)).map_err(|e| e.to_string())
+        self.expectations.check_names(&system)?;
+        system.run(Some(spec.run_for)).map_err(|e| e.to_string())
+    }
+
+    /// Judges a run without an expected trace: the livelock guard, the
+    /// laws, the deliberative program, `[expect]`; the first failure.
+    pub fn judge(&self, report: &RunReport) -> Option<Failure> {
+        if let Some(at) = report.livelock {
+            return Some(Failure {
+                key: "livelock".into(),
+                t: Some(crate::clock::duration_nanos(at)),
+                message: format!(
+                    "stopped at {:.3} s: the system kept working without virtual time advancing",
+                    at.as_secs_f64()
+                ),
+            });
+        }
+        let violations = crate::trace::check(&report.trace);
+        if let Some(first) = violations.first() {
+            return Some(Failure {
+                key: format!("law {}", first.rule),
+                t: Some(first.t),
+                message: format!(
+                    "the trace breaks the laws of `docs/semantics.md#conservation`:\n{}",
+                    crate::trace::explain(&report.trace, &violations, 5)
+                ),
+            });
+        }
+        if let Some(Err(e)) = &report.program {
+            return Some(Failure {
+                key: "program".into(),
+                t: None,
+                message: format!("the deliberative program failed: {e}"),
+            });
+        }
+        let end = crate::clock::duration_nanos(report.ended_at);
+        let broken = self.expectations.judge(&report.trace, end);
+        let first = broken.first()?;
+        let mut message = String::from("[expect] does not hold:\n");
+        for b in &broken {
+            message.push_str(&format!("  {b}\n"));
+        }
+        Some(Failure {
+            key: first.clause.clone(),
+            t: Some(first.t),
+            message,
+        })
     }
 
     /// Runs the scenario and judges it; with `bless`, writes the expected
-    /// trace instead of comparing (the laws are still checked).
-    pub fn check(&self, bless: bool) -> Verdict {
+    /// trace instead of comparing (the laws are still checked, and a run
+    /// in which a plugin faulted is refused unless `allow_faults` or the
+    /// scenario's `allow_faults` says faults are expected).
+    pub fn check(&self, bless: bool, allow_faults: bool) -> Verdict {
         let report = match self.run() {
             Ok(report) => report,
             Err(e) => return Verdict::Failed(e),
         };
-        if let Some(at) = report.livelock {
-            return Verdict::Failed(format!(
-                "stopped at {:.3} s: the system kept working without virtual time advancing",
-                at.as_secs_f64()
-            ));
-        }
-        let violations = crate::trace::check(&report.trace);
-        if !violations.is_empty() {
-            return Verdict::Failed(format!(
-                "the trace breaks the laws of `docs/semantics.md#conservation`:\n{}",
-                crate::trace::explain(&report.trace, &violations, 5)
-            ));
-        }
-        if let Some(Err(e)) = &report.program {
-            return Verdict::Failed(format!("the deliberative program failed: {e}"));
+        if let Some(failure) = self.judge(&report) {
+            return Verdict::Failed(failure.message);
         }
         let actual = crate::trace::to_values(&report.trace);
         let expect_path = self.dir.join(EXPECT);
         if bless {
+            let faults_expected =
+                allow_faults || self.settings.allow_faults || !self.spec.faults.is_empty();
+            if let (Some(fault), false) = (first_fault(&report), faults_expected) {
+                return Verdict::Failed(format!(
+                    "not blessed: {fault}; if the scenario shows this on purpose, say \
+                     `allow_faults = true` in its {SETTINGS} (or run `radar test --bless \
+                     --allow-faults`)"
+                ));
+            }
             return match std::fs::write(&expect_path, self.comparison.expected_text(&actual)) {
                 Ok(()) => Verdict::Blessed,
                 Err(e) => Verdict::Failed(format!("cannot write {}: {e}", expect_path.display())),
@@ -335,9 +346,14 @@ impl Scenario {
                 Ok(records) => records,
                 Err(e) => return Verdict::Failed(format!("{EXPECT}: {e}")),
             },
+            // `[expect]` judges the run on its own.
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound && !self.expectations.is_empty() => {
+                return Verdict::Passed
+            }
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
                 return Verdict::Failed(format!(
-                    "no {EXPECT}: run `radar test --bless` to write it from this run"
+                    "no {EXPECT}: run `radar test --bless` to write it from this run (or say \
+                     what every run must show in [expect] of {SETTINGS})"
                 ))
             }
             Err(e) => return Verdict::Failed(format!("cannot read {EXPECT}: {e}")),
@@ -349,6 +365,18 @@ impl Scenario {
             }
         }
     }
+}
+
+/// The first plugin fault of a run, in words: `Avoid faulted at 2.000 s:
+/// trapped: ...`.
+pub fn first_fault(report: &RunReport) -> Option<String> {
+    report.trace.iter().find_map(|r| match &r.entry {
+        crate::trace::Entry::Fault { plugin, error, .. } => Some(format!(
+            "{plugin} faulted at {:.3} s: {error}",
+            r.t as f64 / 1e9
+        )),
+        _ => None,
+    })
 }
 
 fn comparison(settings: &CompareSettings) -> Result<Comparison, String> {
@@ -425,6 +453,7 @@ fn walk(root: &Path, dir: &Path, found: &mut Vec<(String, PathBuf)>) -> std::io:
 pub fn run_all(
     scenarios: &[(String, PathBuf)],
     bless: bool,
+    allow_faults: bool,
     jobs: usize,
     mut report: impl FnMut(&Outcome),
 ) -> Vec<Outcome> {
@@ -442,7 +471,7 @@ pub fn run_all(
                 };
                 let began = Instant::now();
                 let verdict = match Scenario::load(dir, name.clone()) {
-                    Ok(scenario) => scenario.check(bless),
+                    Ok(scenario) => scenario.check(bless, allow_faults),
                     Err(e) => Verdict::Failed(e.cause),
                 };
                 let outcome = Outcome {
@@ -466,45 +495,4 @@ pub fn run_all(
         }
     });
     outcomes.into_iter().flatten().collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn settings(text: &str) -> Settings {
-        toml::from_str(text).expect("parses")
-    }
-
-    #[test]
-    fn settings_take_the_short_forms_too() {
-        let full = settings(
-            "for = \"2.5s\"\n[fuel]\nper_call = 5000\nper_second = 1000000\n[compare]\nkinds = [\"signal\"]\nversions = \"exact\"\n",
-        );
-        assert_eq!(
-            run_length(full.run_for.as_ref().expect("for")),
-            Ok(Duration::from_millis(2500))
-        );
-        assert_eq!(
-            (full.fuel.per_call, full.fuel.per_second),
-            (Some(5000), Some(1_000_000))
-        );
-        assert_eq!(full.compare.kinds, Some(vec!["signal".to_string()]));
-        let short = settings("for = 30\nfuel = 7000\ncompare = [\"signal\", \"deliver\"]\n");
-        assert_eq!(
-            run_length(short.run_for.as_ref().expect("for")),
-            Ok(Duration::from_secs(30))
-        );
-        assert_eq!(short.fuel.per_call, Some(7000));
-        assert_eq!(short.compare.kinds.map(|k| k.len()), Some(2));
-        let kinds = settings("for = 1.5\nkinds = [\"slot-begin\"]\n");
-        assert_eq!(
-            run_length(kinds.run_for.as_ref().expect("for")),
-            Ok(Duration::from_millis(1500))
-        );
-        assert!(
-            toml::from_str::<Settings>("for = \"1s\"\nfour = 2\n").is_err(),
-            "typos are errors"
-        );
-    }
 }

@@ -1,0 +1,340 @@
+//! `scenario.toml`: how a scenario folder says how to run and judge it
+//! (`docs/testing.md#scenariotoml`).
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+use serde::Deserialize;
+
+use super::expect::ExpectSettings;
+use crate::manifest::parse_duration;
+use crate::plugin::{FaultKind, InjectedFault};
+
+/// `scenario.toml`.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Settings {
+    /// Virtual time to run: `"30s"`, or a number of seconds.
+    #[serde(rename = "for", alias = "duration")]
+    pub run_for: Option<toml::Value>,
+    /// Seed of the random sources plugins see.
+    pub seed: Option<u64>,
+    /// What the scenario shows (for people).
+    pub description: Option<String>,
+    /// Fuel settings: a table, or a number (the budget of one call).
+    #[serde(default)]
+    pub fuel: FuelSettings,
+    /// What the comparison looks at: a table, or the list of kinds.
+    #[serde(default)]
+    pub compare: CompareSettings,
+    /// The record kinds compared (the same as `compare.kinds`).
+    pub kinds: Option<Vec<String>>,
+    /// What every run must show (`docs/testing.md#expect`).
+    #[serde(default)]
+    pub expect: ExpectSettings,
+    /// Faults injected into every run, at given calls.
+    #[serde(default)]
+    pub fault: Vec<FaultSettings>,
+    /// `radar test --simulate`: what a seed varies and injects.
+    #[serde(default)]
+    pub simulate: SimulateSettings,
+    /// A run in which a plugin faults may be blessed (and is no failure
+    /// of `radar run`): the scenario shows a fault on purpose.
+    #[serde(default)]
+    pub allow_faults: bool,
+}
+
+/// `[fuel]` of `scenario.toml`.
+#[derive(Debug, Default, Deserialize)]
+#[serde(from = "FuelForm")]
+pub struct FuelSettings {
+    /// Fuel a call may burn, for plugins whose manifest entry sets none.
+    pub per_call: Option<u64>,
+    /// Fuel as time: virtual time advances one second per this much fuel.
+    pub per_second: Option<u64>,
+    /// Fuel as time, plugin by plugin: a plugin named here computes at its
+    /// own rate (what a simulation's seed chose, as `--shrink` writes it).
+    pub rates: BTreeMap<String, u64>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum FuelForm {
+    Budget(u64),
+    Table {
+        #[serde(alias = "budget")]
+        per_call: Option<u64>,
+        #[serde(alias = "as_time", alias = "fuel_per_second")]
+        per_second: Option<u64>,
+        #[serde(default)]
+        rates: BTreeMap<String, u64>,
+    },
+}
+
+impl From<FuelForm> for FuelSettings {
+    fn from(form: FuelForm) -> Self {
+        match form {
+            FuelForm::Budget(per_call) => Self {
+                per_call: Some(per_call),
+                ..Self::default()
+            },
+            FuelForm::Table {
+                per_call,
+                per_second,
+                rates,
+            } => Self {
+                per_call,
+                per_second,
+                rates,
+            },
+        }
+    }
+}
+
+/// A `[[fault]]` table: a fault injected into every run of the scenario.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FaultSettings {
+    /// The plugin.
+    pub plugin: String,
+    /// `trap`, `fuel` (at `call`) or `reset-fails` (at `instantiation`).
+    pub kind: String,
+    /// Its call (from 1, over all its instances) that traps or runs out of
+    /// fuel.
+    pub call: Option<u64>,
+    /// Its instantiation (from 1: the run's start) that fails.
+    pub instantiation: Option<u64>,
+    /// The plugin is reset this long after the fault (`"500ms"`); without
+    /// it, it stays in `error`.
+    pub reset_after: Option<String>,
+}
+
+impl FaultSettings {
+    /// The fault, checked.
+    pub fn fault(&self) -> Result<InjectedFault, String> {
+        let plugin = &self.plugin;
+        let (kind, at) = match (self.kind.as_str(), self.call, self.instantiation) {
+            ("trap", Some(call), None) => (FaultKind::Trap, call),
+            ("fuel", Some(call), None) => (FaultKind::Fuel, call),
+            ("reset-fails", None, Some(n)) => (FaultKind::Instantiation, n),
+            ("trap" | "fuel", _, _) => {
+                return Err(format!(
+                    "[[fault]] of {plugin}: a `{}` fault says its `call` (and no \
+                     `instantiation`)",
+                    self.kind
+                ))
+            }
+            ("reset-fails", _, _) => {
+                return Err(format!(
+                    "[[fault]] of {plugin}: a `reset-fails` fault says its `instantiation` (and \
+                     no `call`)"
+                ))
+            }
+            (other, _, _) => {
+                return Err(format!(
+                    "[[fault]] of {plugin}: kind `{other}`: expected trap, fuel or reset-fails"
+                ))
+            }
+        };
+        if at == 0 {
+            return Err(format!(
+                "[[fault]] of {plugin}: calls and instantiations count from 1"
+            ));
+        }
+        let reset_after = self
+            .reset_after
+            .as_deref()
+            .map(parse_duration)
+            .transpose()
+            .map_err(|e| format!("[[fault]] of {plugin}: reset_after: {e}"))?;
+        Ok(InjectedFault {
+            kind,
+            at,
+            reset_after,
+        })
+    }
+}
+
+/// A kind of fault a simulation may inject (`[simulate] faults`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SimFault {
+    /// A plugin's call traps.
+    Trap,
+    /// A plugin's call runs out of fuel.
+    Fuel,
+    /// A plugin traps, and the reset that follows fails once.
+    ResetFails,
+    /// A plugin is swapped for a broken build.
+    BrokenSwap,
+    /// An agent is lost, and comes back.
+    LostNode,
+}
+
+/// `[simulate]` of `scenario.toml`: what `radar test --simulate` varies.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimulateSettings {
+    /// The faults a seed may inject.
+    #[serde(default)]
+    pub faults: Vec<SimFault>,
+    /// How far an input's time may move, either way, in milliseconds.
+    pub jitter_ms: Option<f64>,
+    /// At most this many faults a run (default 2).
+    pub max_faults: Option<u32>,
+    /// A faulted plugin (or a lost agent) is back this long after
+    /// (default 1000; 0: never).
+    pub reset_after_ms: Option<u64>,
+    /// Fuel as time: the range each plugin's rate is drawn from, `[LO,
+    /// HI]` fuel a second (default: half to twice the scenario's
+    /// `[fuel] per_second`, else 0.5 to 2 G); `0` keeps compute free.
+    pub fuel_per_second: Option<RateRange>,
+    /// Which generator turns seeds into runs (1, the only one so far).
+    pub generator: Option<u32>,
+}
+
+/// `[simulate] fuel_per_second`: a range, or 0 for none.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(untagged)]
+pub enum RateRange {
+    /// `[LO, HI]`.
+    Range([u64; 2]),
+    /// One rate (0: compute takes no time).
+    One(u64),
+}
+
+impl SimulateSettings {
+    /// Fuel a second when fuel is time and nothing says otherwise: about
+    /// one wasm instruction a nanosecond.
+    pub const DEFAULT_RATE: u64 = 1_000_000_000;
+
+    /// Jitter, in nanoseconds.
+    pub fn jitter_ns(&self) -> u64 {
+        self.jitter_ms
+            .filter(|ms| ms.is_finite() && *ms > 0.0)
+            .map_or(0, |ms| (ms * 1e6) as u64)
+    }
+
+    /// At most this many faults a run.
+    pub fn max_faults(&self) -> u32 {
+        self.max_faults.unwrap_or(2)
+    }
+
+    /// How long before a faulted plugin is reset.
+    pub fn reset_after(&self) -> Option<Duration> {
+        match self.reset_after_ms.unwrap_or(1000) {
+            0 => None,
+            ms => Some(Duration::from_millis(ms)),
+        }
+    }
+
+    /// The range a plugin's compute rate is drawn from, given the
+    /// scenario's own rate; `None`: compute is not varied.
+    pub fn rates(&self, scenario_rate: Option<u64>) -> Option<(u64, u64)> {
+        match self.fuel_per_second {
+            Some(RateRange::One(0)) => None,
+            Some(RateRange::One(rate)) => Some((rate, rate)),
+            Some(RateRange::Range([lo, hi])) => Some((lo.min(hi).max(1), hi.max(lo).max(1))),
+            None => {
+                let rate = scenario_rate.unwrap_or(Self::DEFAULT_RATE).max(2);
+                Some((rate / 2, rate.saturating_mul(2)))
+            }
+        }
+    }
+}
+
+/// `[compare]` of `scenario.toml`.
+#[derive(Debug, Default, Deserialize)]
+#[serde(from = "CompareForm")]
+pub struct CompareSettings {
+    /// Record kinds compared (default: all).
+    pub kinds: Option<Vec<String>>,
+    /// `by-order` (default) or `exact`.
+    pub versions: Option<String>,
+    /// Fields never compared (default: `backtrace`).
+    pub ignore: Option<Vec<String>>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum CompareForm {
+    Kinds(Vec<String>),
+    Table {
+        kinds: Option<Vec<String>>,
+        versions: Option<String>,
+        ignore: Option<Vec<String>>,
+    },
+}
+
+impl From<CompareForm> for CompareSettings {
+    fn from(form: CompareForm) -> Self {
+        match form {
+            CompareForm::Kinds(kinds) => Self {
+                kinds: Some(kinds),
+                ..Self::default()
+            },
+            CompareForm::Table {
+                kinds,
+                versions,
+                ignore,
+            } => Self {
+                kinds,
+                versions,
+                ignore,
+            },
+        }
+    }
+}
+
+/// `for`: a duration text or a number of seconds.
+pub fn run_length(value: &toml::Value) -> Result<Duration, String> {
+    match value {
+        toml::Value::String(text) => parse_duration(text),
+        toml::Value::Integer(secs) if *secs >= 0 => Ok(Duration::from_secs(*secs as u64)),
+        toml::Value::Float(secs) if *secs >= 0.0 => Ok(Duration::from_secs_f64(*secs)),
+        other => Err(format!(
+            "`{other}`: expected a duration such as \"30s\", or seconds"
+        )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn settings(text: &str) -> Settings {
+        toml::from_str(text).expect("parses")
+    }
+
+    #[test]
+    fn settings_take_the_short_forms_too() {
+        let full = settings(
+            "for = \"2.5s\"\n[fuel]\nper_call = 5000\nper_second = 1000000\n[compare]\nkinds = [\"signal\"]\nversions = \"exact\"\n",
+        );
+        assert_eq!(
+            run_length(full.run_for.as_ref().expect("for")),
+            Ok(Duration::from_millis(2500))
+        );
+        assert_eq!(
+            (full.fuel.per_call, full.fuel.per_second),
+            (Some(5000), Some(1_000_000))
+        );
+        assert_eq!(full.compare.kinds, Some(vec!["signal".to_string()]));
+        let short = settings("for = 30\nfuel = 7000\ncompare = [\"signal\", \"deliver\"]\n");
+        assert_eq!(
+            run_length(short.run_for.as_ref().expect("for")),
+            Ok(Duration::from_secs(30))
+        );
+        assert_eq!(short.fuel.per_call, Some(7000));
+        assert_eq!(short.compare.kinds.map(|k| k.len()), Some(2));
+        let kinds = settings("for = 1.5\nkinds = [\"slot-begin\"]\n");
+        assert_eq!(
+            run_length(kinds.run_for.as_ref().expect("for")),
+            Ok(Duration::from_millis(1500))
+        );
+        assert!(
+            toml::from_str::<Settings>("for = \"1s\"\nfour = 2\n").is_err(),
+            "typos are errors"
+        );
+    }
+}
