@@ -631,3 +631,52 @@ fn nothing_listens_without_a_network_table() {
     ]);
     fails_with(&out, "nothing answers at tcp/127.0.0.1:");
 }
+
+#[test]
+fn ctl_swap_shadow_runs_the_new_version_on_what_the_run_has_seen() {
+    let system = r#"
+[plugins.E]
+wasm = "builtin:test-event"
+config = { count_to = 2, interval_s = 0.2 }
+
+[plugins.R]
+wasm = "builtin:test-response"
+config = { interval_s = 0.1, count_for_s = 0.3 }
+
+[[connect]]
+mode = "whenever"
+from = "E.triggered"
+to = "R.start"
+"#;
+    let run = Running::start(
+        "shadowed",
+        system,
+        "",
+        &["--clock", "real", "--for", "30s", "--record", "DIR/rec.jsonl"],
+    );
+    run.ok(&["inject", "R.start", "5"]);
+    std::thread::sleep(Duration::from_millis(1500));
+    let out = run.ok(&["swap", "R", plugins::COUNT_UP, "--shadow"]);
+    assert!(out.starts_with("shadow of R: version "), "{out}");
+    assert!(
+        out.contains("the traces part: first difference at record"),
+        "count-up counts otherwise: {out}"
+    );
+    // Nothing was swapped.
+    assert!(
+        !std::fs::read_to_string(run.dir.path().join("trace.jsonl"))
+            .expect("trace")
+            .contains(r#""kind":"swap""#)
+    );
+    run.ok(&["stop"]);
+    let (out, _dir) = run.finish(Duration::from_secs(30));
+    assert!(out.status.success(), "{}", text(&out.stderr));
+
+    // A run that records nothing has nothing to shadow.
+    let run = Running::start("unrecorded", system, "", &["--clock", "real", "--for", "30s"]);
+    fails_with(
+        &run.ctl(&["swap", "R", plugins::COUNT_UP, "--shadow"]),
+        "start it with --record FILE",
+    );
+    run.ok(&["stop"]);
+}

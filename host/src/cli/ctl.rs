@@ -81,6 +81,11 @@ enum Verb {
         /// version, instead of letting it finish (drain).
         #[arg(long)]
         restart: bool,
+        /// Do not swap: run the new version on the inputs the run has
+        /// recorded so far (it must run with --record), beside the old
+        /// one, and show where they part (docs/hot-swap.md#shadow-swaps).
+        #[arg(long, conflicts_with = "restart")]
+        shadow: bool,
     },
     /// Instantiates a faulted plugin again.
     Reset { plugin: String },
@@ -163,6 +168,7 @@ pub fn ctl(args: CtlArgs) -> Result<()> {
             plugin,
             path,
             restart,
+            shadow,
         } => {
             let bytes =
                 std::fs::read(&path).with_context(|| format!("cannot read {}", path.display()))?;
@@ -175,6 +181,7 @@ pub fn ctl(args: CtlArgs) -> Result<()> {
                     plugin,
                     file,
                     restart,
+                    shadow,
                 },
                 bytes,
             )

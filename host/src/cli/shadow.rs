@@ -28,45 +28,13 @@ pub fn shadow(recording: &str, swap: &str, manifest: Option<&Path>) -> Result<()
     if !new.exists() {
         anyhow::bail!("{}: no such file", new.display());
     }
-    let run = shadow::shadow(&manifest, &inputs, plugin, &new)
+    let run = shadow::shadow(&manifest, &inputs, plugin, &new, None)
         .map_err(|e| anyhow::anyhow!("shadow of {plugin}: {e}"))?;
-    let (old, new_version) = &run.versions;
-    say(format_args!(
-        "shadow of {plugin}: version {old} (as recorded) beside {new_version} ({}), on {recording} \
-         ({:.3} s, virtual clock)",
-        new.display(),
-        run.recorded.ended_at.as_secs_f64()
-    ));
-    match &run.divergence {
-        None => {
-            say(format_args!(
-                "the traces do not part: on these inputs the new version does what the old one did"
-            ));
-            Ok(())
-        }
-        Some(divergence) => {
-            say(format_args!(
-                "the traces part: {}",
-                divergence
-                    .named(["as recorded", "in the shadow", "as recorded", "shadow"])
-                    .trim_end()
-            ));
-            let counts = run.signal_counts();
-            if !counts.is_empty() {
-                say(format_args!("signals, as recorded → shadow:"));
-                for line in counts {
-                    say(format_args!("  {line}"));
-                }
-            }
-            for (what, report) in [("recorded run", &run.recorded), ("shadow", &run.shadow)] {
-                if let Some((plugin, at, cause)) = &report.first_fault {
-                    say(format_args!(
-                        "{what}: {plugin} faulted at {:.3} s: {cause}",
-                        at.as_secs_f64()
-                    ));
-                }
-            }
-            anyhow::bail!("the new version of {plugin} parts from the recorded run")
-        }
+    for line in run.report(&new.display().to_string(), recording) {
+        say(format_args!("{line}"));
     }
+    if run.divergence.is_some() {
+        anyhow::bail!("the new version of {plugin} parts from the recorded run");
+    }
+    Ok(())
 }

@@ -13,6 +13,10 @@ use super::protocol::{Command, Reply, Request};
 /// How long a tool waits for an answer.
 pub const ANSWER_TIMEOUT: Duration = Duration::from_secs(10);
 
+/// How long `ctl swap --shadow` waits: the system runs two replays of
+/// what it has recorded before it answers.
+pub const SHADOW_TIMEOUT: Duration = Duration::from_secs(300);
+
 /// A tool's connection to the systems reachable from its endpoints.
 pub struct Client {
     session: Session,
@@ -99,6 +103,10 @@ impl Client {
         // The key goes only with a change: a reading needs none, and the
         // fewer messages carry it the better.
         let key = command.changes().then(|| local_key::read(system)).flatten();
+        let timeout = match &command {
+            Command::Swap { shadow: true, .. } => SHADOW_TIMEOUT,
+            _ => ANSWER_TIMEOUT,
+        };
         let request = Request {
             command,
             sender: Some(whoami()),
@@ -113,7 +121,7 @@ impl Client {
             .session
             .get(keys::control(system))
             .payload(payload)
-            .timeout(ANSWER_TIMEOUT)
+            .timeout(timeout)
             .wait()
             .map_err(|e| e.to_string())?;
         match replies.recv() {
@@ -124,7 +132,7 @@ impl Client {
             },
             Err(_) => Err(format!(
                 "system `{system}` did not answer within {} s",
-                ANSWER_TIMEOUT.as_secs()
+                timeout.as_secs()
             )),
         }
     }

@@ -227,7 +227,17 @@ impl Server {
             Command::Swap {
                 plugin,
                 file,
+                shadow: true,
+                ..
+            } => {
+                let path = self.keep_component(&file, component)?;
+                self.shadow(radar, &plugin, &file, &path)?
+            }
+            Command::Swap {
+                plugin,
+                file,
                 restart,
+                shadow: false,
             } => {
                 let path = self.keep_component(&file, component)?;
                 let policy = if restart {
@@ -250,6 +260,29 @@ impl Server {
                 vec!["stopping".into()]
             }
         })
+    }
+
+    /// `ctl swap --shadow`: the new version run on what the run has
+    /// recorded so far, beside the old one; nothing is swapped.
+    fn shadow(
+        &self,
+        radar: &Radar,
+        plugin: &str,
+        file: &str,
+        new: &Path,
+    ) -> Result<Vec<String>, Box<dyn std::error::Error + Send + Sync>> {
+        let Some(recording) = radar.recording()? else {
+            return Err("the run records no inputs, so there is nothing to run a shadow on: \
+                        start it with --record FILE"
+                .into());
+        };
+        let until = radar.now()?;
+        let inputs = crate::trace::inputs::load(&recording)?;
+        let manifest = crate::testing::shadow::recorded_manifest(&inputs)
+            .ok_or("the run's recording names no manifest (a built-in example)")?;
+        let run = crate::testing::shadow::shadow(&manifest, &inputs, plugin, new, Some(until))
+            .map_err(|e| format!("shadow of {plugin}: {e}"))?;
+        Ok(run.report(file, &format!("the inputs recorded so far ({})", recording.display())))
     }
 
     /// Writes a component sent by `ctl swap` where the run keeps them,

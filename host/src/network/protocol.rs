@@ -69,6 +69,11 @@ pub enum Command {
         /// `restart` instead of `drain`.
         #[serde(default)]
         restart: bool,
+        /// Do not swap: run the new version on the inputs the run has
+        /// recorded so far, beside the old one, and say where they part
+        /// (`docs/hot-swap.md#shadow-swaps`).
+        #[serde(default)]
+        shadow: bool,
     },
     /// Instantiates a faulted plugin again.
     Reset {
@@ -94,7 +99,15 @@ impl Command {
             Command::Inject { to, .. } => format!("inject {to}"),
             Command::Write { entry, .. } => format!("write {entry}"),
             Command::Read { entry } => format!("read {entry}"),
-            Command::Swap { plugin, file, .. } => format!("swap {plugin} {file}"),
+            Command::Swap {
+                plugin,
+                file,
+                shadow,
+                ..
+            } => format!(
+                "swap {plugin} {file}{}",
+                if *shadow { " --shadow" } else { "" }
+            ),
             Command::Reset { plugin } => format!("reset {plugin}"),
             Command::Stop => "stop".into(),
         }

@@ -90,6 +90,11 @@ pub(crate) enum Command {
     Overview {
         reply: Sender<crate::ports::Overview>,
     },
+    /// The recording of inputs so far (`--record`), flushed: its file, if
+    /// the run records (`radar ctl swap --shadow`).
+    Recording {
+        reply: Sender<Option<std::path::PathBuf>>,
+    },
     /// An agent's liveliness ended (`lost`) or came back.
     Node {
         node: String,

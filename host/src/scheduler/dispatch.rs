@@ -55,6 +55,14 @@ impl Scheduler {
             Command::Overview { reply } => {
                 let _ = reply.send(core.with(|st| st.overview()));
             }
+            Command::Recording { reply } => {
+                let path = core.with(|st| {
+                    let recorder = st.trace.inputs.as_mut()?;
+                    recorder.flush();
+                    Some(recorder.path().to_path_buf())
+                });
+                let _ = reply.send(path);
+            }
             Command::Refused {
                 command,
                 from,

@@ -284,6 +284,13 @@ impl Radar {
         self.ask(|reply| Command::Overview { reply })
     }
 
+    /// The run's recording of inputs so far (`--record`,
+    /// [`SystemBuilder::record_to`](crate::SystemBuilder::record_to)),
+    /// written out: its file, or `None` if the run records none.
+    pub fn recording(&self) -> Result<Option<std::path::PathBuf>, RadarError> {
+        self.ask(|reply| Command::Recording { reply })
+    }
+
     /// Runs `task` on a new thread as a native context of the run: under the
     /// virtual clock it takes turns with the program and the anonymous
     /// slots (it first runs when the caller blocks), so deliberative code on

@@ -57,14 +57,16 @@ fn recorded_end(inputs: &[TimedInput]) -> Option<Duration> {
 
 /// Runs `inputs` (a recording) against the system of `manifest` twice:
 /// as recorded, and with `plugin` replaced from the start by the
-/// component (or script) at `new`.
+/// component (or script) at `new`; for as long as the recorded run
+/// lasted, or `until` (a recording still being made has no end yet).
 pub fn shadow(
     manifest: &Path,
     inputs: &[TimedInput],
     plugin: &str,
     new: &Path,
+    until: Option<Duration>,
 ) -> Result<Shadow, String> {
-    let run_for = recorded_end(inputs).ok_or(
+    let run_for = until.or_else(|| recorded_end(inputs)).ok_or(
         "the recording has no `end` line (its run did not finish): a shadow runs as long as \
          the recorded run did",
     )?;
@@ -134,6 +136,44 @@ pub fn shadow(
 }
 
 impl Shadow {
+    /// What `radar test --shadow` and `radar ctl swap --shadow` print: a
+    /// line each (`new` names the new version's file, `on` the recording).
+    pub fn report(&self, new: &str, on: &str) -> Vec<String> {
+        let (old, new_version) = &self.versions;
+        let mut lines = vec![format!(
+            "shadow of {}: version {old} (as recorded) beside {new_version} ({new}), on {on} \
+             ({:.3} s, virtual clock)",
+            self.plugin,
+            self.recorded.ended_at.as_secs_f64()
+        )];
+        let Some(divergence) = &self.divergence else {
+            lines.push(
+                "the traces do not part: on these inputs the new version does what the old one \
+                 did"
+                .into(),
+            );
+            return lines;
+        };
+        let text = divergence.named(["as recorded", "in the shadow", "as recorded", "shadow"]);
+        let mut parts = text.trim_end().lines();
+        lines.push(format!("the traces part: {}", parts.next().unwrap_or_default()));
+        lines.extend(parts.map(str::to_string));
+        let counts = self.signal_counts();
+        if !counts.is_empty() {
+            lines.push("signals, as recorded → shadow:".into());
+            lines.extend(counts.into_iter().map(|c| format!("  {c}")));
+        }
+        for (what, report) in [("recorded run", &self.recorded), ("shadow", &self.shadow)] {
+            if let Some((plugin, at, cause)) = &report.first_fault {
+                lines.push(format!(
+                    "{what}: {plugin} faulted at {:.3} s: {cause}",
+                    at.as_secs_f64()
+                ));
+            }
+        }
+        lines
+    }
+
     /// What each run's plugins emitted, where the counts differ: `name:
     /// recorded → shadow`, a line each.
     pub fn signal_counts(&self) -> Vec<String> {

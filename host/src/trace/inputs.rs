@@ -404,6 +404,20 @@ impl InputRecorder {
         )
     }
 
+    /// Writes out what is buffered (a write that fails is kept as the
+    /// first error, as any).
+    pub fn flush(&mut self) {
+        if let Err(e) = self.out.flush() {
+            self.error
+                .get_or_insert_with(|| format!("{}: {e}", self.path.display()));
+        }
+    }
+
+    /// The recording's file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
     /// Flushes the file; the first error, if a write failed.
     pub fn finish(&mut self) -> Result<(), String> {
         let flushed = self.out.flush().map_err(|e| e.to_string());
