@@ -652,7 +652,14 @@ to = "R.start"
         "shadowed",
         system,
         "",
-        &["--clock", "real", "--for", "30s", "--record", "DIR/rec.jsonl"],
+        &[
+            "--clock",
+            "real",
+            "--for",
+            "30s",
+            "--record",
+            "DIR/rec.jsonl",
+        ],
     );
     run.ok(&["inject", "R.start", "5"]);
     std::thread::sleep(Duration::from_millis(1500));
@@ -662,18 +669,23 @@ to = "R.start"
         out.contains("the traces part: first difference at record"),
         "count-up counts otherwise: {out}"
     );
-    // Nothing was swapped.
-    assert!(
-        !std::fs::read_to_string(run.dir.path().join("trace.jsonl"))
-            .expect("trace")
-            .contains(r#""kind":"swap""#)
-    );
     run.ok(&["stop"]);
-    let (out, _dir) = run.finish(Duration::from_secs(30));
+    let (out, dir) = run.finish(Duration::from_secs(30));
     assert!(out.status.success(), "{}", text(&out.stderr));
+    // Nothing was swapped, nor recorded as asked.
+    let (trace, _) = lawful_trace(&dir.path().join("trace.jsonl"));
+    assert!(!trace.contains(r#""kind":"swap"#), "{trace}");
+    let recorded = std::fs::read_to_string(dir.path().join("rec.jsonl")).expect("recording");
+    assert!(!recorded.contains(r#""kind":"swap""#), "{recorded}");
+    assert!(recorded.contains(r#""kind":"inject""#), "{recorded}");
 
     // A run that records nothing has nothing to shadow.
-    let run = Running::start("unrecorded", system, "", &["--clock", "real", "--for", "30s"]);
+    let run = Running::start(
+        "unrecorded",
+        system,
+        "",
+        &["--clock", "real", "--for", "30s"],
+    );
     fails_with(
         &run.ctl(&["swap", "R", plugins::COUNT_UP, "--shadow"]),
         "start it with --record FILE",

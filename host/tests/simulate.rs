@@ -84,6 +84,7 @@ fn simulate_finds_an_injected_failure_prints_its_replay_and_shrinks_it() {
     assert_eq!(failure_of(&again_out), failure_of(&stdout));
     // Shrunk to a folder that plain `radar test` fails, the same way.
     assert!(stdout.contains("shrunk in "), "{stdout}");
+    assert!(stdout.contains("fails on it the same way"), "{stdout}");
     assert!(out_dir.join("scenario.toml").is_file());
     assert!(out_dir.join("inputs.jsonl").is_file());
     let plain = radar(&["test", arg(&out_dir)]);

@@ -117,7 +117,8 @@ fn virtual_soak(count: usize, run_for: Duration, seed: u64) -> Result<()> {
         };
         builder = builder.plugin(plugin);
         // Faults all along: a trap every few hundred calls, each reset
-        // 2 s later; now and then the reset itself fails.
+        // 2 s later; every third reset or so (its 3rd, 6th and 9th
+        // instantiation) fails, and is tried again 1 s later.
         let mut at = 0;
         for n in 0..12 {
             at += choose.between(50, 600);
@@ -134,7 +135,7 @@ fn virtual_soak(count: usize, run_for: Duration, seed: u64) -> Result<()> {
                     &name,
                     InjectedFault {
                         kind: FaultKind::Instantiation,
-                        at: 2 + n / 4,
+                        at: 3 * (n / 4 + 1),
                         reset_after: Some(Duration::from_secs(1)),
                     },
                 );
@@ -185,11 +186,15 @@ fn virtual_soak(count: usize, run_for: Duration, seed: u64) -> Result<()> {
                     now.as_secs(),
                     live.len()
                 );
-                // The first minute's end, then every ten minutes.
+                // The first minute's end, every ten minutes, and the run's
+                // last second.
+                let last = run_for.saturating_sub(Duration::from_secs(1));
                 next_sample = if now < Duration::from_secs(60) {
                     Duration::from_secs(60)
+                } else if now < last {
+                    (next_sample + Duration::from_secs(600)).min(last)
                 } else {
-                    next_sample + Duration::from_secs(600)
+                    Duration::MAX
                 };
             }
             radar.sleep(Duration::from_millis(choose.between(5, 200)))?;
@@ -253,7 +258,7 @@ fn virtual_soak(count: usize, run_for: Duration, seed: u64) -> Result<()> {
         }
     })?;
     let wall = ran.elapsed();
-    let rss_end = rss_mib("self");
+    let rss_after = rss_mib("self");
     let (laws, kinds) = std::mem::take(&mut *checked.0.lock().unwrap_or_else(|e| e.into_inner()));
     let records = laws.records();
     let violations = laws.finish();
@@ -280,15 +285,16 @@ fn virtual_soak(count: usize, run_for: Duration, seed: u64) -> Result<()> {
         pick("swap-refused"),
         pick("swap-rolled-back")
     );
+    let samples = samples.lock().unwrap_or_else(|e| e.into_inner()).clone();
     let after_warmup = samples
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
         .iter()
         .find(|(t, _, _)| *t >= 60)
         .map_or(rss_start, |(_, rss, _)| *rss);
+    let rss_end = samples.last().map_or(rss_after, |(_, rss, _)| *rss);
     println!(
-        "resident memory: {rss_start:.1} MiB at the start, {after_warmup:.1} MiB after the \
-         first minute, {rss_end:.1} MiB at the end ({:.2}× the first minute's)",
+        "resident memory: {rss_start:.1} MiB before the run, {after_warmup:.1} MiB after its \
+         first minute, {rss_end:.1} MiB in its last second ({:.2}× the first minute's), \
+         {rss_after:.1} MiB after it",
         rss_end / after_warmup.max(1.0)
     );
     judge(

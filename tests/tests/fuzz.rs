@@ -171,8 +171,8 @@ fn traces() {
 fn network_messages() {
     let mut seeds: Vec<Vec<u8>> = [
         &b"\x00{\"command\":\"ls\"}"[..],
-        b"\x00{\"command\":\"inject\",\"slot\":\"R.start\",\"payload\":3,\"sender\":\"a@b\",\"key\":\"k\"}",
-        b"\x00{\"command\":\"swap\",\"plugin\":\"E\",\"restart\":true}\n\x00asm\x0d\x00\x01\x00",
+        b"\x00{\"command\":\"inject\",\"to\":\"R.start\",\"payload\":3,\"sender\":\"a@b\",\"key\":\"k\"}",
+        b"\x00{\"command\":\"swap\",\"plugin\":\"E\",\"file\":\"e.wasm\",\"restart\":true,\"shadow\":false}\n\x00asm\x0d\x00\x01\x00",
         b"\x01{\"m\":\"instantiate\",\"system\":\"s\",\"plugin\":\"r1\",\"name\":\"E\"}",
         b"\x02{\"m\":\"instantiated\",\"plugin\":\"r1\",\"result\":{\"Ok\":null}}",
         b"\x03\x00\x00\x01\x00\x00\x00\x00\x00\x00\x20\x41",
@@ -181,6 +181,12 @@ fn network_messages() {
     .iter()
     .map(|s| s.to_vec())
     .collect();
+    // The requests are ones ctl sends: they reach the command's fields.
+    for seed in &seeds[..3] {
+        let (json, _) = radar::network::protocol::split(&seed[1..]);
+        serde_json::from_slice::<radar::network::protocol::Request>(json)
+            .unwrap_or_else(|e| panic!("{}: {e}", String::from_utf8_lossy(json)));
+    }
     // Every built-in ROS 2 type, with bytes of zeros.
     for which in 0..=255u8 {
         seeds.push([&[3, which][..], &[0, 1, 0, 0], &[0; 64]].concat());

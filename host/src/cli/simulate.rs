@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Result;
-use radar::testing::scenario::{Scenario, Verdict};
+use radar::testing::scenario::Scenario;
 use radar::testing::simulate::{self, SeedRun, Simulation};
 
 use super::say;
@@ -180,14 +180,25 @@ fn shrink_into(sim: &Simulation, run: &SeedRun, dir: &Path) -> String {
     let inputs = sim.spec(&shrunk.plan).inputs.len();
     // The folder must fail on its own, the same way.
     let check = match Scenario::load(dir, dir.display().to_string()) {
-        Ok(scenario) => match scenario.check(false, false) {
-            Verdict::Failed(_) => format!("`radar test {}` fails on it", dir.display()),
-            _ => format!(
-                "but `radar test {}` passes on it: please report this (a run of a scenario \
-                 folder differs from the simulated one)",
-                dir.display()
-            ),
-        },
+        Ok(scenario) => {
+            let failure = match scenario.run() {
+                Ok(report) => scenario.judge(&report).map(|f| f.key),
+                Err(e) => Some(format!("run: {e}")),
+            };
+            match failure {
+                Some(key) if key == shrunk.failure.key => {
+                    format!("`radar test {}` fails on it the same way", dir.display())
+                }
+                other => format!(
+                    "but `radar test {}` {}: please report this (a run of a scenario folder \
+                     differs from the simulated one)",
+                    dir.display(),
+                    other.map_or("passes on it".to_string(), |k| format!(
+                        "fails otherwise ({k})"
+                    ))
+                ),
+            }
+        }
         Err(e) => format!("but it cannot be read back: {}", e.cause),
     };
     format!(

@@ -19,6 +19,13 @@ use crate::system::{Link, Radar};
 /// thousandth is (a flood must not flood the terminal).
 const REFUSALS_PRINTED: u64 = 20;
 
+/// How a request is answered: now, or by work that takes long, on a
+/// thread of its own.
+pub(super) enum Answer {
+    Now(Reply),
+    Later(Box<dyn FnOnce() -> Reply + Send>),
+}
+
 /// Something that came in, for the control thread.
 pub(super) enum Incoming {
     Query(Query),
@@ -67,10 +74,19 @@ impl Server {
         }
         loop {
             match rx.recv_timeout(Duration::from_millis(200)) {
-                Ok(Incoming::Query(query)) => {
-                    let reply = self.query(&query);
-                    let _ = answer(&query, &reply);
-                }
+                Ok(Incoming::Query(query)) => match self.query(&query) {
+                    Answer::Now(reply) => {
+                        let _ = answer(&query, &reply);
+                    }
+                    // Long work (a shadow swap) answers from a thread of
+                    // its own: the control thread goes on taking commands
+                    // and puts meanwhile.
+                    Answer::Later(work) => {
+                        std::thread::spawn(move || {
+                            let _ = answer(&query, &work());
+                        });
+                    }
+                },
                 Ok(Incoming::Put {
                     key,
                     payload,
@@ -117,7 +133,16 @@ impl Server {
         }
     }
 
-    fn query(&mut self, query: &Query) -> Reply {
+    fn query(&mut self, query: &Query) -> Answer {
+        match self.request(query) {
+            Ok(answer) => answer,
+            Err(reply) => Answer::Now(reply),
+        }
+    }
+
+    /// A query's request checked and carried out, or the reply that
+    /// refuses it.
+    fn request(&mut self, query: &Query) -> Result<Answer, Reply> {
         let payload = query
             .payload()
             .map(|p| p.to_bytes().into_owned())
@@ -130,14 +155,14 @@ impl Server {
                 json.len()
             );
             self.refuse("?", &from_unknown, &reason);
-            return Reply::Refused(reason);
+            return Err(Reply::Refused(reason));
         }
         let request: Request = match serde_json::from_slice(json) {
             Ok(request) => request,
             Err(e) => {
                 let reason = format!("not a Radar request: {e}");
                 self.refuse("?", &from_unknown, &reason);
-                return Reply::Refused(reason);
+                return Err(Reply::Refused(reason));
             }
         };
         let from = request.sender.clone().unwrap_or(from_unknown);
@@ -145,26 +170,41 @@ impl Server {
         if request.command.changes() {
             if let Err(reason) = self.allowed(request.key.as_deref().map(str::as_bytes)) {
                 self.refuse(&summary, &from, &reason);
-                return Reply::Refused(reason);
+                return Err(Reply::Refused(reason));
             }
         }
         if !rest.is_empty() && !matches!(request.command, Command::Swap { .. }) {
             let reason = "bytes after the request (only `swap` carries a component)".to_string();
             self.refuse(&summary, &from, &reason);
-            return Reply::Refused(reason);
+            return Err(Reply::Refused(reason));
+        }
+        if let Command::Swap {
+            plugin,
+            file,
+            shadow: true,
+            ..
+        } = &request.command
+        {
+            // Nothing changes: an error is an answer, not a refusal.
+            return self
+                .shadow(plugin, file, rest)
+                .map(Answer::Later)
+                .map_err(|e| Reply::Error(e.to_string()));
         }
         let changes = request.command.changes();
-        match self.execute(request.command, rest, request.sender.as_deref()) {
-            Ok(lines) => Reply::Ok(lines),
-            Err(e) => {
-                // A change that could not be made is refused in the trace
-                // too: nothing from outside goes unrecorded.
-                if changes {
-                    self.refuse(&summary, &from, &e.to_string());
+        Ok(Answer::Now(
+            match self.execute(request.command, rest, request.sender.as_deref()) {
+                Ok(lines) => Reply::Ok(lines),
+                Err(e) => {
+                    // A change that could not be made is refused in the
+                    // trace too: nothing from outside goes unrecorded.
+                    if changes {
+                        self.refuse(&summary, &from, &e.to_string());
+                    }
+                    Reply::Error(e.to_string())
                 }
-                Reply::Error(e.to_string())
-            }
-        }
+            },
+        ))
     }
 
     /// Carries out `command` from `sender` (as the request names it:
@@ -227,17 +267,8 @@ impl Server {
             Command::Swap {
                 plugin,
                 file,
-                shadow: true,
-                ..
-            } => {
-                let path = self.keep_component(&file, component)?;
-                self.shadow(radar, &plugin, &file, &path)?
-            }
-            Command::Swap {
-                plugin,
-                file,
                 restart,
-                shadow: false,
+                ..
             } => {
                 let path = self.keep_component(&file, component)?;
                 let policy = if restart {
@@ -262,27 +293,47 @@ impl Server {
         })
     }
 
-    /// `ctl swap --shadow`: the new version run on what the run has
-    /// recorded so far, beside the old one; nothing is swapped.
+    /// `ctl swap --shadow`: what the run has recorded so far is taken
+    /// now; the new version runs on it beside the old one later, on a
+    /// thread of its own (the work returned). Nothing is swapped.
     fn shadow(
         &self,
-        radar: &Radar,
         plugin: &str,
         file: &str,
-        new: &Path,
-    ) -> Result<Vec<String>, Box<dyn std::error::Error + Send + Sync>> {
-        let Some(recording) = radar.recording()? else {
-            return Err("the run records no inputs, so there is nothing to run a shadow on: \
+        component: &[u8],
+    ) -> Result<Box<dyn FnOnce() -> Reply + Send>, Box<dyn std::error::Error + Send + Sync>> {
+        let Some((recording, len)) = self.radar.recording()? else {
+            return Err(
+                "the run records no inputs, so there is nothing to run a shadow on: \
                         start it with --record FILE"
-                .into());
+                    .into(),
+            );
         };
-        let until = radar.now()?;
-        let inputs = crate::trace::inputs::load(&recording)?;
-        let manifest = crate::testing::shadow::recorded_manifest(&inputs)
-            .ok_or("the run's recording names no manifest (a built-in example)")?;
-        let run = crate::testing::shadow::shadow(&manifest, &inputs, plugin, new, Some(until))
-            .map_err(|e| format!("shadow of {plugin}: {e}"))?;
-        Ok(run.report(file, &format!("the inputs recorded so far ({})", recording.display())))
+        let until = self.radar.now()?;
+        let new = self.keep_component(file, component)?;
+        let (plugin, file) = (plugin.to_string(), file.to_string());
+        Ok(Box::new(move || {
+            let run = || -> Result<Vec<String>, String> {
+                // The recording as it was when asked: its whole lines.
+                let bytes = std::fs::read(&recording).map_err(|e| e.to_string())?;
+                let text = String::from_utf8_lossy(&bytes[..(len as usize).min(bytes.len())]);
+                let dir = recording.parent().unwrap_or(Path::new("."));
+                let inputs = crate::trace::inputs::parse(&text, dir).map_err(|e| e.to_string())?;
+                let manifest = crate::testing::shadow::recorded_manifest(&inputs)
+                    .ok_or("the run's recording names no manifest (a built-in example)")?;
+                let shadow =
+                    crate::testing::shadow::shadow(&manifest, &inputs, &plugin, &new, Some(until))
+                        .map_err(|e| format!("shadow of {plugin}: {e}"))?;
+                Ok(shadow.report(
+                    &file,
+                    &format!("the inputs recorded so far ({})", recording.display()),
+                ))
+            };
+            match run() {
+                Ok(lines) => Reply::Ok(lines),
+                Err(e) => Reply::Error(e),
+            }
+        }))
     }
 
     /// Writes a component sent by `ctl swap` where the run keeps them,

@@ -21,7 +21,8 @@ pub enum FaultKind {
     Trap,
     /// The call runs out of fuel.
     Fuel,
-    /// The instantiation fails (a reset's, or a swap's new version's).
+    /// The instantiation fails (the run's start, a reset, a fresh store
+    /// after a store died; not a swap's new version).
     Instantiation,
 }
 
@@ -44,7 +45,8 @@ pub struct InjectedFault {
     /// At which call ([`FaultKind::Trap`], [`FaultKind::Fuel`]) or
     /// instantiation ([`FaultKind::Instantiation`]), counted from 1 over
     /// all the plugin's instances (the first instantiation is the run's
-    /// start).
+    /// start; then each reset, and each fresh store after a store died; a
+    /// swap's new version is not counted).
     pub at: u64,
     /// The plugin is reset this long after the fault, as an operator or a
     /// supervisor would (none: it stays in `error`).

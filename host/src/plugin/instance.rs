@@ -97,9 +97,6 @@ impl PluginCode {
     /// A new instance for `setup`: in this process, or on the agent the
     /// plugin is placed on.
     pub async fn instantiate(&self, setup: InstanceSetup) -> Result<PluginInstance, Fault> {
-        if let Some(fault) = setup.faults.on_instantiation() {
-            return Err(fault);
-        }
         let faults = setup.faults.clone();
         let inner = match setup.remote.clone() {
             Some(remote) => Inner::Remote(

@@ -17,8 +17,16 @@ use crate::trace::Entry;
 
 impl Core {
     /// Builds a fresh instance; a failure puts the plugin in `error`.
+    /// Every instance a plugin makes for itself (the run's start, a reset,
+    /// a fresh store) comes here, and is counted for injected faults; a
+    /// swap's new version is made ahead and is not (a broken build is a
+    /// fault of its own, `broken-swap`).
     pub(super) async fn instantiate(&self, pid: usize) -> Option<PluginInstance> {
         let (code, setup) = self.with(|st| st.setup(pid));
+        if let Some(fault) = setup.faults.on_instantiation() {
+            self.with(|st| st.fault(pid, fault));
+            return None;
+        }
         // Boxed, like a transition below: an actor's future is as large as
         // the largest future it awaits, and it lives as long as the plugin
         // (10,000 plugins, 10,000 of them); the rare paths pay an
@@ -59,6 +67,8 @@ impl Core {
 pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
     let mut instance = core.instantiate(pid).await;
     let (stop, period) = core.with(|st| (st.plugins[pid].stop.clone(), st.plugins[pid].def.period));
+    // Whether the wait for this check's time was a timer's (see below).
+    let mut waited = false;
     loop {
         core.until_ready(pid, |e| {
             e.reset_requested || e.swap.is_some() || e.lifecycle == Lifecycle::Active
@@ -85,11 +95,13 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
         let next = core.with(|st| st.plugins[pid].next_check);
         if core.base.now() < next {
             let _ = core.base.sleep_until(next, Some(stop.clone())).await;
+            waited = true;
             continue;
         }
-        if next > 0 {
-            // The last check took longer than the period: no wait, but
-            // counted as one (see `TimeBase::fired`).
+        if next > 0 && !std::mem::take(&mut waited) {
+            // The last check took longer than the period: no timer, but
+            // counted as one, as on a clock that is never late (see
+            // `TimeBase::fired`).
             core.base.note_wake();
         }
         let began = core.base.now();

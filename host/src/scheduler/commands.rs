@@ -90,10 +90,11 @@ pub(crate) enum Command {
     Overview {
         reply: Sender<crate::ports::Overview>,
     },
-    /// The recording of inputs so far (`--record`), flushed: its file, if
-    /// the run records (`radar ctl swap --shadow`).
+    /// The recording of inputs so far (`--record`), flushed: its file and
+    /// how many bytes of it are whole lines, if the run records (`radar
+    /// ctl swap --shadow`).
     Recording {
-        reply: Sender<Option<std::path::PathBuf>>,
+        reply: Sender<Option<(std::path::PathBuf, u64)>>,
     },
     /// An agent's liveliness ended (`lost`) or came back.
     Node {

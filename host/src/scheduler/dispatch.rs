@@ -59,7 +59,11 @@ impl Scheduler {
                 let path = core.with(|st| {
                     let recorder = st.trace.inputs.as_mut()?;
                     recorder.flush();
-                    Some(recorder.path().to_path_buf())
+                    let path = recorder.path().to_path_buf();
+                    // Flushed here, on the writer's thread: all of it is
+                    // whole lines now, whatever is written after.
+                    let len = std::fs::metadata(&path).map_or(0, |m| m.len());
+                    Some((path, len))
                 });
                 let _ = reply.send(path);
             }

@@ -134,8 +134,12 @@ impl State {
         self.spawn(Box::pin(async move {
             let _ = core.base.sleep_until(at, None).await;
             core.with(|st| {
-                // Taken back already (a swap, another reset): nothing to do.
-                let _ = st.request_reset(&name, false);
+                // Its agent lost meanwhile: the agent's return takes it
+                // back. Taken back already (a swap, another reset):
+                // nothing to do.
+                if st.node_is_up(pid) {
+                    let _ = st.request_reset(&name, false);
+                }
             });
         }));
     }

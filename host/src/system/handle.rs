@@ -286,8 +286,9 @@ impl Radar {
 
     /// The run's recording of inputs so far (`--record`,
     /// [`SystemBuilder::record_to`](crate::SystemBuilder::record_to)),
-    /// written out: its file, or `None` if the run records none.
-    pub fn recording(&self) -> Result<Option<std::path::PathBuf>, RadarError> {
+    /// written out: its file and how many of its bytes are whole lines
+    /// now (the run goes on writing), or `None` if the run records none.
+    pub fn recording(&self) -> Result<Option<(std::path::PathBuf, u64)>, RadarError> {
         self.ask(|reply| Command::Recording { reply })
     }
 

@@ -156,7 +156,10 @@ impl Shadow {
         };
         let text = divergence.named(["as recorded", "in the shadow", "as recorded", "shadow"]);
         let mut parts = text.trim_end().lines();
-        lines.push(format!("the traces part: {}", parts.next().unwrap_or_default()));
+        lines.push(format!(
+            "the traces part: {}",
+            parts.next().unwrap_or_default()
+        ));
         lines.extend(parts.map(str::to_string));
         let counts = self.signal_counts();
         if !counts.is_empty() {

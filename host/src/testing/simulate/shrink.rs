@@ -220,6 +220,18 @@ fn absolute_paths(manifest: &mut toml::Table, base: &Path) {
         }
         table.remove("build");
         table.remove("release");
+        // WASI directories the plugin sees.
+        if let Some(toml::Value::Table(wasi)) = table.get_mut("wasi") {
+            if let Some(toml::Value::Array(dirs)) = wasi.get_mut("dirs") {
+                for dir in dirs {
+                    if let Some(toml::Value::String(host)) = dir.get_mut("host") {
+                        if Path::new(host.as_str()).is_relative() {
+                            *host = base.join(host.as_str()).display().to_string();
+                        }
+                    }
+                }
+            }
+        }
     };
     if let Some(toml::Value::Table(plugins)) = manifest.get_mut("plugins") {
         for (_, plugin) in plugins.iter_mut() {
