@@ -402,7 +402,7 @@ fn real_soak(run_for: Duration) -> Result<()> {
         .spawn()?;
     let pid = run.id().to_string();
     println!(
-        "soak (real): 40 plugins, 20 on agent base, {} s; the agent is killed every minute",
+        "soak (real): 40 plugins, 10 of them on agent base, {} s; the agent is killed every minute",
         run_for.as_secs()
     );
     let began = Instant::now();

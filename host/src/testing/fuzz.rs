@@ -35,13 +35,19 @@ const RUN_FOR: Duration = Duration::from_secs(2);
 /// end a loop at once.
 const FUEL: u64 = 2_000_000;
 
-/// A system small enough to run thousands of times a second, virtual and
-/// with no trace kept.
-fn quick(builder: SystemBuilder) -> SystemBuilder {
+/// A system small enough to run many times a second: virtual, a bounded
+/// trace, small budgets. Its built-in components come from the compiled
+/// cache (the first run fills it); a fuzzed component, new each time, is
+/// compiled and not kept.
+fn quick(builder: SystemBuilder, cache: bool) -> SystemBuilder {
+    let builder = if cache {
+        builder
+    } else {
+        builder.cache_dir(None)
+    };
     builder
         .clock(ClockKind::Virtual)
         .trace_limit(Some(10_000))
-        .cache_dir(None)
         .default_limits(Limits {
             fuel_per_call: FUEL,
             memory_bytes: 16 << 20,
@@ -63,7 +69,7 @@ pub fn manifest(data: &[u8]) {
     let _ = manifest.nodes();
     let mut manifest = manifest;
     manifest.run_everything_here();
-    if let Ok(system) = manifest.add_to(quick(System::builder())).build() {
+    if let Ok(system) = manifest.add_to(quick(System::builder(), true)).build() {
         let _ = system.run(Some(RUN_FOR));
     }
 }
@@ -102,7 +108,7 @@ pub fn inputs(data: &[u8]) {
     let Ok(inputs) = crate::trace::inputs::parse(text, Path::new("/nonexistent-radar-fuzz")) else {
         return;
     };
-    let builder = crate::example::listing23(quick(System::builder())).inputs(&inputs);
+    let builder = crate::example::listing23(quick(System::builder(), true)).inputs(&inputs);
     if let Ok(system) = builder.build() {
         let _ = system.run(Some(RUN_FOR));
     }
@@ -189,7 +195,7 @@ pub fn network(data: &[u8]) {
 /// triggers, under small fuel and memory, and must fault, not take the
 /// host down.
 pub fn component(data: &[u8]) {
-    let builder = quick(System::builder()).plugin(Plugin::bytes("Fuzzed", data.to_vec()));
+    let builder = quick(System::builder(), false).plugin(Plugin::bytes("Fuzzed", data.to_vec()));
     // An event: connected, so that it runs; a response: started.
     let events = builder
         .plugin(Plugin::bytes(
@@ -202,7 +208,7 @@ pub fn component(data: &[u8]) {
     let system = match events.build() {
         Ok(system) => system,
         Err(_) => {
-            let responses = quick(System::builder())
+            let responses = quick(System::builder(), false)
                 .plugin(Plugin::bytes("Fuzzed", data.to_vec()))
                 .inject_at(Duration::ZERO, "Fuzzed.start", Json::Null);
             match responses.build() {
