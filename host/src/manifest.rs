@@ -201,6 +201,9 @@ pub struct PluginEntry {
     pub log_bytes: Option<usize>,
     /// Bytes one payload it emits may take.
     pub payload_bytes: Option<usize>,
+    /// Real clock: the wall-clock milliseconds one call may compute before
+    /// it faults.
+    pub deadline_ms: Option<u64>,
     /// How to build the component (`radar build`, `radar run --watch`).
     pub build: Option<BuildEntry>,
     /// The self-contained component to ship and how to build it (`radar
@@ -224,7 +227,7 @@ impl PluginEntry {
             self.log_bytes,
             self.payload_bytes,
         ];
-        if self.fuel.is_none() && set.iter().all(Option::is_none) {
+        if self.fuel.is_none() && self.deadline_ms.is_none() && set.iter().all(Option::is_none) {
             return None;
         }
         let d = Limits::default();
@@ -237,6 +240,7 @@ impl PluginEntry {
             instances: self.instances.unwrap_or(d.instances),
             log_bytes: self.log_bytes.unwrap_or(d.log_bytes),
             payload_bytes: self.payload_bytes.unwrap_or(d.payload_bytes),
+            deadline: self.deadline_ms.map(std::time::Duration::from_millis),
             ..d
         })
     }

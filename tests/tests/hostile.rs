@@ -386,3 +386,53 @@ fn a_virtual_run_that_makes_no_progress_is_stopped_naming_the_plugin_in_its_call
     let before: Vec<Json> = pair_records(&report, true);
     assert_eq!(before, pair_alone(3));
 }
+
+// --- A call past its deadline ---------------------------------------------
+
+#[test]
+fn under_the_real_clock_a_call_past_its_deadline_faults_and_the_others_run_on() {
+    let _one = one_at_a_time();
+    // A check that spins for as long as its fuel lasts (a long while), with
+    // a 30 ms deadline.
+    let spin = Plugin::file("Spin", plugins::SPIN_EVENT).limits(Limits {
+        fuel_per_call: 9_000_000_000_000,
+        deadline: Some(Duration::from_millis(30)),
+        ..Limits::default()
+    });
+    let began = Instant::now();
+    let report = run_beside(
+        radar::System::builder()
+            .clock(radar::ClockKind::Real)
+            .plugin(spin),
+        "Spin",
+        3,
+    );
+    assert!(began.elapsed() < Duration::from_secs(20));
+    let faults = faults(&report, "Spin");
+    assert!(!faults.is_empty(), "the deadline stops the check");
+    assert!(
+        faults[0].starts_with("deadline passed: the call computed for")
+            && faults[0].contains("over its `deadline_ms` of 30"),
+        "{}",
+        faults[0]
+    );
+    // The pair ran on: E triggered at about 2 s and R started.
+    let started = count(
+        &records(&report),
+        json!({"kind": "signal", "plugin": "R", "signal": "started"}),
+    );
+    assert_eq!(started, 1);
+    // Under the virtual clock the deadline does not apply: fuel is the
+    // bound (determinism).
+    let spin = Plugin::file("Spin", plugins::SPIN_EVENT).limits(Limits {
+        fuel_per_call: 20_000_000,
+        deadline: Some(Duration::from_millis(1)),
+        ..Limits::default()
+    });
+    let report = run_beside(virtual_system().plugin(spin), "Spin", 1);
+    let faults = self::faults(&report, "Spin");
+    assert!(
+        faults.iter().all(|f| f.starts_with("fuel exhausted")),
+        "{faults:?}"
+    );
+}

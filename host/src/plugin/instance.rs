@@ -89,6 +89,8 @@ pub(crate) struct LocalInstance {
     _counted: crate::limits::LiveInstance,
     fuel_per_call: u64,
     fuel_used: Arc<AtomicU64>,
+    /// Real clock: how long one call may compute (`Limits::deadline`).
+    deadline: Option<std::time::Duration>,
     stderr: StderrTail,
     funcs: [Option<Func>; 6],
 }
@@ -225,6 +227,7 @@ impl PluginCode {
             _counted: counted,
             fuel_per_call: setup.limits.fuel_per_call,
             fuel_used: setup.fuel_used,
+            deadline: setup.limits.deadline.filter(|_| real_clock),
             stderr,
             funcs,
         })
@@ -285,13 +288,31 @@ impl LocalInstance {
             &mut results[..0]
         };
         self.stderr.clear();
+        // Under the real clock, the wall-clock time the call computes: each
+        // poll runs the guest until it waits or yields (every
+        // `fuel_yield_interval`), so a call past its deadline is seen
+        // within one such stretch.
+        let deadline = self.deadline;
+        let mut computed = std::time::Duration::ZERO;
         let called = {
             let mut call = std::pin::pin!(func.call_async(&mut self.store, params, slots));
             std::future::poll_fn(|cx| {
                 let _quiet = crate::panics::QuietPanics::enter();
-                match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                let began = deadline.map(|_| std::time::Instant::now());
+                let polled = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                     std::future::Future::poll(call.as_mut(), cx)
-                })) {
+                }));
+                if let (Some(limit), Some(began), Ok(std::task::Poll::Pending)) =
+                    (deadline, began, &polled)
+                {
+                    computed += began.elapsed();
+                    if computed > limit {
+                        return std::task::Poll::Ready(Ok(Err(wasmtime::Error::new(
+                            DeadlinePassed { limit, computed },
+                        ))));
+                    }
+                }
+                match polled {
                     Ok(poll) => poll.map(Ok),
                     Err(panic) => std::task::Poll::Ready(Err(panic)),
                 }
@@ -327,6 +348,13 @@ impl LocalInstance {
             let _ = clock.base.sleep_until(deadline, None).await;
         }
         called.map_err(|e| {
+            if let Some(passed) = e.downcast_ref::<DeadlinePassed>() {
+                // The call's future was given up mid-call: the store is
+                // spent, as after fuel exhaustion, and is replaced.
+                let mut fault = Fault::new(passed.to_string());
+                fault.out_of_fuel = true;
+                return fault;
+            }
             let mut fault = fault(e);
             // An interpreter's uncaught exception: its message, then the trap.
             if let Some(line) = self.stderr.last_line() {
@@ -489,4 +517,17 @@ mod tests {
         );
         assert_eq!(super::wrong_value("TypeError: not a function"), None);
     }
+}
+
+/// A call that computed past its plugin's `deadline_ms` (real clock).
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "deadline passed: the call computed for {:.1} ms of wall time, over its `deadline_ms` of {} \
+     (under the real clock)",
+    computed.as_secs_f64() * 1e3,
+    limit.as_millis()
+)]
+struct DeadlinePassed {
+    limit: std::time::Duration,
+    computed: std::time::Duration,
 }

@@ -43,6 +43,12 @@ pub struct Limits {
     /// not depend on how much computing each call needs (a Python plugin
     /// burns far more fuel than the same plugin in Rust).
     pub fuel_yield_interval: u64,
+    /// Under the real clock, the wall-clock time one call may compute
+    /// (its time waiting in Radar's `sleep` and the like aside): a call
+    /// past it faults, and the other plugins run on. `None`: fuel bounds
+    /// it alone. Under the virtual clock fuel is the only bound, so that a
+    /// run stays deterministic.
+    pub deadline: Option<std::time::Duration>,
 }
 
 impl Default for Limits {
@@ -57,6 +63,7 @@ impl Default for Limits {
             log_bytes: 1 << 20,
             payload_bytes: 256 << 10,
             fuel_yield_interval: 10_000,
+            deadline: None,
         }
     }
 }

@@ -492,6 +492,16 @@ impl SystemBuilder {
                     cause: "an event's check period must be longer than zero".into(),
                 });
             }
+            if p.limits
+                .as_ref()
+                .and_then(|l| l.deadline)
+                .is_some_and(|d| d.is_zero())
+            {
+                return Err(RadarError::BadSetting {
+                    plugin: p.name,
+                    cause: "`deadline_ms` must be above 0 (leave it out for no deadline)".into(),
+                });
+            }
             if let Some((host, _, _)) = p.wasi.dirs.iter().find(|(host, _, _)| !host.is_dir()) {
                 return Err(RadarError::BadSetting {
                     plugin: p.name.clone(),
