@@ -79,7 +79,10 @@ fn main() {
         ("cold (every second)", Duration::from_secs(1), cold),
     ] {
         let ours = common::summary(&format!("radar, {what}"), radar(period, count));
-        let theirs = common::summary(&format!("paper's Python threads, {what}"), peer(period, count));
+        let theirs = common::summary(
+            &format!("paper's Python threads, {what}"),
+            peer(period, count),
+        );
         println!(
             "{:<52} {:.1}× (target ≥ 10×)",
             format!("peer p50 / radar p50, {what}"),

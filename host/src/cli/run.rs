@@ -405,7 +405,8 @@ pub fn run(args: RunArgs) -> Result<()> {
                 manifest.run_everything_here();
             }
             if let Some(settings) = manifest.network.as_ref().filter(|_| replay.is_none()) {
-                let net = Network::open(settings, manifest.dir())?;
+                let mut net = Network::open(settings, manifest.dir())?;
+                net.on_shadow(std::sync::Arc::new(super::shadow::on_running_system));
                 builder = builder.trace_to(net.publisher()).agents(net.agents());
                 let nodes = manifest.nodes();
                 if !nodes.is_empty() {

@@ -38,3 +38,20 @@ pub fn shadow(recording: &str, swap: &str, manifest: Option<&Path>) -> Result<()
     }
     Ok(())
 }
+
+/// `radar ctl swap --shadow` on a running system: what its recording holds
+/// so far, against the manifest it names, run beside the new version.
+pub fn on_running_system(job: radar::network::ShadowJob) -> Result<Vec<String>, String> {
+    let bytes = std::fs::read(&job.recording).map_err(|e| e.to_string())?;
+    let text = String::from_utf8_lossy(&bytes[..(job.len as usize).min(bytes.len())]);
+    let dir = job.recording.parent().unwrap_or(Path::new("."));
+    let inputs = inputs::parse(&text, dir).map_err(|e| e.to_string())?;
+    let manifest = shadow::recorded_manifest(&inputs)
+        .ok_or("the run's recording names no manifest (a built-in example)")?;
+    let run = shadow::shadow(&manifest, &inputs, &job.plugin, &job.new, Some(job.until))
+        .map_err(|e| format!("shadow of {}: {e}", job.plugin))?;
+    Ok(run.report(
+        &job.file,
+        &format!("the inputs recorded so far ({})", job.recording.display()),
+    ))
+}

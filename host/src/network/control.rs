@@ -57,7 +57,32 @@ pub(super) struct Server {
     pub key: Option<(String, PathBuf)>,
     pub swaps: PathBuf,
     pub refusals: u64,
+    /// Runs `ctl swap --shadow` (given by the command line).
+    pub shadow: Option<ShadowRunner>,
 }
+
+/// What a shadow swap runs on (`radar ctl swap --shadow`): the run's
+/// recording so far, and the new version of a plugin.
+pub struct ShadowJob {
+    /// The recording.
+    pub recording: PathBuf,
+    /// How many of its bytes are whole lines (the run goes on writing).
+    pub len: u64,
+    /// The plugin.
+    pub plugin: String,
+    /// The new version's file name, as ctl read it.
+    pub file: String,
+    /// The new version, as the run keeps it.
+    pub new: PathBuf,
+    /// The run's time when it was asked: how long the shadow runs.
+    pub until: Duration,
+}
+
+/// Runs a shadow swap: the lines to answer with, or the error. The host
+/// (`radar run`) gives it, running `radar::testing::shadow`, so that the
+/// network does not depend on the testing edge (`docs/architecture.md`).
+pub type ShadowRunner =
+    std::sync::Arc<dyn Fn(ShadowJob) -> Result<Vec<String>, String> + Send + Sync>;
 
 impl Server {
     pub(super) fn run(mut self, rx: Receiver<Incoming>) {
@@ -312,27 +337,20 @@ impl Server {
         let until = self.radar.now()?;
         let new = self.keep_component(file, component)?;
         let (plugin, file) = (plugin.to_string(), file.to_string());
-        Ok(Box::new(move || {
-            let run = || -> Result<Vec<String>, String> {
-                // The recording as it was when asked: its whole lines.
-                let bytes = std::fs::read(&recording).map_err(|e| e.to_string())?;
-                let text = String::from_utf8_lossy(&bytes[..(len as usize).min(bytes.len())]);
-                let dir = recording.parent().unwrap_or(Path::new("."));
-                let inputs = crate::trace::inputs::parse(&text, dir).map_err(|e| e.to_string())?;
-                let manifest = crate::testing::shadow::recorded_manifest(&inputs)
-                    .ok_or("the run's recording names no manifest (a built-in example)")?;
-                let shadow =
-                    crate::testing::shadow::shadow(&manifest, &inputs, &plugin, &new, Some(until))
-                        .map_err(|e| format!("shadow of {plugin}: {e}"))?;
-                Ok(shadow.report(
-                    &file,
-                    &format!("the inputs recorded so far ({})", recording.display()),
-                ))
-            };
-            match run() {
-                Ok(lines) => Reply::Ok(lines),
-                Err(e) => Reply::Error(e),
-            }
+        let Some(runner) = self.shadow.clone() else {
+            return Err("this system runs no shadows (its host gave no shadow runner)".into());
+        };
+        let job = ShadowJob {
+            recording,
+            len,
+            plugin: plugin.to_string(),
+            file: file.to_string(),
+            new,
+            until,
+        };
+        Ok(Box::new(move || match runner(job) {
+            Ok(lines) => Reply::Ok(lines),
+            Err(e) => Reply::Error(e),
         }))
     }
 

@@ -13,7 +13,7 @@ use zenoh::sample::SampleKind;
 use zenoh::{Session, Wait};
 
 use super::agents::ZenohAgents;
-use super::control::{answer, Incoming, Server};
+use super::control::{answer, Incoming, Server, ShadowRunner};
 use super::error::NetworkError;
 use super::keys;
 use super::local_key::KeyFile;
@@ -43,9 +43,17 @@ pub struct Network {
     /// Where swapped-in components from `ctl swap` are written.
     swaps: PathBuf,
     agents: Arc<ZenohAgents>,
+    /// What runs `ctl swap --shadow` (see [`Network::on_shadow`]).
+    shadow: Option<ShadowRunner>,
 }
 
 impl Network {
+    /// Lets `radar ctl swap --shadow` run shadows with `runner` (before
+    /// [`Network::serve`]): without one, it is refused.
+    pub fn on_shadow(&mut self, runner: ShadowRunner) {
+        self.shadow = Some(runner);
+    }
+
     /// Opens the session the settings describe (listening where they
     /// say, nowhere else), and under `control = "local"` writes the
     /// control key. `base` is the manifest's folder (for `users`).
@@ -73,6 +81,7 @@ impl Network {
             declared,
             thread: None,
             swaps,
+            shadow: None,
         })
     }
 
@@ -200,6 +209,7 @@ impl Network {
             key: self.key.as_ref().map(|k| (k.key.clone(), k.path.clone())),
             swaps: self.swaps.clone(),
             refusals: 0,
+            shadow: self.shadow.clone(),
         };
         self.thread = std::thread::Builder::new()
             .name("radar-control".into())

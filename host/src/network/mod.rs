@@ -29,6 +29,7 @@ mod session;
 mod settings;
 
 pub use agent::Agent;
+pub use control::{ShadowJob, ShadowRunner};
 pub use coordinator::Network;
 pub use error::NetworkError;
 pub use settings::{Control, NetworkSettings};
