@@ -114,6 +114,8 @@ struct Timers {
     /// where an input from outside came among the run's own timers (see
     /// `TimedInput::wakes`).
     fired: u64,
+    /// Real clock: the most a timer fired after its deadline, in ns.
+    latest: u64,
 }
 
 /// The clock and timer queue of one system; cheap to clone.
@@ -149,6 +151,7 @@ impl TimeBase {
                 seq: 0,
                 queue: BTreeMap::new(),
                 fired: 0,
+                latest: 0,
             }),
             logs: Mutex::new(PendingLogs::default()),
             has_logs: AtomicBool::new(false),
@@ -213,6 +216,12 @@ impl TimeBase {
         }
     }
 
+    /// The most a timer fired after its deadline (real clock: how late
+    /// the machine woke), in nanoseconds.
+    pub fn latest_wake(&self) -> u64 {
+        self.lock().latest
+    }
+
     /// The run's own timers fired so far (see [`TimeBase::input_sleep`]).
     pub fn fired(&self) -> u64 {
         self.lock().fired
@@ -241,8 +250,10 @@ impl TimeBase {
                 if entry.key().0 > now {
                     break;
                 }
+                let late = now - entry.key().0;
                 let (waker, counted) = entry.remove();
                 t.fired += u64::from(counted);
+                t.latest = t.latest.max(late);
                 due.push(waker);
             }
             due

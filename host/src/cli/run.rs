@@ -20,9 +20,10 @@ use radar::{example, ClockKind, SwapPolicy, System};
 use super::say;
 
 /// How far apart in time a replay of a real-clock recording may put a
-/// record and still match (`--expect`): a real clock wakes late by up to a
-/// few milliseconds on a loaded machine, and lateness adds up along a
-/// chain of sleeps.
+/// record and still match (`--expect`), besides twice the worst lateness
+/// the recording noted: a real clock wakes late by up to a few
+/// milliseconds on a loaded machine, and lateness adds up along a chain
+/// of sleeps.
 const REAL_RECORDING_TOLERANCE: Duration = Duration::from_millis(50);
 
 /// How long a run waits for the agents its plugins are placed on.
@@ -97,8 +98,8 @@ pub struct RunArgs {
     /// showing the first differing record, if they part.
     #[arg(long)]
     expect: Option<PathBuf>,
-    /// With --expect: how far apart times may be (default 0, or 50ms when
-    /// replaying a real-clock recording).
+    /// With --expect: how far apart times may be (default 0, or, replaying
+    /// a real-clock recording, 50ms plus twice its worst lateness).
     #[arg(long, value_parser = parse_duration)]
     tolerance: Option<Duration>,
     /// Fuel as time (virtual clock): plugins' compute takes virtual time,
@@ -627,8 +628,18 @@ fn expect_trace(
             .iter()
             .any(|i| matches!(&i.input, Input::Recording { clock, .. } if clock == "real"))
     });
+    // A real-clock recording says how late its timers fired at worst: a
+    // record may be that much later than on a clock that is never late.
+    let late = replay
+        .and_then(|inputs| {
+            inputs.iter().find_map(|i| match i.input {
+                Input::End { late, .. } => late,
+                _ => None,
+            })
+        })
+        .map_or(Duration::ZERO, Duration::from_nanos);
     let tolerance = tolerance.unwrap_or(if recorded_real {
-        REAL_RECORDING_TOLERANCE
+        REAL_RECORDING_TOLERANCE + 2 * late
     } else {
         Duration::ZERO
     });

@@ -479,7 +479,10 @@ impl Scheduler {
                 }
                 st.waiters.clear();
                 st.turns.abandon();
-                st.record_input(Input::End { digest: None });
+                st.record_input(Input::End {
+                    digest: None,
+                    late: None,
+                });
                 st.check_replay_end();
                 let mut errors: Vec<String> = st
                     .trace

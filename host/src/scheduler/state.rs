@@ -450,6 +450,7 @@ impl State {
         let input = match input {
             Input::End { .. } => Input::End {
                 digest: self.trace.digest.as_ref().map(TraceDigest::hex),
+                late: (!virtual_clock).then(|| self.base.latest_wake()),
             },
             other => other,
         };

@@ -346,6 +346,7 @@ impl SystemBuilder {
                 },
                 Input::End {
                     digest: Some(digest),
+                    ..
                 } => {
                     self.replay_end = records.map(|r| (r, digest.clone()));
                     continue;

@@ -186,6 +186,11 @@ pub enum Input {
         /// The first 16 hex digits of the sha256 of the trace's JSON lines.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         digest: Option<String>,
+        /// Under the real clock: how late, at worst, a timer of the run
+        /// fired, in nanoseconds (what a replay's default tolerance
+        /// allows for).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        late: Option<u64>,
     },
 }
 

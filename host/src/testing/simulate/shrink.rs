@@ -177,7 +177,10 @@ pub fn write_scenario(sim: &Simulation, plan: &Plan, dir: &Path) -> Result<(), S
     lines.push_str(
         &serde_json::to_string(&TimedInput::at(
             duration_nanos(spec.run_for),
-            Input::End { digest: None },
+            Input::End {
+                digest: None,
+                late: None,
+            },
         ))
         .map_err(|e| e.to_string())?,
     );
