@@ -297,7 +297,7 @@ impl Scheduler {
             self.actors.insert(id, pid);
         }
         let core = self.core.clone();
-        core.with(|st| -> Result<(), RadarError> {
+        let started = core.with(|st| -> Result<(), RadarError> {
             for link in std::mem::take(&mut self.links) {
                 st.connect(link)?;
             }
@@ -305,8 +305,12 @@ impl Scheduler {
             let inputs = std::mem::take(&mut self.inputs);
             self.placed = st.schedule_static_inputs(&core, inputs, placeable)?;
             Ok(())
-        })?;
+        });
+        // The tasks spawned so far go to the executor either way: left in
+        // the state they would hold the core that holds them, and a run
+        // that cannot start would leak its plugins' instances.
         self.absorb();
+        started?;
         let mut spin = SpinWindow::new();
         loop {
             let (stop, lockstep) = self.core.with(|st| (st.stop, st.turns.running()));
