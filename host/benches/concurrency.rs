@@ -44,16 +44,34 @@ struct Outcome {
     run: Duration,
 }
 
-fn run(n: usize) -> Outcome {
+/// N responses started at 0 s, or (`pairs`) N event → response pairs,
+/// each event triggering at 0.5 s and starting its response.
+fn run(n: usize, pairs: bool) -> Outcome {
     let before = resident();
     let began = Instant::now();
     let mut builder = System::builder()
         .clock(ClockKind::Virtual)
         .keep_trace(false);
     for i in 0..n {
-        builder = builder
-            .plugin(Plugin::file(format!("R{i}"), plugins::TEST_RESPONSE))
-            .inject_at(Duration::ZERO, format!("R{i}.start"), Json::from(i));
+        builder = builder.plugin(
+            Plugin::file(format!("R{i}"), plugins::TEST_RESPONSE)
+                .config("interval_s", "1")
+                .config("count_for_s", "10"),
+        );
+        builder = if pairs {
+            builder
+                .plugin(
+                    Plugin::file(format!("E{i}"), plugins::TEST_EVENT)
+                        .config("count_to", "1")
+                        .config("interval_s", "0.5"),
+                )
+                .connect(radar::Link::whenever(
+                    &format!("E{i}.triggered"),
+                    &format!("R{i}.start"),
+                ))
+        } else {
+            builder.inject_at(Duration::ZERO, format!("R{i}.start"), Json::from(i))
+        };
     }
     let system = builder.build().expect("builds");
     let build = began.elapsed();
@@ -93,13 +111,39 @@ fn main() {
         .ok()
         .map(|s| s.split(',').filter_map(|n| n.trim().parse().ok()).collect())
         .unwrap_or_else(|| vec![1_000, 10_000]);
-    println!("responses running at once (TestResponse sleeping in start, virtual clock)");
+    let pairs: Vec<usize> = std::env::var("RADAR_CONCURRENCY_PAIRS")
+        .ok()
+        .map(|s| s.split(',').filter_map(|n| n.trim().parse().ok()).collect())
+        .unwrap_or_else(|| vec![10_000]);
+    table(
+        "responses running at once (TestResponse sleeping in start, virtual clock)",
+        &sizes,
+        false,
+    );
+    println!("target: 10,000 running at once, none faulting, in <= 512 MiB");
+    table(
+        "event -> response pairs, every response running (two instances a pair)",
+        &pairs,
+        true,
+    );
+    println!(
+        "target: 10,000 pairs, none faulting at the kernel's default vm.max_map_count, in <= 1 GiB"
+    );
+    if std::env::var("RADAR_CONCURRENCY_SEARCH").is_ok_and(|v| v == "0") {
+        return;
+    }
+    search();
+}
+
+/// One line per size: faults, memory, mappings, times.
+fn table(title: &str, sizes: &[usize], pairs: bool) {
+    println!("{title}");
     println!(
         "{:>7}  {:>7}  {:>9}  {:>12}  {:>12}  {:>9}  {:>8}  {:>8}",
         "N", "faults", "RSS MiB", "KiB/built", "KiB/running", "mappings", "build", "run"
     );
-    for n in sizes {
-        let o = run(n);
+    for &n in sizes {
+        let o = run(n, pairs);
         println!(
             "{:>7}  {:>7}  {:>9.0}  {:>12.1}  {:>12.1}  {:>9}  {:>7.2}s  {:>7.2}s",
             n,
@@ -115,21 +159,21 @@ fn main() {
             println!("         first fault: {fault}");
         }
     }
-    println!("target: 10,000 running at once, none faulting, in <= 512 MiB");
-    if std::env::var("RADAR_CONCURRENCY_SEARCH").is_ok_and(|v| v == "0") {
-        return;
-    }
+}
+
+/// The largest N of responses running at once with none faulting.
+fn search() {
     // Doubling from 10,000 until a run faults, then halving the gap.
     let (mut fits, mut faults) = (0, 10_000);
     while faults < 1 << 20 {
-        if run(faults).faults > 0 {
+        if run(faults, false).faults > 0 {
             break;
         }
         (fits, faults) = (faults, faults * 2);
     }
     while faults - fits > fits / 100 + 1 {
         let mid = (fits + faults) / 2;
-        if run(mid).faults > 0 {
+        if run(mid, false).faults > 0 {
             faults = mid;
         } else {
             fits = mid;

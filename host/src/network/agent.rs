@@ -53,7 +53,7 @@ impl Agent {
         }
         let session = super::session::peer(listen, connect, credentials)?;
         let loader = Arc::new(Mutex::new(
-            Loader::new(crate::plugin::default_cache_dir())
+            Loader::new(crate::plugin::default_cache_dir(), false)
                 .map_err(|e| NetworkError::Settings(e.to_string()))?,
         ));
         let workers: Arc<Mutex<HashMap<(String, String), Inbox>>> = Arc::default();

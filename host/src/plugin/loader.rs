@@ -63,7 +63,7 @@ struct EngineFlavour {
 }
 
 impl EngineFlavour {
-    fn new(copy_on_write: bool) -> Result<Self, RadarError> {
+    fn new(copy_on_write: bool, compact: bool) -> Result<Self, RadarError> {
         let mut config = Config::new();
         config.consume_fuel(true);
         config.memory_init_cow(copy_on_write);
@@ -72,6 +72,15 @@ impl EngineFlavour {
         // a memory is one mapping fewer (the guard after it stays, so
         // bounds checks are still elided).
         config.guard_before_linear_memory(false);
+        if compact && !copy_on_write {
+            // A memory exactly its size, with no reservation or guard
+            // region after it: one mapping (adjacent ones even merge)
+            // instead of two, at the cost of an explicit bounds check on
+            // each access (see `Loader::new`).
+            config.memory_reservation(0);
+            config.memory_guard_size(0);
+            config.memory_reservation_for_growth(0);
+        }
         // So that a call that computes can be stopped from outside it
         // (a signal, a stall: see `crate::watchdog`).
         config.epoch_interruption(true);
@@ -83,6 +92,7 @@ impl EngineFlavour {
         let mut hasher = std::collections::hash_map::DefaultHasher::new();
         engine.precompile_compatibility_hash().hash(&mut hasher);
         copy_on_write.hash(&mut hasher);
+        compact.hash(&mut hasher);
         Ok(Self {
             engine,
             linker,
@@ -119,10 +129,15 @@ impl FileStamp {
 const COMPONENT_LAYER: [u8; 4] = [0x0d, 0x00, 0x01, 0x00];
 
 impl Loader {
-    pub fn new(cache_dir: Option<PathBuf>) -> Result<Self, RadarError> {
+    /// A loader with its engines. `compact`: for a large system, small
+    /// components' memories take one memory mapping each, not two, so that
+    /// tens of thousands of instances stay under the kernel's
+    /// `vm.max_map_count` (65,530 by default); their code then checks
+    /// bounds on each memory access instead of relying on a guard region.
+    pub fn new(cache_dir: Option<PathBuf>, compact: bool) -> Result<Self, RadarError> {
         Ok(Self {
-            copied: EngineFlavour::new(false)?,
-            mapped: EngineFlavour::new(true)?,
+            copied: EngineFlavour::new(false, compact)?,
+            mapped: EngineFlavour::new(true, compact)?,
             cache_dir,
             compiled: HashMap::new(),
             prepared: HashMap::new(),

@@ -470,7 +470,7 @@ impl SystemBuilder {
     /// Compiles and validates every plugin. The first plugin that cannot be
     /// loaded is named in the error.
     pub fn build(self) -> Result<System, RadarError> {
-        let mut loader = Loader::new(self.cache_dir)?;
+        let mut loader = Loader::new(self.cache_dir, self.plugins.len() >= COMPACT_FROM)?;
         let mut defs: Vec<PluginDef> = Vec::new();
         let mut names = std::collections::HashSet::new();
         let agents = self.agents.clone();
@@ -664,6 +664,13 @@ impl SystemBuilder {
         })
     }
 }
+
+/// From how many plugins a system's small components take one memory
+/// mapping for their memory instead of two (`Loader::new`): below it,
+/// guest code runs with its bounds checks elided; from it, 10,000 event →
+/// response pairs with every response running fit the kernel's default
+/// `vm.max_map_count`.
+pub const COMPACT_FROM: usize = 4096;
 
 /// How many records [`RunReport::trace`](crate::RunReport::trace) keeps by default (the newest); a
 /// test that checks a whole longer trace sets
