@@ -23,7 +23,9 @@ fn failing_run() {
         .write_at(Duration::from_secs(1), "range", serde_json::json!(0.3))
         .build()
         .expect("builds");
-    let error = system.run(Some(Duration::from_secs(2))).expect_err("refused");
+    let error = system
+        .run(Some(Duration::from_secs(2)))
+        .expect_err("refused");
     assert!(error.to_string().contains("range"), "{error}");
 }
 
