@@ -5,7 +5,8 @@
 //! Prints, for each N, the faults, the resident memory per plugin built
 //! (before its instance is made, when the run begins) and per running
 //! response (instance, memory, stack, the call waiting), then searches for the largest N that
-//! runs with no fault (the kernel's `vm.max_map_count` is the limit here).
+//! runs with no fault (the first limit met: the system's memory budget, or
+//! the kernel's `vm.max_map_count`; the fault printed says which).
 //! Target: 10,000 running at once in ≤ 512 MiB with none faulting.
 //! Every fault counts, the system's memory budget's as well as the
 //! machine's. The budget counts each instance's linear memory at its
@@ -184,20 +185,25 @@ fn table(title: &str, sizes: &[usize], pairs: bool) {
     }
 }
 
-/// The largest N of responses running at once with none faulting.
+/// The largest N of responses running at once with none faulting, and the
+/// first fault of the smallest run that faulted (which limit it met).
 fn search() {
     // Doubling from 10,000 until a run faults, then halving the gap.
     let (mut fits, mut faults) = (0, 10_000);
+    let mut first = None;
     while faults < 1 << 20 {
-        if run(faults, false).faults > 0 {
+        let o = run(faults, false);
+        if o.faults > 0 {
+            first = o.fault;
             break;
         }
         (fits, faults) = (faults, faults * 2);
     }
     while faults - fits > fits / 100 + 1 {
         let mid = (fits + faults) / 2;
-        if run(mid, false).faults > 0 {
-            faults = mid;
+        let o = run(mid, false);
+        if o.faults > 0 {
+            (faults, first) = (mid, o.fault);
         } else {
             fits = mid;
         }
@@ -208,4 +214,7 @@ fn search() {
         std::fs::read_to_string("/proc/sys/vm/max_map_count")
             .map_or("?".into(), |l| l.trim().to_string())
     );
+    if let Some(fault) = first {
+        println!("         its first fault: {fault}");
+    }
 }
