@@ -700,6 +700,33 @@ fn mistakes_in_a_manifest_are_shown_with_their_fix() {
         assert_eq!(stderr.lines().count(), 1, "one line: {stderr}");
         assert!(stderr.contains(expected), "{expected:?} not in {stderr:?}");
     }
+    // Under --release the component missing is the [release] table's,
+    // which `radar build --release` makes; a program's as a plugin's.
+    let release = "[plugins.Mine]\nwasm = \"mine/mine.wasm\"\n\
+                   [plugins.Mine.release]\nwasm = \"mine/ship.wasm\"\ncommand = \"true\"\n";
+    let manifest = write_manifest(dir.path(), release);
+    let out = radar(&["run", &manifest, "--release", "--for", "1s", "-q"]);
+    let stderr = text(&out.stderr);
+    assert!(!out.status.success());
+    assert_eq!(stderr.lines().count(), 1, "one line: {stderr}");
+    assert!(stderr.contains("ship.wasm"), "{stderr}");
+    assert!(
+        stderr.contains("it is built by `radar build --release")
+            && stderr.contains("(plugins.Mine.release)"),
+        "{stderr}"
+    );
+    let program = "[plugins.E]\nwasm = \"builtin:test-event\"\n\
+                   [deliberative]\nwasm = \"program/program.wasm\"\n\
+                   [deliberative.build]\ncommand = \"true\"\n";
+    let manifest = write_manifest(dir.path(), program);
+    let out = radar(&["run", &manifest, "--for", "1s", "-q"]);
+    let stderr = text(&out.stderr);
+    assert!(!out.status.success());
+    assert_eq!(stderr.lines().count(), 1, "one line: {stderr}");
+    assert!(
+        stderr.contains("it is built by `radar build") && stderr.contains("(deliberative.build)"),
+        "{stderr}"
+    );
     // `queue:N`, as radar ctl writes it, is a busy policy of a manifest too.
     let manifest = write_manifest(
         dir.path(),

@@ -147,6 +147,22 @@ fn response_works(trace: &[serde_json::Value], name: &str) {
     assert_eq!(exited, [(7, serde_json::json!({"ok": 3}))], "{name}");
 }
 
+/// The two-plugin systems' trace: bumper triggers at 3, 6 and 9 s; dock,
+/// busy for 3 s, takes 3 and 9.
+fn dock_took_the_first_and_third_bump(path: &Path) {
+    let trace = trace_of(path);
+    let started: Vec<_> = trace
+        .iter()
+        .filter(|r| r["kind"] == "signal" && r["plugin"] == "dock" && r["signal"] == "started")
+        .map(|r| r["payload"].clone())
+        .collect();
+    assert_eq!(
+        started,
+        [serde_json::json!(3), serde_json::json!(9)],
+        "{trace:?}"
+    );
+}
+
 #[test]
 fn a_rust_event_scaffold_builds_runs_and_reloads_with_its_state() {
     let made = scaffold("event", "ticker", "rust");
@@ -479,18 +495,7 @@ fn a_system_folder_takes_plugins_in_two_languages_that_build_and_run_together() 
     ok(&second);
     let said = String::from_utf8_lossy(&second.stderr);
     assert!(!said.contains("compiling"), "cached: {said}");
-    let trace = trace_of(&system.join("t.jsonl"));
-    let started: Vec<_> = trace
-        .iter()
-        .filter(|r| r["kind"] == "signal" && r["plugin"] == "dock" && r["signal"] == "started")
-        .map(|r| r["payload"].clone())
-        .collect();
-    // bumper triggers at 3, 6 and 9 s; dock, busy for 3 s, takes 3 and 9.
-    assert_eq!(
-        started,
-        [serde_json::json!(3), serde_json::json!(9)],
-        "{trace:?}"
-    );
+    dock_took_the_first_and_third_bump(&system.join("t.jsonl"));
     // A program, then a second one: refused.
     let added = ok(&radar(
         &system,
@@ -545,18 +550,7 @@ fn a_system_folder_takes_rust_and_c_plugins_that_build_and_run_together() {
             "t.jsonl",
         ],
     ));
-    let trace = trace_of(&system.join("t.jsonl"));
-    let started: Vec<_> = trace
-        .iter()
-        .filter(|r| r["kind"] == "signal" && r["plugin"] == "dock" && r["signal"] == "started")
-        .map(|r| r["payload"].clone())
-        .collect();
-    // bumper triggers at 3, 6 and 9 s; dock, busy for 3 s, takes 3 and 9.
-    assert_eq!(
-        started,
-        [serde_json::json!(3), serde_json::json!(9)],
-        "{trace:?}"
-    );
+    dock_took_the_first_and_third_bump(&system.join("t.jsonl"));
 }
 
 #[test]

@@ -8,7 +8,7 @@ use std::process::Output;
 
 mod common;
 
-use common::{radar, text};
+use common::{arg, radar, text};
 
 fn last_line(text: &str) -> &str {
     text.lines().last().unwrap_or_default()
@@ -16,10 +16,6 @@ fn last_line(text: &str) -> &str {
 
 fn scenarios() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenarios")
-}
-
-fn arg(path: &Path) -> &str {
-    path.to_str().expect("utf-8 path")
 }
 
 #[test]

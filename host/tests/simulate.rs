@@ -6,18 +6,35 @@
 //! within the default tolerance.
 
 use std::path::{Path, PathBuf};
+use std::process::Output;
 use std::time::Duration;
 
 mod common;
 
-use common::{radar, text, write_manifest};
+use common::{arg, radar, text, write_manifest};
 
 fn simulations() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/simulations")
 }
 
-fn arg(path: &Path) -> &str {
-    path.to_str().expect("utf-8 path")
+/// `radar run MANIFEST --replay RECORDING --expect TRACE`, which must pass.
+fn replays_as_recorded(manifest: &str, recording: &Path, trace: &Path) -> Output {
+    let out = radar(&[
+        "run",
+        manifest,
+        "-q",
+        "--replay",
+        arg(recording),
+        "--expect",
+        arg(trace),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}{}",
+        text(&out.stdout),
+        text(&out.stderr)
+    );
+    out
 }
 
 #[test]
@@ -271,21 +288,7 @@ fn a_recording_keeps_the_components_it_began_with_and_a_shadow_shows_a_new_one()
     assert!(recorded.contains(r#""manifest":"#), "{recorded}");
     // A rebuild replaces the component; the replay runs the recorded one.
     std::fs::copy(radar_fixtures::plugins::COUNT_UP, &component).expect("rebuilt");
-    let out = radar(&[
-        "run",
-        &manifest,
-        "-q",
-        "--replay",
-        arg(&recording),
-        "--expect",
-        arg(&trace),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}{}",
-        text(&out.stdout),
-        text(&out.stderr)
-    );
+    let out = replays_as_recorded(&manifest, &recording, &trace);
     assert!(
         text(&out.stderr).contains("the replay runs the version the recording began with"),
         "{}",
@@ -359,19 +362,5 @@ fn a_real_clock_recording_of_a_polling_event_replays_within_the_default_toleranc
     assert!(out.status.success(), "{}", text(&out.stderr));
     let recorded = std::fs::read_to_string(&recording).expect("recording");
     assert!(recorded.contains(r#""wakes":"#), "{recorded}");
-    let out = radar(&[
-        "run",
-        &manifest,
-        "-q",
-        "--replay",
-        arg(&recording),
-        "--expect",
-        arg(&trace),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}{}",
-        text(&out.stdout),
-        text(&out.stderr)
-    );
+    replays_as_recorded(&manifest, &recording, &trace);
 }

@@ -25,6 +25,8 @@ pub fn building(
             None => error.into(),
         },
         RadarError::Read { plugin, cause, .. } if cause.kind() == std::io::ErrorKind::NotFound => {
+            // Under --release, Manifest::use_release has made each
+            // `[release]` table the `[build]` one.
             let built = if plugin == PROGRAM {
                 manifest
                     .deliberative

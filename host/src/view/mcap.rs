@@ -310,4 +310,18 @@ mod tests {
         let e = mcap_to_jsonl(b"not an mcap file", Vec::new()).expect_err("is refused");
         assert!(e.to_string().starts_with("MCAP:"), "{e}");
     }
+
+    /// Found by fuzzing (the `trace` target): MCAP orders messages by
+    /// time, so a record that went back would read back elsewhere.
+    #[test]
+    fn refuses_a_record_whose_time_goes_back() {
+        let mut file = std::io::Cursor::new(Vec::new());
+        let e = jsonl_to_mcap(
+            &b"{\"t\":2000,\"kind\":\"state\",\"plugin\":\"R\",\"state\":\"idle\"}\n\
+               {\"t\":1000,\"kind\":\"state\",\"plugin\":\"R\",\"state\":\"idle\"}\n"[..],
+            &mut file,
+        )
+        .expect_err("is refused");
+        assert!(e.to_string().contains("its time goes back"), "{e}");
+    }
 }

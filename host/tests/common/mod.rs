@@ -20,6 +20,11 @@ pub fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
 }
 
+/// A path as a command-line argument.
+pub fn arg(path: &Path) -> &str {
+    path.to_str().expect("utf-8 path")
+}
+
 /// Writes `body` as `radar.toml` in `dir`; its path.
 pub fn write_manifest(dir: &Path, body: &str) -> String {
     let path = dir.join("radar.toml");
