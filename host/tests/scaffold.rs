@@ -8,14 +8,27 @@ use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
 fn radar(cwd: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_radar"))
-        .current_dir(cwd)
+    radar_command(cwd)
         .args(args)
-        // Share the toolchains the fixtures installed (a user's scaffolds
-        // share theirs under ~/.cache/radar/toolchains).
-        .env("RADAR_TOOLCHAINS", radar_fixtures::TOOLCHAINS)
         .output()
         .expect("the radar binary runs")
+}
+
+/// `radar` in `cwd`, sharing the toolchains the fixtures installed (a
+/// user's scaffolds share theirs under ~/.cache/radar/toolchains), and the
+/// Rust scaffolds sharing their compiled dependencies through one cargo
+/// build directory (docs/plugins-rust.md#building): each folder's first
+/// build is then seconds, not a minute.
+fn radar_command(cwd: &Path) -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_radar"));
+    command
+        .current_dir(cwd)
+        .env("RADAR_TOOLCHAINS", radar_fixtures::TOOLCHAINS)
+        .env(
+            "CARGO_BUILD_BUILD_DIR",
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/scaffold-build"),
+        );
+    command
 }
 
 fn ok(out: &Output) -> String {
@@ -245,12 +258,10 @@ fn watch_and_edit(
     after: Duration,
     edit: impl Fn(&str) -> String,
 ) -> (String, Vec<serde_json::Value>) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_radar"))
-        .current_dir(&made.folder)
+    let mut child = radar_command(&made.folder)
         .args(["run", "radar.toml", "--clock", "real", "--watch"])
         .args(["--for", run_for])
         .args(["--trace", "w.jsonl"])
-        .env("RADAR_TOOLCHAINS", radar_fixtures::TOOLCHAINS)
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
@@ -467,8 +478,7 @@ fn a_system_folder_takes_plugins_in_two_languages_that_build_and_run_together() 
     // Python runtime, the JavaScript one), the second has nothing to say.
     let cache = tempfile::tempdir().expect("temp dir");
     let run = || {
-        Command::new(env!("CARGO_BIN_EXE_radar"))
-            .current_dir(&system)
+        radar_command(&system)
             .args([
                 "run",
                 "radar.toml",
