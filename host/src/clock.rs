@@ -265,6 +265,16 @@ impl TimeBase {
 
     pub fn push_log(&self, plugin: &Arc<str>, level: &'static str, message: String) {
         let t = self.now();
+        if crate::parallel::ahead() {
+            // Written at the call's turn, in the order of the calls' turns.
+            let (base, plugin) = (self.clone(), plugin.clone());
+            crate::parallel::defer(move || base.push_line(t, &plugin, level, message));
+            return;
+        }
+        self.push_line(t, plugin, level, message);
+    }
+
+    fn push_line(&self, t: u64, plugin: &Arc<str>, level: &'static str, message: String) {
         let mut logs = lock(&self.0.logs);
         if logs.bytes + message.len() > PENDING_LOG_BYTES {
             logs.dropped.0 += 1;
@@ -430,6 +440,11 @@ impl Future for Sleep {
     type Output = Result<(), StopReason>;
 
     fn poll(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Self::Output> {
+        if crate::parallel::parks_here() {
+            // A call computed ahead waits from its turn (`crate::parallel`):
+            // timers are set in the order of the calls' turns.
+            return Poll::Pending;
+        }
         if let Some(stop) = &self.stop {
             if let Some(reason) = stop.get() {
                 return Poll::Ready(Err(reason));
@@ -479,6 +494,9 @@ impl Future for YieldNow {
     type Output = Result<(), StopReason>;
 
     fn poll(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Self::Output> {
+        if crate::parallel::parks_here() {
+            return Poll::Pending;
+        }
         if let Some(reason) = self.stop.get() {
             return Poll::Ready(Err(reason));
         }

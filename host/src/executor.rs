@@ -34,6 +34,13 @@ impl ReadyQueue {
     fn pop(&self) -> Option<TaskId> {
         self.0.lock().unwrap_or_else(|e| e.into_inner()).pop_front()
     }
+    fn peek(&self) -> Option<TaskId> {
+        self.0
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .front()
+            .copied()
+    }
 }
 
 struct TaskWaker {
@@ -96,21 +103,55 @@ impl Executor {
     pub fn run_one(&mut self) -> Option<TaskId> {
         loop {
             let id = self.ready.pop()?;
-            let Some(slot) = self.tasks.get_mut(&id) else {
-                continue; // finished or cancelled since it was woken
-            };
-            let Slot {
-                future,
-                state,
-                waker,
-            } = slot;
-            state.queued.store(false, Ordering::Release);
-            let mut cx = Context::from_waker(waker);
-            if let Poll::Ready(()) = future.as_mut().poll(&mut cx) {
-                self.tasks.remove(&id);
+            if self.poll_now(id) {
+                return Some(id);
             }
-            return Some(id);
         }
+    }
+
+    /// The next ready task, without taking it.
+    pub fn peek(&mut self) -> Option<TaskId> {
+        loop {
+            let id = self.ready.peek()?;
+            if self.tasks.contains_key(&id) {
+                return Some(id);
+            }
+            self.ready.pop(); // finished or cancelled since it was woken
+        }
+    }
+
+    /// Polls task `id` once, now, whether it is ready or not; `false` if
+    /// there is no such task (it finished or was cancelled).
+    pub fn poll_now(&mut self, id: TaskId) -> bool {
+        let Some(slot) = self.tasks.get_mut(&id) else {
+            return false;
+        };
+        let Slot {
+            future,
+            state,
+            waker,
+        } = slot;
+        state.queued.store(false, Ordering::Release);
+        let mut cx = Context::from_waker(waker);
+        if let Poll::Ready(()) = future.as_mut().poll(&mut cx) {
+            self.tasks.remove(&id);
+        }
+        true
+    }
+
+    /// Task `id`, polled ahead of its turn, is not queued again by a wake
+    /// until [`Executor::turn`]: as if it still waited in the queue.
+    pub fn hold(&mut self, id: TaskId) {
+        if let Some(slot) = self.tasks.get(&id) {
+            slot.state.queued.store(true, Ordering::Release);
+        }
+    }
+
+    /// Task `id`'s turn has come: its waker, or `None` if it is gone.
+    pub fn turn(&mut self, id: TaskId) -> Option<Waker> {
+        let slot = self.tasks.get(&id)?;
+        slot.state.queued.store(false, Ordering::Release);
+        Some(slot.waker.clone())
     }
 }
 
@@ -118,7 +159,10 @@ impl Executor {
 pub(crate) async fn yield_now() {
     let mut yielded = false;
     std::future::poll_fn(|cx| {
-        if yielded {
+        if crate::parallel::parks_here() {
+            // Computed ahead: the yield is made at the call's turn.
+            Poll::Pending
+        } else if yielded {
             Poll::Ready(())
         } else {
             yielded = true;

@@ -23,6 +23,7 @@ mod limits;
 pub mod manifest;
 pub mod network;
 mod panics;
+mod parallel;
 pub mod payload;
 mod plugin;
 mod ports;

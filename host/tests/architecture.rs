@@ -22,6 +22,7 @@ const FLOORS: &[(&str, u8, &str)] = &[
     ("clock", 1, "values and time"),
     ("error", 1, "values and time"),
     ("executor", 1, "values and time"),
+    ("parallel", 1, "values and time"),
     ("limiter", 1, "values and time"),
     ("limits", 1, "values and time"),
     ("panics", 1, "values and time"),

@@ -279,11 +279,13 @@ impl Scenario {
         }
     }
 
-    fn trace(&self) -> radar::RunReport {
+    /// The run, its plugin calls on `threads` threads.
+    fn trace(&self, threads: usize) -> radar::RunReport {
         if std::env::var_os("SHOW_SCENARIO").is_some() {
             eprintln!("{self:?}");
         }
         self.system()
+            .threads(threads)
             .build()
             .expect("the fixtures build")
             .run_with(Some(Duration::from_secs(RUN_SECS)), self.program())
@@ -495,8 +497,10 @@ proptest! {
     })]
 
     #[test]
-    fn every_random_system_obeys_the_laws_and_replays_identically(scenario in scenario()) {
-        let report = scenario.trace();
+    fn every_random_system_obeys_the_laws_and_replays_identically_on_any_number_of_threads(
+        scenario in scenario()
+    ) {
+        let report = scenario.trace(1);
         let violations = radar::trace::check(&report.trace);
         prop_assert!(
             violations.is_empty(),
@@ -506,10 +510,12 @@ proptest! {
         if report.livelock.is_none() {
             prop_assert_eq!(report.program, Some(Ok(())));
         }
-        let again = scenario.trace();
+        // Again, its calls computing on three threads (more than this
+        // machine may have: the run must not depend on it).
+        let again = scenario.trace(3);
         prop_assert!(
             again.trace == report.trace,
-            "a second run of the same system differs"
+            "a second run of the same system, on three threads, differs"
         );
     }
 }
@@ -536,7 +542,11 @@ fn the_generator_builds_systems_that_do_something() {
         if scenario.fuel_per_second.is_some() {
             *seen.entry("(fuel as time)".into()).or_default() += 1;
         }
-        for record in common::records(&scenario.trace()) {
+        // The property test's second run computes calls ahead at all.
+        if scenario.trace(3).computed_ahead > 0 {
+            *seen.entry("(computed ahead)".into()).or_default() += 1;
+        }
+        for record in common::records(&scenario.trace(1)) {
             let kind = record["kind"].as_str().unwrap_or_default();
             let key = match record["reason"].as_str() {
                 Some(reason) if kind == "dropped" || kind == "disconnect" => {
@@ -559,6 +569,7 @@ fn the_generator_builds_systems_that_do_something() {
         "swap",
         "swap-refused",
         "(fuel as time)",
+        "(computed ahead)",
     ] {
         assert!(
             seen.contains_key(kind),

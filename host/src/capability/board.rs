@@ -125,21 +125,29 @@ pub(crate) fn link<T: EmitterView>(
     for port in &declared.ports {
         let entry = port.entry.clone();
         match port.access {
-            Access::Read => {
-                instance.func_new(&port.function, move |mut store, _ty, _params, results| {
-                    let emitter = store.data_mut().emitter();
-                    emitter.faulting()?;
-                    let plugin = emitter.name.clone();
-                    let value = running("the blackboard read")?.board_read(&plugin, &entry)?;
-                    results[0] = Val::Option(value.map(Box::new));
-                    Ok(())
-                })?
-            }
+            Access::Read => instance.func_new_async(
+                &port.function,
+                move |mut store, _ty, _params, results| {
+                    let entry = entry.clone();
+                    Box::new(async move {
+                        // What others wrote before the call's turn is read
+                        // at its turn (`crate::parallel`).
+                        crate::parallel::park().await;
+                        let emitter = store.data_mut().emitter();
+                        emitter.faulting()?;
+                        let plugin = emitter.name.clone();
+                        let value = running("the blackboard read")?.board_read(&plugin, &entry)?;
+                        results[0] = Val::Option(value.map(Box::new));
+                        Ok(())
+                    })
+                },
+            )?,
             Access::Write => instance.func_new_async(
                 &port.function,
                 move |mut store, _ty, params, _results| {
                     let entry = entry.clone();
                     Box::new(async move {
+                        crate::parallel::park().await;
                         let emitter = store.data_mut().emitter();
                         emitter.faulting()?;
                         let what = format!("write of entry `{entry}`");

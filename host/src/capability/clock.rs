@@ -80,9 +80,14 @@ pub(crate) fn add_to_linker<T: ClockView>(linker: &mut Linker<T>) -> wasmtime::R
             Ok((woke(result, &stop)?,))
         })
     })?;
-    clock.func_wrap("interrupted", |store: StoreContextMut<'_, T>, (): ()| {
-        let stop = &store.data().clock().stop;
-        Ok((woke(stop.get().map_or(Ok(()), Err), stop)?.err(),))
+    clock.func_wrap_async("interrupted", |store: StoreContextMut<'_, T>, (): ()| {
+        Box::new(async move {
+            // A request made before the call's turn is seen at its turn
+            // (`crate::parallel`).
+            crate::parallel::park().await;
+            let stop = &store.data().clock().stop;
+            Ok((woke(stop.get().map_or(Ok(()), Err), stop)?.err(),))
+        })
     })?;
     Ok(())
 }

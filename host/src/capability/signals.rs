@@ -96,6 +96,7 @@ pub(crate) fn link<T: EmitterView>(
         let signal = SignalName::intern(name);
         instance.func_new_async(name, move |mut store, _type, params, _results| {
             Box::new(async move {
+                crate::parallel::park().await;
                 let emitter = store.data_mut().emitter();
                 emitter.faulting()?;
                 let bytes = match params.first() {

@@ -277,6 +277,7 @@ fn shadow_poll<T: RadarWasiView>(linker: &mut Linker<T>) -> wasmtime::Result<()>
          (pollables,): (Vec<Resource<DynPollable>>,)|
          -> Pinned<'_, (Vec<u32>,)> {
             Box::new(async move {
+                crate::parallel::park().await;
                 faulting(&store)?;
                 let ready = Host::poll(store.data_mut().ctx().table, pollables).await?;
                 faulting(&store)?;
@@ -290,6 +291,7 @@ fn shadow_poll<T: RadarWasiView>(linker: &mut Linker<T>) -> wasmtime::Result<()>
          (pollable,): (Resource<DynPollable>,)|
          -> Pinned<'_, ()> {
             Box::new(async move {
+                crate::parallel::park().await;
                 faulting(&store)?;
                 HostPollable::block(store.data_mut().ctx().table, pollable).await?;
                 faulting(&store)

@@ -111,6 +111,11 @@ pub struct RunArgs {
     /// (default 0).
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Plugin calls ready at the same instant compute on this many threads
+    /// at once (default: the machine's cores); the run, its trace
+    /// included, is the same for every count.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    threads: Option<u16>,
     /// Real clock: run the scheduler's thread at this SCHED_FIFO priority
     /// (1-99), so that other processes cannot delay its deadlines (needs
     /// CAP_SYS_NICE or an RLIMIT_RTPRIO that allows it).
@@ -264,6 +269,9 @@ pub fn run(args: RunArgs) -> Result<()> {
         .keep_trace(keep)
         .seed(args.seed)
         .stall_timeout(Some(args.stall_timeout).filter(|t| !t.is_zero()));
+    if let Some(threads) = args.threads {
+        builder = builder.threads(usize::from(threads));
+    }
     if !args.quiet {
         builder = builder.trace_to(Timeline::new(std::io::stdout()));
     }

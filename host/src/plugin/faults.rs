@@ -81,6 +81,13 @@ impl FaultPlan {
         self.instantiations.load(Ordering::Relaxed)
     }
 
+    /// Whether a call of the plugin may end with a planned fault.
+    pub fn plans_call_faults(&self) -> bool {
+        self.faults
+            .iter()
+            .any(|f| matches!(f.kind, FaultKind::Trap | FaultKind::Fuel))
+    }
+
     /// Counts a call; the fault it is to end with, if one is planned.
     pub fn on_call(&self) -> Option<Fault> {
         let n = self.calls.fetch_add(1, Ordering::Relaxed) + 1;

@@ -296,7 +296,9 @@ impl LocalInstance {
         let mut computed = std::time::Duration::ZERO;
         let called = {
             let mut call = std::pin::pin!(func.call_async(&mut self.store, params, slots));
-            std::future::poll_fn(|cx| {
+            // With `--threads` above 1, the call may compute on another
+            // thread ahead of its turn (see `crate::parallel`).
+            crate::parallel::offload(std::future::poll_fn(|cx| {
                 let _quiet = crate::panics::QuietPanics::enter();
                 let began = deadline.map(|_| std::time::Instant::now());
                 let polled = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
@@ -316,7 +318,7 @@ impl LocalInstance {
                     Ok(poll) => poll.map(Ok),
                     Err(panic) => std::task::Poll::Ready(Err(panic)),
                 }
-            })
+            }))
             .await
         };
         let called = match called {

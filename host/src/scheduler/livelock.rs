@@ -83,6 +83,15 @@ impl InstantCounts {
         counts
     }
 
+    /// Whether no burst at `now` can blame `pid` before it makes another
+    /// step or signal (its share stays under three quarters of any total
+    /// that reaches a limit).
+    pub(super) fn cannot_blame(&mut self, pid: usize, now: u64) -> bool {
+        let (limit, step_limit) = (self.limit, self.step_limit);
+        let counts = *self.plugin(pid, now);
+        counts.signals * 4 <= limit * 3 && counts.steps * 4 <= step_limit * 3
+    }
+
     /// Counts one of the scheduler's moves at `now`.
     pub(super) fn count_move(&mut self, now: u64) {
         self.at(now).moves += 1;

@@ -17,6 +17,7 @@
 //! nothing else and time stands still, so that its effects land at a
 //! deterministic point.
 mod actors;
+mod ahead;
 mod backlog;
 pub(crate) mod board;
 mod commands;

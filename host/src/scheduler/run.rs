@@ -2,7 +2,7 @@
 //! of a run.
 
 use std::cell::RefCell;
-use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::collections::{BTreeMap, HashMap, HashSet, VecDeque};
 use std::rc::Rc;
 use std::sync::Arc;
 use std::time::Duration;
@@ -21,6 +21,7 @@ use crate::clock::{duration_nanos, ClockKind, StopFlag, TimeBase};
 use crate::error::RadarError;
 use crate::executor::{Executor, LocalTask, TaskId};
 use crate::limiter::MemoryBudget;
+use crate::parallel::Workers;
 use crate::payload::PayloadType;
 use crate::plugin::{InstanceSetup, Kind};
 use crate::trace::inputs::{Input, InputRecorder, Origin};
@@ -49,6 +50,8 @@ pub(crate) struct RunEnd {
     pub divergence: Option<String>,
     /// Plugins that faulted on a limit of the machine.
     pub machine_limit: Option<(usize, String)>,
+    /// Calls computed ahead, beside others (see `ahead`).
+    pub computed_ahead: u64,
     /// The run was stopped from outside its course (a signal, a stall).
     pub stopped: Option<crate::watchdog::Stopping>,
 }
@@ -74,6 +77,8 @@ pub(crate) struct RunSetup {
     pub budget: Arc<MemoryBudget>,
     /// What stops a call from outside it (see [`crate::watchdog`]).
     pub watch: Arc<RunWatch>,
+    /// How many threads plugin calls compute on (see `crate::parallel`).
+    pub threads: usize,
 }
 
 /// Under the real clock, how long before a deadline the scheduler stops
@@ -127,6 +132,13 @@ pub(crate) struct Scheduler {
     pub(super) actors: HashMap<TaskId, usize>,
     /// What stops a call from outside it (a signal, a stall).
     pub(super) watch: Arc<RunWatch>,
+    /// The threads calls compute on (see `ahead`).
+    pub(super) workers: Workers,
+    /// Tasks whose call yielded while computed ahead, and goes on when
+    /// they are next polled.
+    pub(super) resuming: HashSet<TaskId>,
+    /// Calls computed ahead so far, beside others.
+    pub(super) computed_ahead: u64,
 }
 
 impl Scheduler {
@@ -145,6 +157,7 @@ impl Scheduler {
             board,
             budget,
             watch,
+            threads,
         } = setup;
         let mut by_name = BTreeMap::new();
         let plugin_count = plugins.len();
@@ -230,6 +243,9 @@ impl Scheduler {
             placed: inputs::Placed::new(),
             actors: HashMap::new(),
             watch,
+            workers: Workers::new(threads),
+            resuming: HashSet::new(),
+            computed_ahead: 0,
         }
     }
 
@@ -346,16 +362,7 @@ impl Scheduler {
                 }
                 self.core.base.fire_due(now);
             }
-            if let Some(task) = self.executor.run_one() {
-                self.watch.step();
-                if kind == ClockKind::Virtual {
-                    let pid = self.actors.get(&task).copied();
-                    self.core.with(|st| {
-                        st.count_task_step(pid);
-                        st.count_step();
-                    });
-                }
-                self.absorb();
+            if self.run_ready() {
                 continue;
             }
             let mut next = self.core.base.next_deadline();
@@ -449,6 +456,7 @@ impl Scheduler {
 
     pub(super) fn finish(self) -> RunEnd {
         let ended_at = self.core.base.now();
+        let computed_ahead = self.computed_ahead;
         // End every wait so that blocked deliberative threads see the stop.
         let livelock = self.core.with(|st| st.instant.livelock);
         let fuel = self.core.with(|st| {
@@ -522,6 +530,7 @@ impl Scheduler {
             divergence,
             machine_limit,
             stopped,
+            computed_ahead,
         }
     }
 

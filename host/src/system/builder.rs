@@ -52,6 +52,7 @@ pub struct SystemBuilder {
     trace_bytes: usize,
     cache_dir: Option<PathBuf>,
     seed: u64,
+    threads: Option<usize>,
     limits: Limits,
     period: Duration,
     memory_budget: Option<usize>,
@@ -86,6 +87,7 @@ impl Default for SystemBuilder {
             trace_bytes: DEFAULT_TRACE_BYTES,
             cache_dir: default_cache_dir(),
             seed: 0,
+            threads: None,
             limits: Limits::default(),
             period: Duration::from_millis(10),
             memory_budget: None,
@@ -431,6 +433,14 @@ impl SystemBuilder {
         self
     }
 
+    /// How many threads plugin calls compute on (default: the machine's
+    /// cores). Calls ready at the same instant compute at once, and the
+    /// run is the same for every count (`docs/semantics.md#threads`).
+    pub fn threads(mut self, threads: usize) -> Self {
+        self.threads = Some(threads.max(1));
+        self
+    }
+
     /// How the system reaches the agents its plugins are placed on
     /// ([`Plugin::on_node`](crate::Plugin::on_node)): made by
     /// `radar::network`.
@@ -659,6 +669,9 @@ impl SystemBuilder {
             keep_trace: self.keep_trace,
             trace_limit: self.trace_limit.map(|n| (n, self.trace_bytes)),
             seed: self.seed,
+            threads: self.threads.unwrap_or_else(|| {
+                std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+            }),
             tx,
             rx,
         })

@@ -52,6 +52,8 @@ pub struct System {
     /// At most so many records and so many bytes (`None`: every record).
     pub(super) trace_limit: Option<(usize, usize)>,
     pub(super) seed: u64,
+    /// How many threads plugin calls compute on.
+    pub(super) threads: usize,
     pub(super) tx: Sender<Command>,
     pub(super) rx: Receiver<Command>,
 }
@@ -105,6 +107,11 @@ pub struct RunReport {
     /// [`Radar::interrupt`](crate::Radar::interrupt); `stalled`: no progress for the stall timeout)
     /// and what happened, as the trace's last record says.
     pub stopped: Option<(String, String)>,
+    /// Plugin calls that computed on several threads at once, beside
+    /// others ready at the same instant
+    /// ([`SystemBuilder::threads`](crate::SystemBuilder::threads)): 0 on
+    /// one thread.
+    pub computed_ahead: u64,
 }
 
 impl RunReport {
@@ -293,6 +300,7 @@ impl System {
             board: self.board,
             budget: self.budget.clone(),
             watch: self.watch.clone(),
+            threads: self.threads,
         });
         *self.setups.lock().unwrap_or_else(|e| e.into_inner()) = scheduler.instance_setups();
         // After the run's other threads are made: they do not inherit it.
@@ -329,6 +337,7 @@ impl System {
             replay_divergence: end.divergence,
             machine_limit: end.machine_limit,
             stopped: end.stopped.map(|s| (s.reason.to_string(), s.message)),
+            computed_ahead: end.computed_ahead,
         })
     }
 }

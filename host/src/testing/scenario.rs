@@ -90,6 +90,9 @@ pub struct RunSpec {
     pub seed: Option<u64>,
     /// Virtual time to run.
     pub run_for: Duration,
+    /// Threads plugin calls compute on (`None`: the machine's cores); the
+    /// run is the same for every count.
+    pub threads: Option<usize>,
 }
 
 /// How a scenario went.
@@ -188,6 +191,7 @@ impl Scenario {
             fuel_rates: settings.fuel.rates.clone(),
             seed: settings.seed,
             run_for,
+            threads: None,
         };
         Ok(Self {
             name,
@@ -240,6 +244,9 @@ impl Scenario {
             .trace_limit(None);
         if let Some(seed) = spec.seed {
             builder = builder.seed(seed);
+        }
+        if let Some(threads) = spec.threads {
+            builder = builder.threads(threads);
         }
         if let Some(per_call) = self.settings.fuel.per_call {
             builder = builder.default_limits(Limits {

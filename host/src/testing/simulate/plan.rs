@@ -302,6 +302,7 @@ impl Plan {
             fuel_rates: rates,
             seed: Some(self.random_seed),
             run_for: self.run_for,
+            threads: base.threads,
         }
     }
 

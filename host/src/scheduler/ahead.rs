@@ -1,0 +1,150 @@
+//! Calls computed ahead on every core (`--threads`, see `crate::parallel`):
+//! which tasks join a batch, and their turns.
+//!
+//! A task joins the batch that a poll began only if polling it now does
+//! nothing on the way to its call, and nothing the calls before it do at
+//! their turns can stop that call from being made: then computing it ahead
+//! and going on at its turn is the one-threaded run, step for step. So a
+//! member is an event whose check is due (active, nothing pending, no
+//! planned fault, no `until` connection another plugin's activation ends,
+//! not near a burst), or a call that yielded and goes on. Under the virtual
+//! clock nothing joins while a deliberative context could be woken by a
+//! signal (a `waitfor`, an anonymous slot) or an input is due at this
+//! instant: those would have run between two members.
+
+use super::run::Scheduler;
+use super::state::{Lifecycle, State};
+use crate::clock::ClockKind;
+use crate::executor::TaskId;
+use crate::parallel::{self, Outcome};
+use crate::plugin::Kind;
+
+impl Scheduler {
+    /// Polls the next ready task, and with it, when calls may compute
+    /// ahead, the batch of calls its poll began; `false` if no task was
+    /// ready.
+    pub(super) fn run_ready(&mut self) -> bool {
+        if !self.workers.parallel() {
+            let Some(task) = self.executor.run_one() else {
+                return false;
+            };
+            self.stepped(task);
+            return true;
+        }
+        let mut batch = Vec::new();
+        let executor = &mut self.executor;
+        let Some(first) = parallel::collecting(&mut batch, || executor.run_one()) else {
+            return false;
+        };
+        self.resuming.remove(&first);
+        if batch.is_empty() {
+            self.stepped(first);
+            return true;
+        }
+        // The tasks polled, in order, and the call each handed over.
+        let mut polled = vec![(first, Some(0))];
+        self.executor.hold(first);
+        while let Some(next) = self.executor.peek() {
+            if !self.joins(next) {
+                break;
+            }
+            let before = batch.len();
+            let executor = &mut self.executor;
+            parallel::collecting(&mut batch, || executor.run_one());
+            self.resuming.remove(&next);
+            self.executor.hold(next);
+            debug_assert!(batch.len() > before, "a member's poll handed no call over");
+            polled.push((next, (batch.len() > before).then_some(before)));
+        }
+        if batch.len() > 1 {
+            self.workers.compute(&mut batch);
+            self.computed_ahead += batch.len() as u64;
+        }
+        for (task, handed) in polled {
+            if self.core.with(|st| st.stop) {
+                break; // the run ends here, as it would have on one thread
+            }
+            let Some(waker) = self.executor.turn(task) else {
+                continue; // cancelled before its turn: never polled
+            };
+            match handed.map(|i| &mut batch[i]) {
+                Some(call) if !call.gone() => {
+                    call.turn(&waker);
+                    if call.outcome() == Outcome::Yielded {
+                        self.resuming.insert(task);
+                        waker.wake_by_ref();
+                    } else {
+                        self.executor.poll_now(task);
+                    }
+                }
+                _ => {
+                    self.executor.poll_now(task);
+                }
+            }
+            self.stepped(task);
+        }
+        true
+    }
+
+    /// What follows each poll of a task: the step counted, the tasks it
+    /// spawned or cancelled taken in.
+    pub(super) fn stepped(&mut self, task: TaskId) {
+        self.watch.step();
+        if self.core.base.kind() == ClockKind::Virtual {
+            let pid = self.actors.get(&task).copied();
+            self.core.with(|st| {
+                st.count_task_step(pid);
+                st.count_step();
+            });
+        }
+        self.absorb();
+    }
+
+    /// Whether task `task`, ready next, joins the batch (see the module
+    /// docs).
+    fn joins(&mut self, task: TaskId) -> bool {
+        if self.resuming.contains(&task) {
+            return true;
+        }
+        let Some(&pid) = self.actors.get(&task) else {
+            return false;
+        };
+        let virtual_clock = self.core.base.kind() == ClockKind::Virtual;
+        let now = self.core.base.now();
+        if virtual_clock && self.placed.front().is_some_and(|p| p.at <= now) {
+            return false;
+        }
+        self.core.with(|st| st.checks_ahead(pid, virtual_clock))
+    }
+}
+
+impl State {
+    /// Whether event `pid`'s actor, polled now, goes straight to its check,
+    /// which nothing done before its turn can cancel.
+    fn checks_ahead(&mut self, pid: usize, virtual_clock: bool) -> bool {
+        if virtual_clock && (!self.waiters.is_empty() || !self.anonymous.is_empty()) {
+            return false;
+        }
+        let now = self.now();
+        let entry = &self.plugins[pid];
+        let due = matches!(entry.def.code.kind, Kind::Event { .. })
+            && entry.def.remote.is_none()
+            && entry.lifecycle == Lifecycle::Active
+            && !entry.reset_requested
+            && entry.swap.is_none()
+            && entry.stop.get().is_none()
+            && entry.stop.fault().is_none()
+            && !entry.faults.plans_call_faults()
+            && now >= entry.next_check;
+        if !due {
+            return false;
+        }
+        // An `until` connection lives as long as another plugin's
+        // activation: its end could deactivate the event first.
+        let ended_by_others = self.routes[pid].iter().any(|(_, ids)| {
+            ids.iter()
+                .any(|id| self.connections.get(id).is_some_and(|c| c.serves.is_some()))
+        });
+        !ended_by_others && self.instant.cannot_blame(pid, now)
+    }
+}

@@ -1,0 +1,84 @@
+//! `--threads N`: calls ready at the same instant compute on N threads, and
+//! the run is the same for every N (`docs/semantics.md#threads`). The
+//! property test (`properties.rs`) runs every random system on one thread
+//! and on three; here, every scenario folder and a wide system.
+
+mod common;
+
+use std::path::PathBuf;
+
+use radar::testing::scenario::{discover, Scenario};
+use radar::{Busy, Link};
+
+fn folders() -> Vec<(String, PathBuf)> {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    discover(&[root.join("scenarios"), root.join("simulations")]).expect("the folders")
+}
+
+#[test]
+fn every_scenario_folder_gives_the_same_trace_on_one_two_and_three_threads() {
+    let folders = folders();
+    assert!(folders.len() >= 10, "the scenario folders: {folders:?}");
+    for (name, dir) in folders {
+        let scenario = Scenario::load(&dir, name.clone()).expect("the folder loads");
+        let on = |threads: usize| {
+            let mut spec = scenario.spec().clone();
+            spec.threads = Some(threads);
+            scenario
+                .run_spec(&spec)
+                .unwrap_or_else(|e| panic!("{name} on {threads} thread(s): {e}"))
+        };
+        let one = on(1);
+        assert_eq!(
+            one.computed_ahead, 0,
+            "{name}: one thread computes nothing ahead"
+        );
+        for threads in [2, 3] {
+            let many = on(threads);
+            assert!(
+                many.trace == one.trace,
+                "{name}: the trace on {threads} threads differs from the trace on one"
+            );
+        }
+    }
+}
+
+/// 40 events with their checks due together, each starting two responses
+/// (one its own, one its neighbour's) under every busy policy.
+fn wide_system(threads: usize) -> radar::RunReport {
+    let mut builder = common::virtual_system().threads(threads);
+    let n = 40;
+    for i in 0..n {
+        builder = builder
+            .plugin(common::test_event(&format!("E{i}"), 2 + i % 3))
+            .plugin(common::test_response(&format!("R{i}"), 2, 1.0));
+    }
+    for i in 0..n {
+        let busy = [Busy::Drop, Busy::Queue(1), Busy::Restart][i as usize % 3];
+        builder = builder
+            .connect(Link::whenever(&format!("E{i}"), &format!("R{i}")).busy(busy))
+            .connect(Link::whenever(&format!("E{i}"), &format!("R{}", (i + 1) % n)).busy(busy));
+    }
+    common::run(builder, 30, |_| Ok(()))
+}
+
+#[test]
+fn a_wide_system_computes_its_checks_at_once_and_runs_as_on_one_thread() {
+    let one = wide_system(1);
+    let three = wide_system(3);
+    assert!(
+        one.trace.len() > 5_000,
+        "the system runs: {} records",
+        one.trace.len()
+    );
+    assert_eq!(one.computed_ahead, 0);
+    assert!(
+        three.computed_ahead > 1_000,
+        "the events' checks compute ahead together: {}",
+        three.computed_ahead
+    );
+    assert!(
+        three.trace == one.trace,
+        "the trace on three threads differs from the trace on one"
+    );
+}
