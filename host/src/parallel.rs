@@ -36,6 +36,7 @@ use std::pin::Pin;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::task::{Context, Poll, Wake, Waker};
+use std::time::{Duration, Instant};
 
 use crossbeam_channel::{Receiver, Sender};
 
@@ -314,31 +315,55 @@ unsafe impl Sync for Job {}
 impl Job {
     /// Claims and computes calls until none is left.
     fn work(&self) {
-        loop {
-            let i = self.next.fetch_add(1, Ordering::AcqRel);
-            if i >= self.len {
-                return;
-            }
-            // SAFETY: `i` is claimed by this thread alone.
-            let call = unsafe { &mut *self.calls.add(i) };
-            let _quiet = crate::panics::QuietPanics::enter();
-            // A panic is caught inside the call (see `LocalInstance::call`);
-            // one that escapes still counts the call done.
-            let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| call.compute()));
-            self.done.fetch_add(1, Ordering::AcqRel);
+        while self.work_one() {}
+    }
+
+    /// Claims and computes one call; `false` if none was left.
+    fn work_one(&self) -> bool {
+        let i = self.next.fetch_add(1, Ordering::AcqRel);
+        if i >= self.len {
+            return false;
         }
+        // SAFETY: `i` is claimed by this thread alone.
+        let call = unsafe { &mut *self.calls.add(i) };
+        let _quiet = crate::panics::QuietPanics::enter();
+        // A panic is caught inside the call (see `LocalInstance::call`);
+        // one that escapes still counts the call done.
+        let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| call.compute()));
+        self.done.fetch_add(1, Ordering::AcqRel);
+        true
+    }
+
+    /// Calls not yet claimed.
+    fn left(&self) -> usize {
+        self.len.saturating_sub(self.next.load(Ordering::Acquire))
     }
 }
 
+/// Calls left to compute that are worth waking the other threads for: about
+/// what waking a parked thread costs on Linux, several times over. Below
+/// it, the scheduler's thread computes the batch alone.
+const WORTH_WAKING: Duration = Duration::from_micros(40);
+
+/// The least a call must compute, on average, for the other threads to
+/// take some: a call computed on another core costs its turn the cache
+/// misses of a store that moved (`benches/threads.rs`: checks that
+/// compute nothing run slower on two threads than on one).
+const WORTH_MOVING: Duration = Duration::from_micros(4);
+
 /// The threads that compute calls ahead besides the scheduler's own.
 pub(crate) struct Workers {
+    /// Every batch is spread over every thread, whatever its calls cost.
+    eager: bool,
     jobs: Vec<Sender<Arc<Job>>>,
     threads: Vec<std::thread::JoinHandle<()>>,
 }
 
 impl Workers {
-    /// `threads` threads in all, the scheduler's included (1: none).
-    pub(crate) fn new(threads: usize) -> Self {
+    /// `threads` threads in all, the scheduler's included (1: none);
+    /// `eager`: every batch is spread over them, whatever its calls cost
+    /// (for tests: the run is the same, only slower).
+    pub(crate) fn new(threads: usize, eager: bool) -> Self {
         let threads = threads.max(1);
         // A thread that cannot start leaves fewer: calls compute on those
         // there are (on the scheduler's alone, at worst).
@@ -352,7 +377,11 @@ impl Workers {
                     .map(|thread| (send, thread))
             })
             .unzip();
-        Self { jobs, threads }
+        Self {
+            eager,
+            jobs,
+            threads,
+        }
     }
 
     /// Whether calls are computed ahead at all.
@@ -360,19 +389,37 @@ impl Workers {
         !self.jobs.is_empty()
     }
 
-    /// Computes every call of `batch` ahead, on all the threads, and
-    /// returns when each has returned, yielded or parked.
-    pub(crate) fn compute(&self, batch: &mut [Handed]) {
+    /// Computes every call of `batch` ahead and returns when each has
+    /// returned, yielded or parked: whether the batch was worth waking the
+    /// other threads for ([`WORTH_WAKING`]).
+    pub(crate) fn compute(&self, batch: &mut [Handed]) -> bool {
         let job = Arc::new(Job {
             calls: batch.as_mut_ptr(),
             len: batch.len(),
             next: AtomicUsize::new(0),
             done: AtomicUsize::new(0),
         });
-        for jobs in self.jobs.iter().take(batch.len().saturating_sub(1)) {
-            let _ = jobs.send(job.clone());
+        // The scheduler's thread begins; the others are woken once what is
+        // left, at the pace so far, is worth it.
+        let began = Instant::now();
+        let mut computed = 0u32;
+        let mut woken = self.eager;
+        if woken {
+            for jobs in &self.jobs {
+                let _ = jobs.send(job.clone());
+            }
         }
-        job.work();
+        while job.work_one() {
+            computed += 1;
+            let left = job.left();
+            let pace = began.elapsed() / computed;
+            if !woken && left > 0 && pace >= WORTH_MOVING && pace * left as u32 >= WORTH_WAKING {
+                woken = true;
+                for jobs in self.jobs.iter().take(left) {
+                    let _ = jobs.send(job.clone());
+                }
+            }
+        }
         let mut spins = 0u32;
         while job.done.load(Ordering::Acquire) < job.len {
             if spins < 1 << 12 {
@@ -382,6 +429,7 @@ impl Workers {
                 std::thread::yield_now();
             }
         }
+        woken
     }
 }
 
@@ -423,7 +471,7 @@ mod tests {
     #[test]
     fn calls_computed_ahead_apply_their_effects_and_go_on_at_their_turns() {
         let log = Arc::new(Mutex::new(Vec::new()));
-        let workers = Workers::new(2);
+        let workers = Workers::new(2, true);
         let mut a = Box::pin(offload(call(log.clone(), "a")));
         let mut b = Box::pin(offload(call(log.clone(), "b")));
         let waker = Waker::from(Arc::new(CallCell::default()));
@@ -462,7 +510,7 @@ mod tests {
         });
         drop(a);
         assert!(batch[0].gone());
-        Workers::new(2).compute(&mut batch);
+        Workers::new(2, true).compute(&mut batch);
         assert_eq!(batch[0].outcome(), Outcome::Waiting);
         assert!(log.lock().expect("the log").is_empty());
     }

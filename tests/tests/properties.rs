@@ -286,6 +286,7 @@ impl Scenario {
         }
         self.system()
             .threads(threads)
+            .eager_threads(true)
             .build()
             .expect("the fixtures build")
             .run_with(Some(Duration::from_secs(RUN_SECS)), self.program())

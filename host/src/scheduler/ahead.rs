@@ -19,15 +19,21 @@ use crate::executor::TaskId;
 use crate::parallel::{self, Outcome};
 use crate::plugin::Kind;
 
+/// While batches do not pay, one poll in so many tries one.
+pub(super) const PROBE_EVERY: u32 = 1 << 16;
+
 impl Scheduler {
     /// Polls the next ready task, and with it, when calls may compute
     /// ahead, the batch of calls its poll began; `false` if no task was
     /// ready.
     pub(super) fn run_ready(&mut self) -> bool {
-        if !self.workers.parallel() {
+        if !self.workers.parallel() || !self.probe() {
             let Some(task) = self.executor.run_one() else {
                 return false;
             };
+            if !self.resuming.is_empty() {
+                self.resuming.remove(&task);
+            }
             self.stepped(task);
             return true;
         }
@@ -57,9 +63,10 @@ impl Scheduler {
             polled.push((next, (batch.len() > before).then_some(before)));
         }
         if batch.len() > 1 {
-            self.workers.compute(&mut batch);
+            self.ahead_pays = self.workers.compute(&mut batch);
             self.computed_ahead += batch.len() as u64;
         }
+        self.probe_in = PROBE_EVERY;
         for (task, handed) in polled {
             if self.core.with(|st| st.stop) {
                 break; // the run ends here, as it would have on one thread
@@ -84,6 +91,19 @@ impl Scheduler {
             self.stepped(task);
         }
         true
+    }
+
+    /// Whether this poll may begin a batch: always while batches pay (the
+    /// last one was worth waking the other threads for), else one poll in
+    /// [`PROBE_EVERY`], to see whether they pay again. A batch costs
+    /// every call a little bookkeeping, which cheap calls do not earn back;
+    /// the choice follows the wall clock, but it never changes the run.
+    fn probe(&mut self) -> bool {
+        if self.ahead_pays {
+            return true;
+        }
+        self.probe_in = self.probe_in.saturating_sub(1);
+        self.probe_in == 0
     }
 
     /// What follows each poll of a task: the step counted, the tasks it

@@ -77,8 +77,9 @@ pub(crate) struct RunSetup {
     pub budget: Arc<MemoryBudget>,
     /// What stops a call from outside it (see [`crate::watchdog`]).
     pub watch: Arc<RunWatch>,
-    /// How many threads plugin calls compute on (see `crate::parallel`).
-    pub threads: usize,
+    /// How many threads plugin calls compute on (see `crate::parallel`),
+    /// and whether every batch is spread over them whatever it costs.
+    pub threads: (usize, bool),
 }
 
 /// Under the real clock, how long before a deadline the scheduler stops
@@ -139,6 +140,10 @@ pub(crate) struct Scheduler {
     pub(super) resuming: HashSet<TaskId>,
     /// Calls computed ahead so far, beside others.
     pub(super) computed_ahead: u64,
+    /// Whether the last batch was worth the other threads (see `ahead`).
+    pub(super) ahead_pays: bool,
+    /// Polls until the next that may try a batch while batches do not pay.
+    pub(super) probe_in: u32,
 }
 
 impl Scheduler {
@@ -243,9 +248,11 @@ impl Scheduler {
             placed: inputs::Placed::new(),
             actors: HashMap::new(),
             watch,
-            workers: Workers::new(threads),
+            workers: Workers::new(threads.0, threads.1),
             resuming: HashSet::new(),
             computed_ahead: 0,
+            ahead_pays: true,
+            probe_in: 0,
         }
     }
 

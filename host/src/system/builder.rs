@@ -53,6 +53,7 @@ pub struct SystemBuilder {
     cache_dir: Option<PathBuf>,
     seed: u64,
     threads: Option<usize>,
+    eager_threads: bool,
     limits: Limits,
     period: Duration,
     memory_budget: Option<usize>,
@@ -88,6 +89,7 @@ impl Default for SystemBuilder {
             cache_dir: default_cache_dir(),
             seed: 0,
             threads: None,
+            eager_threads: false,
             limits: Limits::default(),
             period: Duration::from_millis(10),
             memory_budget: None,
@@ -441,6 +443,16 @@ impl SystemBuilder {
         self
     }
 
+    /// For tests of [`threads`](Self::threads): every batch of calls is
+    /// computed ahead and spread over every thread, however little its
+    /// calls compute (by default the other threads take part only when
+    /// the calls repay the hand-over). The run is the same either way;
+    /// this only makes sure the parallel path is the one taken.
+    pub fn eager_threads(mut self, eager: bool) -> Self {
+        self.eager_threads = eager;
+        self
+    }
+
     /// How the system reaches the agents its plugins are placed on
     /// ([`Plugin::on_node`](crate::Plugin::on_node)): made by
     /// `radar::network`.
@@ -669,9 +681,12 @@ impl SystemBuilder {
             keep_trace: self.keep_trace,
             trace_limit: self.trace_limit.map(|n| (n, self.trace_bytes)),
             seed: self.seed,
-            threads: self.threads.unwrap_or_else(|| {
-                std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
-            }),
+            threads: (
+                self.threads.unwrap_or_else(|| {
+                    std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+                }),
+                self.eager_threads,
+            ),
             tx,
             rx,
         })

@@ -52,8 +52,9 @@ pub struct System {
     /// At most so many records and so many bytes (`None`: every record).
     pub(super) trace_limit: Option<(usize, usize)>,
     pub(super) seed: u64,
-    /// How many threads plugin calls compute on.
-    pub(super) threads: usize,
+    /// How many threads plugin calls compute on, and whether every batch
+    /// is spread over them whatever it costs.
+    pub(super) threads: (usize, bool),
     pub(super) tx: Sender<Command>,
     pub(super) rx: Receiver<Command>,
 }

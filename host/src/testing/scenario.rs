@@ -93,6 +93,9 @@ pub struct RunSpec {
     /// Threads plugin calls compute on (`None`: the machine's cores); the
     /// run is the same for every count.
     pub threads: Option<usize>,
+    /// Every batch of calls spread over the threads, whatever it costs
+    /// ([`SystemBuilder::eager_threads`](crate::SystemBuilder::eager_threads)).
+    pub eager_threads: bool,
 }
 
 /// How a scenario went.
@@ -192,6 +195,7 @@ impl Scenario {
             seed: settings.seed,
             run_for,
             threads: None,
+            eager_threads: false,
         };
         Ok(Self {
             name,
@@ -248,6 +252,7 @@ impl Scenario {
         if let Some(threads) = spec.threads {
             builder = builder.threads(threads);
         }
+        builder = builder.eager_threads(spec.eager_threads);
         if let Some(per_call) = self.settings.fuel.per_call {
             builder = builder.default_limits(Limits {
                 fuel_per_call: per_call,

@@ -1,6 +1,12 @@
 //! Benchmark fixture: triggers on every check with a running count, so the
-//! scheduler's routing path is exercised once per check period.
+//! scheduler's routing path is exercised once per check period. With a
+//! `work` config of N, each check first computes N rounds of a xorshift
+//! generator (about a nanosecond a round): a behaviour that computes
+//! (`benches/threads.rs`). Without it, a check computes nothing.
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::OnceLock;
+
+use radar_guest::prelude::*;
 
 radar_guest::plugin!(
     r#"
@@ -13,12 +19,22 @@ radar_guest::plugin!(
 );
 
 static COUNT: AtomicU64 = AtomicU64::new(0);
+static WORK: OnceLock<u64> = OnceLock::new();
 
 struct BenchEvent;
 
 impl Guest for BenchEvent {
     fn check() -> Option<u64> {
-        Some(COUNT.fetch_add(1, Ordering::Relaxed))
+        let work = *WORK.get_or_init(|| config_or("work", 0u64));
+        let count = COUNT.fetch_add(1, Ordering::Relaxed);
+        let mut x = count | 1;
+        for _ in 0..work {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+        }
+        // The result depends on the work, so the loop is not optimized away.
+        Some(if work > 0 { x } else { count })
     }
 }
 

@@ -303,6 +303,7 @@ impl Plan {
             seed: Some(self.random_seed),
             run_for: self.run_for,
             threads: base.threads,
+            eager_threads: base.eager_threads,
         }
     }
 
