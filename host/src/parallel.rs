@@ -384,6 +384,11 @@ impl Workers {
         }
     }
 
+    /// Whether every batch is spread over every thread, whatever it costs.
+    pub(crate) fn eager(&self) -> bool {
+        self.eager
+    }
+
     /// Whether calls are computed ahead at all.
     pub(crate) fn parallel(&self) -> bool {
         !self.jobs.is_empty()

@@ -62,8 +62,9 @@ impl Scheduler {
             debug_assert!(batch.len() > before, "a member's poll handed no call over");
             polled.push((next, (batch.len() > before).then_some(before)));
         }
+        // A batch of one has nothing to spread: the next tries wait.
+        self.ahead_pays = batch.len() > 1 && self.workers.compute(&mut batch);
         if batch.len() > 1 {
-            self.ahead_pays = self.workers.compute(&mut batch);
             self.computed_ahead += batch.len() as u64;
         }
         self.probe_in = PROBE_EVERY;
@@ -99,7 +100,7 @@ impl Scheduler {
     /// every call a little bookkeeping, which cheap calls do not earn back;
     /// the choice follows the wall clock, but it never changes the run.
     fn probe(&mut self) -> bool {
-        if self.ahead_pays {
+        if self.ahead_pays || self.workers.eager() {
             return true;
         }
         self.probe_in = self.probe_in.saturating_sub(1);
