@@ -14,27 +14,18 @@
 
 use std::time::{Duration, Instant};
 
-use radar::{ClockKind, Link, Plugin, System};
-use radar_fixtures::plugins;
+use radar::{ClockKind, System};
+
+mod common;
 
 /// Wall time of a run of `virtual_ms` of N pairs (the run only).
 fn run(n: usize, virtual_ms: u64) -> Duration {
-    let mut builder = System::builder()
+    let builder = System::builder()
         .clock(ClockKind::Virtual)
         .keep_trace(false);
-    for i in 0..n {
-        builder = builder
-            .plugin(
-                Plugin::file(format!("E{i}"), plugins::BENCH_EVENT)
-                    .period(Duration::from_millis(1)),
-            )
-            .plugin(Plugin::file(format!("R{i}"), plugins::BENCH_RESPONSE))
-            .connect(Link::whenever(
-                &format!("E{i}.triggered"),
-                &format!("R{i}.start"),
-            ));
-    }
-    let system = builder.build().expect("builds");
+    let system = common::bench_pairs(builder, n, |e| e)
+        .build()
+        .expect("builds");
     let began = Instant::now();
     system
         .run(Some(Duration::from_millis(virtual_ms)))

@@ -11,30 +11,19 @@
 
 use std::time::{Duration, Instant};
 
-use radar::{ClockKind, Link, Plugin, System};
-use radar_fixtures::plugins;
+use radar::{ClockKind, System};
+
+mod common;
 
 const BEHAVIOURS: usize = 200;
 
 /// Wall time of one second of virtual time, and the calls computed ahead.
 fn run(threads: usize, work: u64) -> (Duration, u64) {
-    let mut builder = System::builder()
+    let builder = System::builder()
         .clock(ClockKind::Virtual)
         .keep_trace(false)
         .threads(threads);
-    for i in 0..BEHAVIOURS {
-        builder = builder
-            .plugin(
-                Plugin::file(format!("E{i}"), plugins::BENCH_EVENT)
-                    .period(Duration::from_millis(1))
-                    .config("work", work),
-            )
-            .plugin(Plugin::file(format!("R{i}"), plugins::BENCH_RESPONSE))
-            .connect(Link::whenever(
-                &format!("E{i}.triggered"),
-                &format!("R{i}.start"),
-            ));
-    }
+    let builder = common::bench_pairs(builder, BEHAVIOURS, |e| e.config("work", work));
     let system = builder.build().expect("builds");
     let began = Instant::now();
     let report = system.run(Some(Duration::from_secs(1))).expect("runs");

@@ -53,3 +53,29 @@ pub fn trigger_to_start(trace: &[radar::trace::Record], event: &str, response: &
     }
     latency
 }
+
+/// `n` pairs of `bench-event` (a check every millisecond, then what
+/// `event` adds) → `bench-response`, each trigger starting its response:
+/// the system of `scale.rs` and `threads.rs`.
+pub fn bench_pairs(
+    mut builder: radar::SystemBuilder,
+    n: usize,
+    event: impl Fn(radar::Plugin) -> radar::Plugin,
+) -> radar::SystemBuilder {
+    use radar_fixtures::plugins;
+    for i in 0..n {
+        let check = radar::Plugin::file(format!("E{i}"), plugins::BENCH_EVENT)
+            .period(std::time::Duration::from_millis(1));
+        builder = builder
+            .plugin(event(check))
+            .plugin(radar::Plugin::file(
+                format!("R{i}"),
+                plugins::BENCH_RESPONSE,
+            ))
+            .connect(radar::Link::whenever(
+                &format!("E{i}.triggered"),
+                &format!("R{i}.start"),
+            ));
+    }
+    builder
+}

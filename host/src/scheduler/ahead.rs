@@ -20,7 +20,7 @@ use crate::parallel::{self, Outcome};
 use crate::plugin::Kind;
 
 /// While batches do not pay, one poll in so many tries one.
-pub(super) const PROBE_EVERY: u32 = 1 << 16;
+const PROBE_EVERY: u32 = 1 << 16;
 
 impl Scheduler {
     /// Polls the next ready task, and with it, when calls may compute
