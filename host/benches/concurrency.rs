@@ -10,10 +10,11 @@
 //! Target: 10,000 running at once in ≤ 512 MiB with none faulting.
 //! Every fault counts, the system's memory budget's as well as the
 //! machine's. The budget counts each instance's linear memory at its
-//! declared size (1.1 MiB for these Rust plugins, most of it a stack never
-//! touched), so a large table meets it long before the resident memory
-//! grows: `RADAR_CONCURRENCY_BUDGET_GIB` sets the budget as `[limits]
-//! memory` would, to see what the machine itself allows.
+//! declared size (128 KiB for these Rust plugins, most of it their 64 KiB
+//! stack: `plugins/.cargo/config.toml`; 1.1 MiB at the Rust toolchain's
+//! default stack, where a large table meets the budget long before the
+//! resident memory grows): `RADAR_CONCURRENCY_BUDGET_GIB` sets the budget
+//! as `[limits] memory` would, to see what the machine itself allows.
 //! `RADAR_CONCURRENCY_N` sets the sizes (comma separated);
 //! `RADAR_CONCURRENCY_PAIRS` the pairs table's;
 //! `RADAR_CONCURRENCY_SEARCH=0` skips the search.
