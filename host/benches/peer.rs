@@ -10,6 +10,10 @@
 //! `benches/realtime.rs` does); the peer times it with `perf_counter_ns`.
 //! Target: Radar's p50 ≥ 10× below the peer's, in both.
 //!
+//! Then Radar alone at shorter periods (every 1 ms and every 200 µs, two
+//! seconds each): how much of the path's cost at 10 ms is the caches gone
+//! cold between triggers.
+//!
 //! `cargo bench -p radar --bench peer` (`RADAR_PEER_WARM` samples, default
 //! 500; `RADAR_PEER_COLD`, default 20, a second each; needs `python3`).
 
@@ -89,4 +93,13 @@ fn main() {
             theirs / ours
         );
     }
+    println!("== Radar alone, trigger → start, real clock, the event triggering more often ==");
+    for period_us in [1_000u64, 200] {
+        let count = 2_000_000 / period_us;
+        common::summary(
+            &format!("radar, every {period_us} µs"),
+            radar(Duration::from_micros(period_us), count),
+        );
+    }
+    println!("target: p50 ≤ 2 µs warm");
 }
