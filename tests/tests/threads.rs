@@ -6,6 +6,7 @@
 mod common;
 
 use std::path::PathBuf;
+use std::time::Duration;
 
 use radar::testing::scenario::{discover, Scenario};
 use radar::{Busy, Link};
@@ -52,6 +53,10 @@ fn every_scenario_folder_gives_the_same_trace_on_one_two_and_three_threads() {
 /// 40 events with their checks due together, each starting two responses
 /// (one its own, one its neighbour's) under every busy policy.
 fn wide_system(threads: usize) -> radar::RunReport {
+    common::run(wide_builder(threads), 30, |_| Ok(()))
+}
+
+fn wide_builder(threads: usize) -> radar::SystemBuilder {
     let mut builder = common::virtual_system()
         .threads(threads)
         .eager_threads(true);
@@ -67,7 +72,60 @@ fn wide_system(threads: usize) -> radar::RunReport {
             .connect(Link::whenever(&format!("E{i}"), &format!("R{i}")).busy(busy))
             .connect(Link::whenever(&format!("E{i}"), &format!("R{}", (i + 1) % n)).busy(busy));
     }
-    common::run(builder, 30, |_| Ok(()))
+    builder
+}
+
+/// The wide system with deliberative code in it, which runs in lockstep
+/// between two polls: an anonymous slot on E0 that starts R5, and a
+/// `waitfor` on E1 after which the program connects the event `X` (due
+/// with the others) or lets it go, activating or deactivating it. A batch
+/// ends at E0's and E1's turns, so X's check is never computed ahead of
+/// the program's choice.
+fn wide_system_with_native_code(threads: usize) -> radar::RunReport {
+    let builder = wide_builder(threads)
+        .plugin(common::test_event("X", 1))
+        .plugin(common::test_response("RX", 1, 1.0));
+    common::run(builder, 30, |radar| {
+        let inside = radar.clone();
+        radar
+            .whenever_do("E0", move |_| {
+                let _ = inside.inject("R5.start", serde_json::json!(0));
+            })?
+            .keep();
+        let mut held = None;
+        while radar
+            .waitfor("E1", Some(Duration::from_secs(10)))?
+            .is_some()
+        {
+            held = match held.take() {
+                Some(_connection) => None,
+                None => Some(radar.whenever("X", "RX")?),
+            };
+        }
+        Ok(())
+    })
+}
+
+#[test]
+fn deliberative_code_between_two_polls_ends_a_batch_and_the_run_is_as_on_one_thread() {
+    let one = wide_system_with_native_code(1);
+    let three = wide_system_with_native_code(3);
+    let activations = |report: &radar::RunReport| {
+        common::count(
+            &common::records(report),
+            serde_json::json!({"kind": "activate", "plugin": "X"}),
+        )
+    };
+    assert!(activations(&one) >= 3, "the program activates X");
+    assert!(
+        three.computed_ahead > 500,
+        "checks compute ahead beside deliberative code: {}",
+        three.computed_ahead
+    );
+    assert!(
+        three.trace == one.trace,
+        "the trace on three threads differs from the trace on one"
+    );
 }
 
 #[test]

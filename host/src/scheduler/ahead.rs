@@ -8,12 +8,15 @@
 //! member is an event whose check is due (active, nothing pending, no
 //! planned fault, no `until` connection another plugin's activation ends,
 //! not near a burst), or a call that yielded and goes on. Under the virtual
-//! clock nothing joins while a deliberative context could be woken by a
-//! signal (a `waitfor`, an anonymous slot) or an input is due at this
-//! instant: those would have run between two members.
+//! clock nothing joins while an input is due at this instant, and a batch
+//! ends with the first poll whose turn may resume a deliberative context
+//! (its plugin's signals reach a `waitfor`, an anonymous slot or a
+//! program's mailbox, or it is no plugin's task, such as a wait's timeout),
+//! while such contexts exist: on one thread that context runs, in
+//! lockstep, before the next poll, and it may change what that poll does.
 
 use super::run::Scheduler;
-use super::state::{Lifecycle, State};
+use super::state::{Lifecycle, State, Target};
 use crate::clock::ClockKind;
 use crate::executor::TaskId;
 use crate::parallel::{self, Outcome};
@@ -50,10 +53,12 @@ impl Scheduler {
         // The tasks polled, in order, and the call each handed over.
         let mut polled = vec![(first, Some(0))];
         self.executor.hold(first);
-        while let Some(next) = self.executor.peek() {
+        let mut open = !self.may_resume_native(first);
+        while let Some(next) = self.executor.peek().filter(|_| open) {
             if !self.joins(next) {
                 break;
             }
+            open = !self.may_resume_native(next);
             let before = batch.len();
             let executor = &mut self.executor;
             parallel::collecting(&mut batch, || executor.run_one());
@@ -121,6 +126,18 @@ impl Scheduler {
         self.absorb();
     }
 
+    /// Whether task `task`'s turn may resume a deliberative context that
+    /// runs in lockstep (virtual clock), so that no later poll may join
+    /// its batch (see the module docs).
+    fn may_resume_native(&self, task: TaskId) -> bool {
+        if self.core.base.kind() != ClockKind::Virtual {
+            return false;
+        }
+        let pid = self.actors.get(&task).copied();
+        self.core
+            .with(|st| st.has_native_waits() && pid.is_none_or(|pid| st.reaches_native(pid)))
+    }
+
     /// Whether task `task`, ready next, joins the batch (see the module
     /// docs).
     fn joins(&mut self, task: TaskId) -> bool {
@@ -135,17 +152,14 @@ impl Scheduler {
         if virtual_clock && self.placed.front().is_some_and(|p| p.at <= now) {
             return false;
         }
-        self.core.with(|st| st.checks_ahead(pid, virtual_clock))
+        self.core.with(|st| st.checks_ahead(pid))
     }
 }
 
 impl State {
     /// Whether event `pid`'s actor, polled now, goes straight to its check,
     /// which nothing done before its turn can cancel.
-    fn checks_ahead(&mut self, pid: usize, virtual_clock: bool) -> bool {
-        if virtual_clock && (!self.waiters.is_empty() || !self.anonymous.is_empty()) {
-            return false;
-        }
+    fn checks_ahead(&mut self, pid: usize) -> bool {
         let now = self.now();
         let entry = &self.plugins[pid];
         let due = matches!(entry.def.code.kind, Kind::Event { .. })
@@ -167,5 +181,28 @@ impl State {
                 .any(|id| self.connections.get(id).is_some_and(|c| c.serves.is_some()))
         });
         !ended_by_others && self.instant.cannot_blame(pid, now)
+    }
+
+    /// Whether a deliberative context waits on a signal now: a `waitfor`
+    /// (or a program's wait) or an anonymous slot.
+    fn has_native_waits(&self) -> bool {
+        !self.waiters.is_empty() || !self.anonymous.is_empty()
+    }
+
+    /// Whether any of `pid`'s signals is connected to deliberative code: a
+    /// `waitfor`, an anonymous slot or a program's mailbox. Only a plugin's
+    /// own poll emits its signals, so only such a plugin's turn can resume
+    /// that code.
+    fn reaches_native(&self, pid: usize) -> bool {
+        self.routes[pid].iter().any(|(_, ids)| {
+            ids.iter().any(|id| {
+                self.connections.get(id).is_some_and(|c| {
+                    matches!(
+                        c.target,
+                        Target::Waiter(_) | Target::Anonymous(_) | Target::Mailbox(_)
+                    )
+                })
+            })
+        })
     }
 }
