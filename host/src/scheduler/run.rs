@@ -336,7 +336,12 @@ impl Scheduler {
         started?;
         let mut spin = SpinWindow::new();
         loop {
-            let (stop, lockstep) = self.core.with(|st| (st.stop, st.turns.running()));
+            let (stop, lockstep) = self.core.with(|st| {
+                // The step before this one is over: a native context given
+                // the turn during it goes on now.
+                st.turns.release();
+                (st.stop, st.turns.running())
+            });
             if stop || self.watch.stopping().is_some() {
                 break;
             }

@@ -9,6 +9,13 @@
 //! `docs/semantics.md#time-and-order`). So two contexts woken by the same step (a `waitfor` and an
 //! anonymous slot on the same signal) never race, and a run stays a pure
 //! function of its inputs. Under the real clock contexts resume at once.
+//!
+//! A context given the turn in the middle of a scheduler step (a `waitfor`
+//! answered while an emission is routed) is told to go on only when that
+//! step is over ([`Turns::release`], at the top of the scheduler's loop):
+//! told at once, it would run beside the rest of the step, and its log
+//! lines would land among the step's records wherever its thread's timing
+//! put them.
 
 use std::collections::VecDeque;
 
@@ -18,8 +25,11 @@ pub(crate) type Resume = Box<dyn FnOnce() -> bool>;
 pub(crate) struct Turns {
     /// Whether contexts take turns (virtual clock) or run freely (real).
     lockstep: bool,
-    /// A context is running: nothing else may happen until it blocks.
+    /// A context is running (has been told to go on): nothing else may
+    /// happen until it blocks.
     running: bool,
+    /// Contexts that may go on, in the order they became ready; the first
+    /// is told at the next [`Turns::release`].
     ready: VecDeque<Resume>,
 }
 
@@ -38,33 +48,30 @@ impl Turns {
         self.running
     }
 
-    /// A context may go on: now if no other runs, else after those ready
-    /// before it.
+    /// A context may go on: at the next [`Turns::release`] if no other
+    /// runs, else after those ready before it (under the real clock, now).
     pub fn wake(&mut self, resume: Resume) {
-        if !self.lockstep {
-            resume();
-        } else if self.running {
+        if self.lockstep {
             self.ready.push_back(resume);
         } else {
-            self.running = resume();
-            if !self.running {
-                self.next();
-            }
+            resume();
         }
     }
 
-    /// The running context blocked or ended: the next ready one goes on.
+    /// The running context blocked or ended: the next ready one goes on at
+    /// the next [`Turns::release`].
     pub fn block(&mut self) {
         self.running = false;
-        self.next();
     }
 
-    fn next(&mut self) {
-        while let Some(resume) = self.ready.pop_front() {
-            if resume() {
-                self.running = true;
+    /// The scheduler's step is over: if no context runs, the next ready
+    /// one is told to go on (one that is gone passes its turn on).
+    pub fn release(&mut self) {
+        while !self.running {
+            let Some(resume) = self.ready.pop_front() else {
                 return;
-            }
+            };
+            self.running = resume();
         }
     }
 
@@ -96,13 +103,18 @@ mod tests {
         let mut turns = Turns::new(true, true);
         turns.wake(resume(&log, "slot", true));
         turns.wake(resume(&log, "waiter", true));
+        turns.release();
         assert!(log.borrow().is_empty(), "the program still runs");
         turns.block();
+        assert!(log.borrow().is_empty(), "told when the step is over");
+        turns.release();
         assert_eq!(*log.borrow(), ["slot"]);
         assert!(turns.running());
         turns.block();
+        turns.release();
         assert_eq!(*log.borrow(), ["slot", "waiter"]);
         turns.block();
+        turns.release();
         assert!(!turns.running());
     }
 
@@ -111,11 +123,13 @@ mod tests {
         let log = Rc::new(RefCell::new(Vec::new()));
         let mut turns = Turns::new(true, false);
         turns.wake(resume(&log, "gone", false));
+        turns.release();
         assert!(!turns.running());
         let mut turns = Turns::new(true, true);
         turns.wake(resume(&log, "gone too", false));
         turns.wake(resume(&log, "alive", true));
         turns.block();
+        turns.release();
         assert_eq!(*log.borrow(), ["gone", "gone too", "alive"]);
         assert!(turns.running());
     }
