@@ -117,6 +117,14 @@ fn deliberative_code_between_two_polls_ends_a_batch_and_the_run_is_as_on_one_thr
         )
     };
     assert!(activations(&one) >= 3, "the program activates X");
+    let injected = common::count(
+        &common::records(&one),
+        serde_json::json!({"kind": "inject", "to": "R5.start"}),
+    );
+    assert!(
+        injected >= 3,
+        "the anonymous slot runs: {injected} injections"
+    );
     same_run_with_calls_ahead(&one, &three, 500);
 }
 
