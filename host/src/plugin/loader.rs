@@ -3,6 +3,7 @@
 //! (in memory and in the disk cache, see [`super::cache`]) and checking its
 //! world ([`super::world`]).
 
+use super::shelf::{MemoryShelf, StackShelf};
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
 use std::path::{Path, PathBuf};
@@ -84,6 +85,13 @@ impl EngineFlavour {
         // So that a call that computes can be stopped from outside it
         // (a signal, a stall: see `crate::watchdog`).
         config.epoch_interruption(true);
+        // Stacks, and the fixed-size memories of small components, come
+        // from the process's shelf (see `shelf.rs`), so that a swap or a
+        // reset seldom maps or unmaps anything.
+        config.with_host_stack(std::sync::Arc::new(StackShelf));
+        if !copy_on_write && !compact {
+            config.with_host_memory(std::sync::Arc::new(MemoryShelf));
+        }
         let engine = Engine::new(&config).map_err(|e| RadarError::Engine { cause: e.into() })?;
         crate::watchdog::watch_engine(&engine);
         let mut linker = Linker::new(&engine);

@@ -18,6 +18,7 @@ mod instance;
 mod limits;
 mod loader;
 pub(crate) mod remote;
+mod shelf;
 mod store;
 mod world;
 
