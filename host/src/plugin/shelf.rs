@@ -36,10 +36,11 @@ use wasmtime::{LinearMemory, MemoryCreator, MemoryType, StackCreator, StackMemor
 /// `vm.max_map_count`.
 const KEEP: usize = 4;
 
-/// Up to this many accessible bytes, a memory given back is zeroed by
+/// Up to this many accessible bytes (a small plugin's whole memory), a
+/// memory given back is zeroed by
 /// writing (its pages stay resident, so the next store does not fault them
 /// in again); beyond, the kernel drops its pages.
-const ZERO_BY_WRITING: usize = 1 << 20;
+const ZERO_BY_WRITING: usize = 256 << 10;
 
 /// One anonymous mapping: `len` bytes at `base`, the first `open` of them
 /// readable and writable, the rest inaccessible. A stack's guard page is
@@ -304,10 +305,11 @@ unsafe impl MemoryCreator for MemoryShelf {
         guard_size_in_bytes: usize,
     ) -> Result<Box<dyn LinearMemory>, String> {
         let page = page_size();
-        // Without a reservation asked for, reserve what the memory may
-        // grow to (at most 4 GiB, a 32-bit memory's whole range).
+        // wasmtime 48 always asks for a reservation (the engine's
+        // `memory_reservation`, 4 GiB: a 32-bit memory's whole range);
+        // without one, what the memory may grow to, up to that.
         let reserved = reserved_size_in_bytes
-            .unwrap_or_else(|| maximum.unwrap_or(minimum).clamp(minimum, 1 << 32))
+            .unwrap_or_else(|| maximum.unwrap_or(usize::MAX).min(1 << 32).max(minimum))
             .next_multiple_of(page);
         if minimum > reserved {
             return Err(format!(
