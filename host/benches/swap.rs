@@ -11,7 +11,10 @@
 //! the target is ≤ 100 µs precompiled. A swap is its staging (the version
 //! loaded and its instance made, on the caller's thread) and the switch
 //! (`swap_prepared`); the staging is also timed alone, the first in a
-//! system (what a swap meets) and warm (the third in a row).
+//! system (what a swap meets) and warm (the third in a row). Last, the
+//! precompiled swap in a system that keeps swapping (one every
+//! millisecond, the version going back and forth): the same path with the
+//! machine's caches warm.
 
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -132,6 +135,49 @@ fn staging() -> (Duration, Duration) {
     (times[0], times[2])
 }
 
+/// `runs` swaps of `R` in one real-clock system, one a millisecond,
+/// between two versions that the system compiled already. Returns each
+/// swap's time from the request to its `swap` record.
+fn swapping(runs: usize) -> Vec<Duration> {
+    let watch = Watch::default();
+    let system = System::builder()
+        .clock(ClockKind::Real)
+        .keep_trace(false)
+        .trace_to(watch.clone())
+        .plugin(Plugin::file("R", plugins::COUNT_UP))
+        .plugin(Plugin::file("Warm", plugins::TEST_RESPONSE))
+        .build()
+        .expect("builds");
+    let result = Arc::new(Mutex::new(Vec::new()));
+    let out = result.clone();
+    system
+        .run_with(Some(Duration::from_secs(60)), move |radar| {
+            radar.sleep(Duration::from_millis(5))?;
+            for i in 0..runs {
+                let to = if i % 2 == 0 {
+                    plugins::TEST_RESPONSE
+                } else {
+                    plugins::COUNT_UP
+                };
+                let began = Instant::now();
+                radar.swap("R", to, SwapPolicy::Drain)?;
+                let at = loop {
+                    if let Some(at) = watch.0.lock().expect("not poisoned").swapped_at.get(i) {
+                        break *at;
+                    }
+                    std::thread::yield_now();
+                };
+                out.lock().expect("not poisoned").push(at - began);
+                radar.sleep(Duration::from_millis(1))?;
+            }
+            radar.stop();
+            Ok::<(), radar::RadarError>(())
+        })
+        .expect("runs");
+    let times = result.lock().expect("not poisoned").clone();
+    times
+}
+
 fn main() {
     // Criterion passes flags such as `--bench`; this harness takes none.
     let runs = 15;
@@ -154,6 +200,7 @@ fn main() {
         .map(|_| swap_latency(None, false, plugins::TRAP_RESPONSE, false))
         .collect();
     let (first, warm): (Vec<Duration>, Vec<Duration>) = (0..runs).map(|_| staging()).unzip();
+    let swapping = swapping(200);
     let storm = storm();
     println!("\n== Radar hot swap summary (real clock, medians) ==");
     println!(
@@ -169,6 +216,10 @@ fn main() {
          warm {:.1} µs",
         median(first).as_secs_f64() * 1e6,
         median(warm).as_secs_f64() * 1e6
+    );
+    println!(
+        "swap → new version in place, precompiled, one swap a ms in one system {:>6.1} µs",
+        median(swapping).as_secs_f64() * 1e6
     );
     println!(
         "swap → new version in place, artifact cache   {:>8.1} µs",
