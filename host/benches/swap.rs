@@ -105,17 +105,25 @@ fn swap_latency(
     latency.expect("the swap happened")
 }
 
+/// A real-clock system whose `R` (CountUp) may swap to TestResponse,
+/// which its plugin `Warm` made it compile, and back; `watch` sees its
+/// records.
+fn two_versions(watch: Watch) -> System {
+    System::builder()
+        .clock(ClockKind::Real)
+        .keep_trace(false)
+        .trace_to(watch)
+        .plugin(Plugin::file("R", plugins::COUNT_UP))
+        .plugin(Plugin::file("Warm", plugins::TEST_RESPONSE))
+        .build()
+        .expect("builds")
+}
+
 /// `Radar::prepare` (load the precompiled version, make its instance) in a
 /// fresh real-clock system, as `swap` stages it: the first in the system
 /// and the third (warm). Returns both.
 fn staging() -> (Duration, Duration) {
-    let system = System::builder()
-        .clock(ClockKind::Real)
-        .keep_trace(false)
-        .plugin(Plugin::file("R", plugins::COUNT_UP))
-        .plugin(Plugin::file("Warm", plugins::TEST_RESPONSE))
-        .build()
-        .expect("builds");
+    let system = two_versions(Watch::default());
     let result = Arc::new(Mutex::new(Vec::new()));
     let out = result.clone();
     system
@@ -140,14 +148,7 @@ fn staging() -> (Duration, Duration) {
 /// swap's time from the request to its `swap` record.
 fn swapping(runs: usize) -> Vec<Duration> {
     let watch = Watch::default();
-    let system = System::builder()
-        .clock(ClockKind::Real)
-        .keep_trace(false)
-        .trace_to(watch.clone())
-        .plugin(Plugin::file("R", plugins::COUNT_UP))
-        .plugin(Plugin::file("Warm", plugins::TEST_RESPONSE))
-        .build()
-        .expect("builds");
+    let system = two_versions(watch.clone());
     let result = Arc::new(Mutex::new(Vec::new()));
     let out = result.clone();
     system
