@@ -88,9 +88,9 @@ impl EngineFlavour {
         // Stacks, and the fixed-size memories of small components, come
         // from the process's shelf (see `shelf.rs`), so that a swap or a
         // reset seldom maps or unmaps anything.
-        config.with_host_stack(std::sync::Arc::new(StackShelf));
+        config.with_host_stack(std::sync::Arc::new(StackShelf::default()));
         if !copy_on_write && !compact {
-            config.with_host_memory(std::sync::Arc::new(MemoryShelf));
+            config.with_host_memory(std::sync::Arc::new(MemoryShelf::default()));
         }
         let engine = Engine::new(&config).map_err(|e| RadarError::Engine { cause: e.into() })?;
         crate::watchdog::watch_engine(&engine);

@@ -7,8 +7,9 @@
 //! version taking over (the profile is in `docs/performance.md`, "Hot
 //! swap"), and the unmapping sits on the scheduler's thread. The shelf
 //! keeps a few of each that dropped stores gave back, still mapped, for
-//! the next store to take: a memory is zeroed when it is given back (off
-//! the swap's path) and only has its accessible size set when taken.
+//! the next store to take: a memory is zeroed when it is given back (by
+//! the thread that drops the old store, after a swap's record) and only
+//! has its accessible size set when taken.
 //! wasmtime's pooling allocator does the same for a fixed pool; Radar
 //! keeps the on-demand allocator, whose memory follows the system's size.
 //!
@@ -110,6 +111,12 @@ impl<T> Shelf<T> {
         Some(kept.swap_remove(at))
     }
 
+    /// Whether one more would be kept (another thread may fill the shelf
+    /// meanwhile: then what it gives back is dropped).
+    fn has_room(&self) -> bool {
+        self.0.lock().unwrap_or_else(|e| e.into_inner()).len() < KEEP
+    }
+
     fn give_back(&self, thing: T) {
         let mut kept = self.0.lock().unwrap_or_else(|e| e.into_inner());
         if kept.len() < KEEP {
@@ -127,23 +134,33 @@ struct Stack {
 static STACKS: Shelf<Stack> = Shelf::new();
 static MEMORIES: Shelf<Memory> = Shelf::new();
 
-/// Lends fiber stacks from the process's shelf ([`wasmtime::Config::with_host_stack`]).
-#[derive(Clone, Copy, Default)]
-pub(crate) struct StackShelf;
+/// Lends fiber stacks from a shelf ([`wasmtime::Config::with_host_stack`]):
+/// by default the process's.
+#[derive(Clone, Copy)]
+pub(crate) struct StackShelf(&'static Shelf<Stack>);
 
-/// A stack lent to a store, given back to the shelf when the store drops it.
-struct LentStack(Option<Stack>);
+impl Default for StackShelf {
+    fn default() -> Self {
+        Self(&STACKS)
+    }
+}
+
+/// A stack lent to a store, given back to its shelf when the store drops it.
+struct LentStack {
+    stack: Option<Stack>,
+    shelf: &'static Shelf<Stack>,
+}
 
 impl LentStack {
     fn stack(&self) -> &Stack {
-        self.0.as_ref().expect("lent until dropped")
+        self.stack.as_ref().expect("lent until dropped")
     }
 }
 
 impl Drop for LentStack {
     fn drop(&mut self) {
-        if let Some(stack) = self.0.take() {
-            STACKS.give_back(stack);
+        if let Some(stack) = self.stack.take() {
+            self.shelf.give_back(stack);
         }
     }
 }
@@ -170,12 +187,13 @@ unsafe impl StackMemory for LentStack {
 }
 
 // SAFETY: see `LentStack`. A stack from the shelf holds what an earlier
-// store's calls left on it, as wasmtime's pooled stacks do; it is zeroed
-// when asked (`zeroed`), as wasmtime's `async_stack_zeroing` would.
+// store's calls left on it (wasm code cannot read the native stack), as
+// wasmtime's own pooled stacks do with `async_stack_zeroing` off, which is
+// Radar's setting; it is zeroed when asked (`zeroed`).
 unsafe impl StackCreator for StackShelf {
     fn new_stack(&self, size: usize, zeroed: bool) -> wasmtime::Result<Box<dyn StackMemory>> {
         let size = size.next_multiple_of(page_size());
-        let stack = match STACKS.take(|s| s.size == size) {
+        let stack = match self.0.take(|s| s.size == size) {
             Some(stack) => {
                 if zeroed {
                     let bottom = stack.mapping.base + stack.mapping.len - size;
@@ -191,7 +209,10 @@ unsafe impl StackCreator for StackShelf {
                 Stack { mapping, size }
             }
         };
-        Ok(Box::new(LentStack(Some(stack))))
+        Ok(Box::new(LentStack {
+            stack: Some(stack),
+            shelf: self.0,
+        }))
     }
 }
 
@@ -237,14 +258,25 @@ impl Memory {
     }
 }
 
-/// Makes linear memories from the process's shelf ([`wasmtime::Config::with_host_memory`]).
-#[derive(Clone, Copy, Default)]
-pub(crate) struct MemoryShelf;
+/// Makes linear memories from a shelf ([`wasmtime::Config::with_host_memory`]):
+/// by default the process's.
+#[derive(Clone, Copy)]
+pub(crate) struct MemoryShelf(&'static Shelf<Memory>);
+
+impl Default for MemoryShelf {
+    fn default() -> Self {
+        Self(&MEMORIES)
+    }
+}
 
 /// A memory lent to a store: `size` bytes of it are the wasm memory.
+/// `spoiled`: a change of its protection failed, so which of its pages
+/// are accessible is not known for sure; it is unmapped, never kept.
 struct LentMemory {
     memory: Option<Memory>,
     size: usize,
+    spoiled: bool,
+    shelf: &'static Shelf<Memory>,
 }
 
 impl LentMemory {
@@ -256,8 +288,9 @@ impl LentMemory {
 impl Drop for LentMemory {
     fn drop(&mut self) {
         if let Some(memory) = self.memory.take() {
-            if memory.zero().is_ok() {
-                MEMORIES.give_back(memory);
+            // Zeroed only if it will be kept: a full shelf unmaps it.
+            if !self.spoiled && self.shelf.has_room() && memory.zero().is_ok() {
+                self.shelf.give_back(memory);
             }
         }
     }
@@ -282,7 +315,10 @@ unsafe impl LinearMemory for LentMemory {
             wasmtime::bail!("the memory cannot grow past its reservation");
         }
         if new_size > memory.open {
-            memory.open_to(new_size)?;
+            if let Err(error) = memory.open_to(new_size) {
+                self.spoiled = true;
+                return Err(error.into());
+            }
         }
         self.size = new_size;
         Ok(())
@@ -319,7 +355,10 @@ unsafe impl MemoryCreator for MemoryShelf {
         let len = reserved
             .checked_add(guard_size_in_bytes.next_multiple_of(page))
             .ok_or("the memory's reservation overflows")?;
-        let mut memory = match MEMORIES.take(|m| m.reserved == reserved && m.mapping.len == len) {
+        let mut memory = match self
+            .0
+            .take(|m| m.reserved == reserved && m.mapping.len == len)
+        {
             Some(memory) => memory,
             None => Memory {
                 mapping: Mapping::reserve(len, true).map_err(|e| e.to_string())?,
@@ -331,6 +370,8 @@ unsafe impl MemoryCreator for MemoryShelf {
         Ok(Box::new(LentMemory {
             memory: Some(memory),
             size: minimum,
+            spoiled: false,
+            shelf: self.0,
         }))
     }
 }
@@ -344,75 +385,109 @@ mod tests {
     }
 
     #[test]
-    fn a_memory_from_the_shelf_reads_as_zeroes_and_is_open_to_its_size() {
-        let shelf = MemoryShelf;
-        let reserved = 1 << 24;
-        let guard = 1 << 16;
+    fn a_memory_given_back_is_lent_again_zeroed_and_open_to_its_new_size() {
+        static OWN: Shelf<Memory> = Shelf::new();
+        let shelf = MemoryShelf(&OWN);
+        let (reserved, guard) = (1 << 24, 1 << 16);
         let mut first = shelf
             .new_memory(memory_type(), 3 << 16, None, Some(reserved), guard)
             .expect("made");
-        // SAFETY: inside the memory's accessible size.
-        unsafe { std::ptr::write_bytes(first.as_ptr(), 0xab, 3 << 16) };
         first
             .grow_to(5 << 16)
             .expect("grows inside its reservation");
         assert_eq!(first.byte_size(), 5 << 16);
         assert!(first.grow_to(reserved + 1).is_err());
-        let base = first.as_ptr() as usize;
+        // SAFETY: inside the memory's accessible size.
+        unsafe { std::ptr::write_bytes(first.as_ptr(), 0xab, 5 << 16) };
+        let base = first.as_ptr();
         drop(first);
-        // Tests run in parallel: the shelf may have lent this memory out
-        // already, so take memories until it comes back or the shelf runs dry.
-        let mut taken = Vec::new();
-        for _ in 0..=KEEP {
-            let memory = shelf
-                .new_memory(memory_type(), 1 << 16, None, Some(reserved), guard)
+        let again = shelf
+            .new_memory(memory_type(), 1 << 16, None, Some(reserved), guard)
+            .expect("made");
+        assert_eq!(again.as_ptr(), base, "the memory given back is lent again");
+        assert_eq!(again.byte_size(), 1 << 16);
+        assert_eq!(OWN.0.lock().expect("not poisoned").len(), 0);
+        // SAFETY: the whole of what the first store could write, of which
+        // only the first 64 KiB is accessible now; read while it is.
+        let bytes = unsafe { std::slice::from_raw_parts(again.as_ptr(), 1 << 16) };
+        assert!(
+            bytes.iter().all(|b| *b == 0),
+            "a used memory came back dirty"
+        );
+        // A memory of another reservation is not the one kept.
+        drop(again);
+        let other = shelf
+            .new_memory(memory_type(), 1 << 16, None, Some(reserved * 2), guard)
+            .expect("made");
+        assert_ne!(other.as_ptr(), base);
+    }
+
+    #[test]
+    fn a_small_memory_is_zeroed_by_writing_and_a_large_one_by_the_kernel() {
+        static OWN: Shelf<Memory> = Shelf::new();
+        let shelf = MemoryShelf(&OWN);
+        for used in [2 << 16, ZERO_BY_WRITING + (1 << 16)] {
+            let first = shelf
+                .new_memory(memory_type(), used, None, Some(1 << 24), 0)
                 .expect("made");
-            assert_eq!(memory.byte_size(), 1 << 16);
             // SAFETY: inside the memory's accessible size.
-            let bytes = unsafe { std::slice::from_raw_parts(memory.as_ptr(), 1 << 16) };
+            unsafe { std::ptr::write_bytes(first.as_ptr(), 0xcd, used) };
+            let base = first.as_ptr();
+            drop(first);
+            let again = shelf
+                .new_memory(memory_type(), used, None, Some(1 << 24), 0)
+                .expect("made");
+            assert_eq!(again.as_ptr(), base);
+            // SAFETY: inside the memory's accessible size.
+            let bytes = unsafe { std::slice::from_raw_parts(again.as_ptr(), used) };
             assert!(
                 bytes.iter().all(|b| *b == 0),
-                "a used memory came back dirty"
+                "{used} bytes came back dirty"
             );
-            let again = memory.as_ptr() as usize == base;
-            taken.push(memory);
-            if again {
-                return;
-            }
         }
-        panic!("the memory given back was not lent again");
+    }
+
+    #[test]
+    fn the_shelf_keeps_at_most_its_share() {
+        static OWN: Shelf<Memory> = Shelf::new();
+        let shelf = MemoryShelf(&OWN);
+        let lent: Vec<_> = (0..KEEP + 3)
+            .map(|_| {
+                shelf
+                    .new_memory(memory_type(), 1 << 16, None, Some(1 << 20), 0)
+                    .expect("made")
+            })
+            .collect();
+        drop(lent);
+        assert_eq!(OWN.0.lock().expect("not poisoned").len(), KEEP);
     }
 
     #[test]
     fn a_stack_given_back_is_lent_again_with_its_guard_below() {
-        let shelf = StackShelf;
+        static OWN: Shelf<Stack> = Shelf::new();
+        let shelf = StackShelf(&OWN);
         let size = 3 * page_size() + 17;
         let first = shelf.new_stack(size, false).expect("made");
         let range = first.range();
         assert_eq!(range.len(), 4 * page_size());
         assert_eq!(first.top() as usize, range.end);
         assert_eq!(first.guard_range().end as usize, range.start);
-        let top = first.top() as usize;
+        assert_eq!(
+            first.guard_range().end as usize - first.guard_range().start as usize,
+            page_size()
+        );
         // SAFETY: the stack's readable range.
         unsafe { std::ptr::write_bytes(range.start as *mut u8, 0xab, range.len()) };
+        let top = first.top();
         drop(first);
-        let mut taken = Vec::new();
-        for _ in 0..=KEEP {
-            let stack = shelf.new_stack(size, true).expect("made");
-            let again = stack.top() as usize == top;
-            let range = stack.range();
-            // SAFETY: the stack's readable range.
-            let bytes =
-                unsafe { std::slice::from_raw_parts(range.start as *const u8, range.len()) };
-            assert!(
-                bytes.iter().all(|b| *b == 0),
-                "a zeroed stack was asked for"
-            );
-            taken.push(stack);
-            if again {
-                return;
-            }
-        }
-        panic!("the stack given back was not lent again");
+        let again = shelf.new_stack(size, true).expect("made");
+        assert_eq!(again.top(), top, "the stack given back is lent again");
+        let range = again.range();
+        // SAFETY: the stack's readable range.
+        let bytes = unsafe { std::slice::from_raw_parts(range.start as *const u8, range.len()) };
+        assert!(
+            bytes.iter().all(|b| *b == 0),
+            "a zeroed stack was asked for"
+        );
     }
 }
