@@ -5,7 +5,7 @@
 //! stack for every store, and unmaps both when the store is dropped. On a
 //! swap or a reset those system calls sit between the request and the new
 //! version taking over (the profile is in `docs/performance.md`, "Hot
-//! swap"), and the unmapping sits on the scheduler's thread. The shelf
+//! swap"), and the unmapping on the scheduler's thread. The shelf
 //! keeps a few of each that dropped stores gave back, still mapped, for
 //! the next store to take: a memory is zeroed when it is given back (by
 //! the thread that drops the old store, after a swap's record) and only
@@ -38,15 +38,14 @@ use wasmtime::{LinearMemory, MemoryCreator, MemoryType, StackCreator, StackMemor
 const KEEP: usize = 4;
 
 /// Up to this many accessible bytes (a small plugin's whole memory), a
-/// memory given back is zeroed by
-/// writing (its pages stay resident, so the next store does not fault them
-/// in again); beyond, the kernel drops its pages.
+/// memory given back is zeroed by writing (its pages stay resident, so
+/// the next store does not fault them in again); beyond, the kernel drops
+/// its pages.
 const ZERO_BY_WRITING: usize = 256 << 10;
 
-/// One anonymous mapping: `len` bytes at `base`, the first `open` of them
-/// readable and writable, the rest inaccessible. A stack's guard page is
-/// at its bottom, so a stack's mapping is opened from the top (see
-/// [`StackShelf`]); a memory's from its base.
+/// One anonymous mapping: `len` bytes at `base`, made inaccessible; its
+/// owner opens part of it (a [`Stack`]: all but the guard page at its
+/// bottom; a [`Memory`]: its first `open` bytes).
 struct Mapping {
     base: usize,
     len: usize,
