@@ -130,6 +130,18 @@ struct Stack {
     size: usize,
 }
 
+impl Stack {
+    /// Where the stack ends below (and its guard page begins above).
+    fn bottom(&self) -> usize {
+        self.mapping.base + self.mapping.len - self.size
+    }
+
+    /// Where the stack begins, at the top of its mapping.
+    fn top(&self) -> usize {
+        self.mapping.base + self.mapping.len
+    }
+}
+
 static STACKS: Shelf<Stack> = Shelf::new();
 static MEMORIES: Shelf<Memory> = Shelf::new();
 
@@ -169,19 +181,17 @@ impl Drop for LentStack {
 // lent to one store at a time.
 unsafe impl StackMemory for LentStack {
     fn top(&self) -> *mut u8 {
-        let stack = self.stack();
-        (stack.mapping.base + stack.mapping.len) as *mut u8
+        self.stack().top() as *mut u8
     }
 
     fn range(&self) -> Range<usize> {
         let stack = self.stack();
-        stack.mapping.base + stack.mapping.len - stack.size..stack.mapping.base + stack.mapping.len
+        stack.bottom()..stack.top()
     }
 
     fn guard_range(&self) -> Range<*mut u8> {
         let stack = self.stack();
-        let bottom = stack.mapping.base + stack.mapping.len - stack.size;
-        stack.mapping.base as *mut u8..bottom as *mut u8
+        stack.mapping.base as *mut u8..stack.bottom() as *mut u8
     }
 }
 
@@ -195,9 +205,8 @@ unsafe impl StackCreator for StackShelf {
         let stack = match self.0.take(|s| s.size == size) {
             Some(stack) => {
                 if zeroed {
-                    let bottom = stack.mapping.base + stack.mapping.len - size;
                     // SAFETY: the stack part of a mapping the shelf owns.
-                    unsafe { std::ptr::write_bytes(bottom as *mut u8, 0, size) };
+                    unsafe { std::ptr::write_bytes(stack.bottom() as *mut u8, 0, size) };
                 }
                 stack
             }
