@@ -6,7 +6,7 @@
 //! the order rule of `docs/semantics.md#time-and-order`; a task woken twice before it runs is queued
 //! once.
 
-use std::collections::{HashMap, VecDeque};
+use std::collections::VecDeque;
 use std::future::Future;
 use std::pin::Pin;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -69,7 +69,9 @@ struct Slot {
 /// Owns the tasks and runs them in ready order.
 #[derive(Default)]
 pub(crate) struct Executor {
-    tasks: HashMap<TaskId, Slot>,
+    /// Looked up on every poll: a fast hasher (task ids are not chosen by
+    /// anyone who could aim at collisions).
+    tasks: foldhash::HashMap<TaskId, Slot>,
     ready: Arc<ReadyQueue>,
 }
 

@@ -2,7 +2,7 @@
 //! of a run.
 
 use std::cell::RefCell;
-use std::collections::{BTreeMap, HashMap, HashSet, VecDeque};
+use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::rc::Rc;
 use std::sync::Arc;
 use std::time::Duration;
@@ -130,14 +130,14 @@ pub(crate) struct Scheduler {
     /// Static inputs applied at their recorded places (see `inputs`).
     pub(super) placed: inputs::Placed,
     /// Each plugin's actor task, by task: whose steps a step is.
-    pub(super) actors: HashMap<TaskId, usize>,
+    pub(super) actors: foldhash::HashMap<TaskId, usize>,
     /// What stops a call from outside it (a signal, a stall).
     pub(super) watch: Arc<RunWatch>,
     /// The threads calls compute on (see `ahead`).
     pub(super) workers: Workers,
     /// Tasks whose call yielded while computed ahead, and goes on when
     /// they are next polled.
-    pub(super) resuming: HashSet<TaskId>,
+    pub(super) resuming: foldhash::HashSet<TaskId>,
     /// Calls computed ahead so far, beside others.
     pub(super) computed_ahead: u64,
     /// Whether the last batch was worth the other threads (see `ahead`).
@@ -246,10 +246,10 @@ impl Scheduler {
             links,
             inputs,
             placed: inputs::Placed::new(),
-            actors: HashMap::new(),
+            actors: Default::default(),
             watch,
             workers: Workers::new(threads.0, threads.1),
-            resuming: HashSet::new(),
+            resuming: Default::default(),
             computed_ahead: 0,
             ahead_pays: true,
             probe_in: 0,
