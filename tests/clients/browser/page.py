@@ -10,6 +10,9 @@ tests: opens URL, then runs each step in order and prints one JSON line per
       shot:FILE   a PNG screenshot of the page
       size:WxH    the window's size (before the URL loads: 1200x800)
 
+A wait that times out says what the page showed then (its status line,
+how many records it has) and any script error the page threw.
+
 Chromium is `$RADAR_CHROMIUM`, else `chromium` (Debian's package, which
 .ci/debian-packages installs). It gets a fresh profile and a debugging port
 on 127.0.0.1 that the kernel picks, and is stopped when the steps end.
@@ -34,6 +37,8 @@ class Page:
     def __init__(self, ws):
         self.ws = ws
         self.next_id = 0
+        # Uncaught script errors the page threw (Runtime.exceptionThrown).
+        self.errors = []
 
     def call(self, method, **params):
         self.next_id += 1
@@ -41,6 +46,10 @@ class Page:
         self.ws.send(json.dumps({"id": ask, "method": method, "params": params}))
         while True:
             message = json.loads(self.ws.recv())
+            if message.get("method") == "Runtime.exceptionThrown":
+                details = message["params"]["exceptionDetails"]
+                exception = details.get("exception", {})
+                self.errors.append(exception.get("description") or details.get("text"))
             if message.get("id") == ask:
                 if "error" in message:
                     raise RuntimeError(f"{method}: {message['error']}")
@@ -68,8 +77,18 @@ class Page:
             except RuntimeError:
                 pass  # the page may still be loading
             if time.monotonic() > deadline:
-                raise SystemExit(f"page.py: waited {TIMEOUT:.0f} s for {what}")
+                raise SystemExit(f"page.py: waited {TIMEOUT:.0f} s for {what}; {self.shown()}")
             time.sleep(0.05)
+
+    def shown(self):
+        """What the page shows, for a wait that timed out."""
+        try:
+            status = self.evaluate(
+                "[document.getElementById('status')?.textContent, document.body?.dataset.records]"
+            )
+        except RuntimeError as e:
+            status = str(e)
+        return f"the page showed {json.dumps(status)}; its script errors: {json.dumps(self.errors)}"
 
 
 def start_chromium(profile, size):
@@ -122,6 +141,7 @@ def main():
         process, ws_url = start_chromium(profile, size)
         page = Page(websocket.create_connection(ws_url, timeout=TIMEOUT, suppress_origin=True))
         page.call("Page.enable")
+        page.call("Runtime.enable")
         page.call("Page.navigate", url=url)
         page.wait("document.readyState === 'complete' && window.radar !== undefined", "the page")
         for step in steps:
