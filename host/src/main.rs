@@ -79,9 +79,20 @@ enum Cmd {
         #[arg(long, default_value = ".")]
         dir: PathBuf,
     },
+    /// The steps of a C or C++ plugin's build that Radar does itself:
+    /// `bindgen-c` (a world's C bindings) and `component-new` (a component
+    /// of the linked module).
+    Tool(cli::tool::ToolArgs),
 }
 
 fn main() -> ExitCode {
+    // What this radar runs (a plugin's build, `sh tools/build`) finds it as
+    // `$RADAR`: a C plugin's build calls `radar tool`, and its component
+    // gets the WASI adapter of this Radar's wasmtime. Set before any thread
+    // starts.
+    if let Ok(exe) = std::env::current_exe() {
+        std::env::set_var("RADAR", exe);
+    }
     let cli = Cli::parse();
     radar::on_first_compile(|plugin, bytes| {
         eprintln!(
@@ -110,6 +121,7 @@ fn main() -> ExitCode {
             lang,
             dir,
         }) => cli::workspace::new_plugin(&dir, kind, &name, lang),
+        Some(Cmd::Tool(args)) => cli::tool::tool(args),
         None => cli::run::run(cli::run::RunArgs::defaults()),
     };
     match result {

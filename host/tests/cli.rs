@@ -188,6 +188,44 @@ fn bad_input_exits_non_zero_with_a_one_line_cause() {
 }
 
 #[test]
+fn radar_tool_refuses_a_bad_wit_world_or_module_in_one_line() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = |name: &str| dir.path().join(name).to_str().expect("utf-8").to_string();
+    std::fs::write(
+        path("w.wit"),
+        "package a:b;\nworld w {\n  export f: func(;\n}\n",
+    )
+    .expect("written");
+    std::fs::write(path("core.wasm"), b"\0asm\x01\0\0\0garbage").expect("written");
+    let (wit, core, out) = (path("w.wit"), path("core.wasm"), path("out"));
+    let cases: [(&[&str], &str); 4] = [
+        (
+            &["bindgen-c", &wit, "--world", "w", "--out-dir", &out],
+            "w.wit",
+        ),
+        (
+            &["bindgen-c", "/nowhere", "--world", "w", "--out-dir", &out],
+            "/nowhere",
+        ),
+        (
+            &["component-new", &core, "-o", &path("x.wasm")],
+            "core.wasm",
+        ),
+        (
+            &["component-new", "/nowhere.wasm", "-o", &path("x.wasm")],
+            "/nowhere.wasm",
+        ),
+    ];
+    for (args, expected) in cases {
+        let out = radar(&[&["tool"][..], args].concat());
+        assert!(!out.status.success(), "{args:?} should fail");
+        let stderr = text(&out.stderr);
+        assert_eq!(stderr.lines().count(), 1, "one line: {stderr}");
+        assert!(stderr.contains(expected), "{expected:?} not in {stderr:?}");
+    }
+}
+
+#[test]
 fn inject_sends_payloads_into_slots_at_given_times() {
     let dir = tempfile::tempdir().expect("temp dir");
     let trace = dir.path().join("t.jsonl");

@@ -4,9 +4,9 @@
 //! byte for byte, and an interrupted response ends as the Rust one does.
 //!
 //! They are built here, when the tests run, not by the fixtures' build
-//! script: the first build installs the pinned C toolchain (cargo builds
-//! wit-bindgen and wasm-tools, minutes on a fresh machine), which then runs
-//! beside the other tests instead of holding up the whole build.
+//! script: the build calls `radar tool` (the `radar` binary, which the
+//! fixtures are built before), and its first run installs the pinned clang
+//! (ziglang, from PyPI).
 
 mod common;
 
@@ -17,6 +17,24 @@ use std::sync::{Mutex, OnceLock};
 use common::*;
 use radar_fixtures::plugins;
 use serde_json::json;
+
+/// The `radar` that `guest-sdk/c/build` calls: the one `cargo test
+/// --workspace` built beside this test (this test is
+/// `target/PROFILE/deps/c_languages-HASH`, radar `target/PROFILE/radar`).
+fn radar_exe() -> PathBuf {
+    let test = std::env::current_exe().expect("the test's path");
+    let radar = test
+        .parent()
+        .and_then(Path::parent)
+        .expect("the test is in target/PROFILE/deps")
+        .join(format!("radar{}", std::env::consts::EXE_SUFFIX));
+    assert!(
+        radar.is_file(),
+        "{} is missing: `cargo test --workspace` builds it",
+        radar.display()
+    );
+    radar
+}
 
 /// `plugins/NAME` built with `guest-sdk/c/build`, once per test run.
 fn built(name: &str) -> PathBuf {
@@ -37,6 +55,7 @@ fn built(name: &str) -> PathBuf {
         .arg(&out)
         .current_dir(root.join("plugins").join(name))
         .env("RADAR_TOOLCHAINS", radar_fixtures::TOOLCHAINS)
+        .env("RADAR", radar_exe())
         .output()
         .expect("sh runs");
     assert!(
@@ -98,6 +117,7 @@ fn a_c_build_is_reproducible() {
         .arg(&again)
         .current_dir(root.join("plugins/test-event-c"))
         .env("RADAR_TOOLCHAINS", radar_fixtures::TOOLCHAINS)
+        .env("RADAR", radar_exe())
         .status()
         .expect("sh runs");
     assert!(status.success());

@@ -11,6 +11,7 @@ pub mod run;
 pub mod shadow;
 pub mod simulate;
 pub mod test;
+pub mod tool;
 pub mod trace;
 pub mod view;
 pub mod workspace;

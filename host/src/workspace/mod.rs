@@ -9,6 +9,7 @@
 //! names an error (the compiler's first error), and changes nothing.
 
 mod build;
+pub mod c_toolchain;
 mod error;
 pub mod scaffold;
 mod system;

@@ -112,7 +112,6 @@ const JS_DEV_RUNTIME: &str = include_str!("../../../guest-sdk/js/radar_dev.js");
 const JS_DEV_GENERATOR: &str = include_str!("../../../guest-sdk/js/dev_runtime.js");
 const C_BUILD: &str = include_str!("../../../guest-sdk/c/build");
 const C_REQUIREMENTS: &str = include_str!("../../../guest-sdk/c/requirements.txt");
-const C_PINS: &str = include_str!("../../../guest-sdk/c/pins.txt");
 const C_HELPERS: &str = include_str!("../../../guest-sdk/c/radar_guest.h");
 const C_PROGRAM_HELPERS: &str = include_str!("../../../guest-sdk/c/radar_program.h");
 
@@ -462,7 +461,6 @@ fn c_files(kind: Kind, names: &[(&str, &str)], cpp: bool) -> Result<Vec<NewFile>
             C_REQUIREMENTS.into(),
             false,
         ),
-        ("tools/pins.txt".into(), C_PINS.into(), false),
         ("tools/radar_guest.h".into(), C_HELPERS.into(), false),
         (
             "tools/radar_program.h".into(),
