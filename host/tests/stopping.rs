@@ -10,7 +10,7 @@ use radar_fixtures::plugins;
 
 mod common;
 
-use common::{lawful_trace, radar, text, write_manifest};
+use common::{lawful_trace, radar, signal, text, write_manifest};
 
 /// Starts `radar` with `args`, its output captured.
 fn start(args: &[&str]) -> Child {
@@ -20,14 +20,6 @@ fn start(args: &[&str]) -> Child {
         .stderr(Stdio::piped())
         .spawn()
         .expect("the radar binary starts")
-}
-
-fn signal(child: &Child, name: &str) {
-    let status = Command::new("kill")
-        .args([&format!("-{name}"), &child.id().to_string()])
-        .status()
-        .expect("kill runs");
-    assert!(status.success());
 }
 
 /// Waits for `child` to end, at most `limit`; its status and stderr.

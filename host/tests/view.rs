@@ -12,7 +12,7 @@ use serde_json::Value as Json;
 
 mod common;
 
-use common::{lines, radar, text, wait_within};
+use common::{lines, radar, signal, text, wait_within, write_manifest};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
@@ -191,9 +191,11 @@ fn the_view_shows_the_papers_fig3_at_0_1_and_4_s_and_details_on_click() {
 fn the_monitor_shows_a_live_run_changing_while_the_page_is_open() {
     let dir = tempfile::tempdir().expect("temp dir");
     let trace = dir.path().join("live.jsonl");
+    // At most 40 s: the run is stopped (SIGTERM) once the page has shown a
+    // change, however late the browser came.
     let mut child = Command::new(env!("CARGO_BIN_EXE_radar"))
         .args(["run", "-q", "--example", "fig3", "--clock", "real"])
-        .args(["--for", "13s", "--monitor", "127.0.0.1:0", "--trace"])
+        .args(["--for", "40s", "--monitor", "127.0.0.1:0", "--trace"])
         .arg(&trace)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -211,41 +213,59 @@ fn the_monitor_shows_a_live_run_changing_while_the_page_is_open() {
     assert!(url.starts_with("http://127.0.0.1:"), "{url}");
 
     // TestResponse is idle until 6 s, running until TestEvent2 interrupts
-    // it at 7 s, idle until 11 s, then running again (a loaded machine can
-    // shift that: what the run did is read from its trace below). From
-    // the moment the page is first looked at, every state the page shows
-    // for TestResponse is noted with how many records it had then.
+    // it at 7 s, idle until 11 s, then running: whenever the page opens,
+    // the state it shows changes while it is open (a loaded machine may
+    // shift those times; what the run did is read from its trace below).
+    // From the first look on, the page notes the state it shows for
+    // TestResponse each time its records or that state change, with how
+    // many records it has then.
     let state =
         "document.querySelector('#graph-svg .node[data-plugin=\"TestResponse\"]')?.dataset.state";
     let first = format!(
         "eval:(() => {{ const state = () => {state}; \
          window.firstEnd = +document.body.dataset.end; \
          window.shown = [[state(), radar.records.length]]; \
-         new MutationObserver(() => {{ const s = state(); \
-           if (s !== window.shown[window.shown.length - 1][0]) \
-             window.shown.push([s, radar.records.length]); }}) \
+         new MutationObserver(() => {{ const [s, n] = window.shown[window.shown.length - 1]; \
+           if (state() !== s || radar.records.length !== n) \
+             window.shown.push([state(), radar.records.length]); }}) \
            .observe(document.getElementById('graph-svg'), {{ childList: true, subtree: true }}); \
          return window.shown[0]; }})()"
     );
-    let seen = browse(
-        &url,
-        &[
-            "wait:+document.body.dataset.records > 0 && !!document.querySelector('#graph-svg .node')",
-            &first,
-            // Records came while the page was open, and it moved on.
-            "wait:radar.records.length > window.shown[0][1] && +document.body.dataset.end > window.firstEnd",
-            SEEN,
-            "wait:document.getElementById('status').textContent.includes('ended')",
-            SEEN,
-            "eval:window.shown",
-        ],
-    );
+    let changed = "wait:window.shown.some(([s]) => s !== window.shown[0][0]) \
+                   && +document.body.dataset.end > window.firstEnd";
+    let mark = dir.path().join("changed");
+    let steps = vec![
+        "wait:+document.body.dataset.records > 0 && !!document.querySelector('#graph-svg .node')"
+            .to_string(),
+        first,
+        changed.to_string(),
+        SEEN.to_string(),
+        format!("mark:{}", mark.display()),
+        "wait:document.getElementById('status').textContent.includes('ended')".to_string(),
+        SEEN.to_string(),
+        "eval:window.shown".to_string(),
+    ];
+    let browsing = std::thread::spawn(move || {
+        let steps: Vec<&str> = steps.iter().map(String::as_str).collect();
+        browse(&url, &steps)
+    });
+    // The page has shown a change: the run is stopped (or page.py ended
+    // without, and says why below).
+    while !mark.exists() && !browsing.is_finished() {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    if mark.exists() {
+        signal(&child, "TERM");
+    }
+    let seen = browsing
+        .join()
+        .unwrap_or_else(|e| std::panic::resume_unwind(e));
     let out = wait_within(&mut child, Duration::from_secs(60));
-    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert_eq!(out.status.code(), Some(130), "{}", text(&out.stderr));
 
     let (after, last, shown) = (&seen[1], &seen[2], &seen[3]);
     let status = after["status"].as_str().expect("status");
-    assert!(status.starts_with("live ("), "{after}");
+    assert!(status.starts_with("live (running)"), "{after}");
 
     let written = std::fs::read_to_string(&trace).expect("the trace");
     let records = radar::trace::parse_json_lines(&written).expect("a trace");
@@ -265,11 +285,11 @@ fn the_monitor_shows_a_live_run_changing_while_the_page_is_open() {
     assert_eq!(edges(last).len(), end.connections.len(), "{last}");
 }
 
-/// `shown` is every state the live page showed for TestResponse, each with
-/// how many records the page had then (`[[state, records], ...]`). Each
-/// must be the state the trace gives after that many records, and every
-/// state TestResponse entered after the first look and held for at least
-/// 1.5 s must be among them, shown while it held.
+/// `shown` is what the live page showed for TestResponse as its records
+/// came (`[[state, records], ...]`). Each state must be the one the trace
+/// gives after that many records; the page must have shown a change; and
+/// every state TestResponse entered after the first look and held for at
+/// least 1.5 s must be among them, shown while it held.
 fn the_page_showed_what_the_run_did(records: &[radar::trace::Record], shown: &Json) {
     let shown: Vec<(String, usize)> = shown
         .as_array()
@@ -284,6 +304,10 @@ fn the_page_showed_what_the_run_did(records: &[radar::trace::Record], shown: &Js
         let graph = radar::view::graph_at(&records[..n], u64::MAX);
         graph.plugins.get("TestResponse").map(|p| p.state.clone())
     };
+    assert!(
+        shown.iter().any(|(s, _)| *s != shown[0].0),
+        "the page showed no change: {shown:?}"
+    );
     for (state, n) in &shown {
         assert_eq!(
             response_state(*n).as_deref(),
@@ -318,6 +342,71 @@ fn the_page_showed_what_the_run_did(records: &[radar::trace::Record], shown: &Js
                 .any(|(s, n)| s == state && (i + 1..=until_index).contains(n)),
             "TestResponse was {state} from {t} ns to {until_t} ns (records {i}..{until_index}), \
              and the page did not show it: {shown:?}"
+        );
+    }
+}
+
+/// The monitor's event stream, read by a plain HTTP client until the
+/// server closes it: what a page would have been sent.
+fn read_events(addr: &str) -> std::thread::JoinHandle<String> {
+    use std::io::{Read, Write};
+    let mut stream = std::net::TcpStream::connect(addr).expect("the monitor answers");
+    stream
+        .set_read_timeout(Some(Duration::from_secs(60)))
+        .expect("a timeout");
+    write!(stream, "GET /events HTTP/1.1\r\nHost: {addr}\r\n\r\n").expect("sent");
+    std::thread::spawn(move || {
+        let mut got = String::new();
+        let _ = stream.read_to_string(&mut got);
+        got
+    })
+}
+
+#[test]
+fn a_run_that_faults_or_is_stopped_still_ends_the_pages_stream_with_its_last_records() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let manifest = write_manifest(
+        dir.path(),
+        &format!(
+            "[plugins.Trap]\nwasm = \"{}\"\nconfig = {{ after_s = 0.2 }}\n",
+            radar_fixtures::plugins::TRAP_RESPONSE
+        ),
+    );
+    // A plugin faults (exit status 3), and a run is stopped by SIGTERM
+    // (130): either way the stream gets every record and its end.
+    for (inject, stop, status) in [("0.1s:Trap.start", false, 3), ("9s:Trap.start", true, 130)] {
+        let trace = dir.path().join("t.jsonl");
+        let mut child = Command::new(env!("CARGO_BIN_EXE_radar"))
+            .args(["run", &manifest, "-q", "--clock", "real", "--for", "1s"])
+            .args(["--inject", inject, "--monitor", "127.0.0.1:0", "--trace"])
+            .arg(&trace)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("radar runs");
+        let stdout = lines(child.stdout.take().expect("stdout"));
+        let line = stdout
+            .recv_timeout(Duration::from_secs(30))
+            .expect("the monitor's address");
+        let addr = line
+            .strip_prefix("monitor: http://")
+            .and_then(|l| l.split('/').next())
+            .unwrap_or_else(|| panic!("not the monitor's line: {line}"))
+            .to_string();
+        let events = read_events(&addr);
+        if stop {
+            std::thread::sleep(Duration::from_millis(300));
+            signal(&child, "TERM");
+        }
+        let out = wait_within(&mut child, Duration::from_secs(60));
+        assert_eq!(out.status.code(), Some(status), "{}", text(&out.stderr));
+        let got = events.join().expect("read");
+        assert!(got.contains("event: end"), "no end: {got}");
+        let records = std::fs::read_to_string(&trace).expect("the trace");
+        let last = records.lines().last().expect("a record");
+        assert!(
+            got.contains(&format!("data: {last}")),
+            "{last} not in {got}"
         );
     }
 }

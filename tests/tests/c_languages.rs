@@ -28,9 +28,15 @@ fn radar_exe() -> PathBuf {
         .and_then(Path::parent)
         .expect("the test is in target/PROFILE/deps")
         .join(format!("radar{}", std::env::consts::EXE_SUFFIX));
+    // `cargo test -p radar-tests` alone does not build it: an old one, or
+    // none, is said plainly.
+    let works = std::process::Command::new(&radar)
+        .args(["tool", "--help"])
+        .output()
+        .is_ok_and(|out| out.status.success());
     assert!(
-        radar.is_file(),
-        "{} is missing: `cargo test --workspace` builds it",
+        works,
+        "{} is missing or has no `radar tool`: `cargo test --workspace` builds it",
         radar.display()
     );
     radar

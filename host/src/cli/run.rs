@@ -288,8 +288,9 @@ pub fn run(args: RunArgs) -> Result<()> {
         }
     }
     // Lives until the run's report is out: dropping it ends the pages'
-    // streams.
-    let _monitor = match &args.monitor {
+    // streams (so it is dropped before any `process::exit` below, which
+    // runs no destructor: the pages get the last records and the end).
+    let monitor = match &args.monitor {
         Some(addr) => {
             let title = args.manifest.as_ref().map_or_else(
                 || "built-in example".to_string(),
@@ -521,6 +522,7 @@ pub fn run(args: RunArgs) -> Result<()> {
             "radar: run stopped at {:.3} s ({reason}): {message}{trace}",
             report.ended_at.as_secs_f64()
         );
+        drop(monitor);
         // 130: the shell's code for a run ended by Ctrl-C.
         std::process::exit(if reason == "signal" { 130 } else { 1 });
     }
@@ -561,6 +563,7 @@ pub fn run(args: RunArgs) -> Result<()> {
             at.as_secs_f64()
         );
         if !args.allow_faults {
+            drop(monitor);
             // Its own status, so that scripts tell it from a run that
             // could not be made (docs/cli.md#radar-run).
             std::process::exit(FAULTED);

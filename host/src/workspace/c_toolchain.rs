@@ -32,8 +32,9 @@ pub enum CToolError {
         /// Why, on one line.
         cause: String,
     },
-    /// The core module is not one a component can be made of.
-    #[error("{}: not a component's core module: {cause}", core.display())]
+    /// No component can be made of the core module (not a module, or its
+    /// imports and exports do not fit its world).
+    #[error("{}: cannot make a component of it: {cause}", core.display())]
     Component {
         /// The core module's file.
         core: PathBuf,

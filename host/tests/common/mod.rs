@@ -7,6 +7,15 @@ use std::process::{Child, ChildStdout, Command, Output};
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
+/// Sends the signal `name` (`TERM`, `INT`, ...) to `child`.
+pub fn signal(child: &Child, name: &str) {
+    let status = Command::new("kill")
+        .args([&format!("-{name}"), &child.id().to_string()])
+        .status()
+        .expect("kill runs");
+    assert!(status.success());
+}
+
 /// Runs `radar` with `args`, to the end.
 pub fn radar(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_radar"))

@@ -8,10 +8,13 @@ tests: opens URL, then runs each step in order and prints one JSON line per
       click:EXPR  a mouse click (pressed, released) at the page point [x, y]
                   that the JavaScript EXPR gives
       shot:FILE   a PNG screenshot of the page
+      mark:FILE   writes FILE (empty): tells a caller waiting for it that
+                  the steps before it are done
       size:WxH    the window's size (before the URL loads: 1200x800)
 
 A wait that times out says what the page showed then (its status line,
-how many records it has) and any script error the page threw.
+how many records it has) and any script error the page threw; script
+errors are said on stderr at the end too.
 
 Chromium is `$RADAR_CHROMIUM`, else `chromium` (Debian's package, which
 .ci/debian-packages installs). It gets a fresh profile and a debugging port
@@ -86,7 +89,7 @@ class Page:
             status = self.evaluate(
                 "[document.getElementById('status')?.textContent, document.body?.dataset.records]"
             )
-        except RuntimeError as e:
+        except Exception as e:  # a page that hangs times out the socket too
             status = str(e)
         return f"the page showed {json.dumps(status)}; its script errors: {json.dumps(self.errors)}"
 
@@ -161,12 +164,18 @@ def main():
                         button="left",
                         clickCount=1,
                     )
+            elif kind == "mark":
+                open(arg, "w").close()
             elif kind == "shot":
                 png = page.call("Page.captureScreenshot", format="png")["data"]
                 with open(arg, "wb") as f:
                     f.write(base64.b64decode(png))
             elif kind != "size":
                 raise SystemExit(f"page.py: unknown step `{step}`")
+        # Script errors do not fail the steps (a test asserts what the page
+        # shows), but are said.
+        for error in page.errors:
+            print(f"page.py: the page threw: {error}", file=sys.stderr)
     finally:
         if process is not None:
             process.terminate()
