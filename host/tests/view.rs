@@ -234,7 +234,7 @@ fn the_monitor_shows_a_live_run_changing_while_the_page_is_open() {
     let changed = "wait:window.shown.some(([s]) => s !== window.shown[0][0]) \
                    && +document.body.dataset.end > window.firstEnd";
     let mark = dir.path().join("changed");
-    let steps = vec![
+    let steps = [
         "wait:+document.body.dataset.records > 0 && !!document.querySelector('#graph-svg .node')"
             .to_string(),
         first,
