@@ -193,24 +193,10 @@ fn the_monitor_shows_a_live_run_changing_while_the_page_is_open() {
     let trace = dir.path().join("live.jsonl");
     // At most 40 s: the run is stopped (SIGTERM) once the page has shown a
     // change, however late the browser came.
-    let mut child = Command::new(env!("CARGO_BIN_EXE_radar"))
-        .args(["run", "-q", "--example", "fig3", "--clock", "real"])
-        .args(["--for", "40s", "--monitor", "127.0.0.1:0", "--trace"])
-        .arg(&trace)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("radar runs");
-    let stdout = lines(child.stdout.take().expect("stdout"));
-    let line = stdout
-        .recv_timeout(Duration::from_secs(30))
-        .expect("the monitor's address");
-    let url = line
-        .strip_prefix("monitor: ")
-        .and_then(|l| l.split_whitespace().next())
-        .unwrap_or_else(|| panic!("not the monitor's line: {line}"))
-        .to_string();
-    assert!(url.starts_with("http://127.0.0.1:"), "{url}");
+    let (mut child, url) = run_monitored(
+        &["-q", "--example", "fig3", "--clock", "real", "--for", "40s"],
+        &trace,
+    );
 
     // TestResponse is idle until 6 s, running until TestEvent2 interrupts
     // it at 7 s, idle until 11 s, then running: whenever the page opens,
@@ -251,9 +237,10 @@ fn the_monitor_shows_a_live_run_changing_while_the_page_is_open() {
     });
     // The page has shown a change: the run is stopped (or page.py ended
     // without, and says why below).
-    while !mark.exists() && !browsing.is_finished() {
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    // (page.py gives each of its waits 60 s.)
+    wait_for(Duration::from_secs(300), || {
+        mark.exists() || browsing.is_finished()
+    });
     if mark.exists() {
         signal(&child, "TERM");
     }
@@ -346,6 +333,40 @@ fn the_page_showed_what_the_run_did(records: &[radar::trace::Record], shown: &Js
     }
 }
 
+/// `radar run ARGS --monitor 127.0.0.1:0 --trace TRACE`, and the page's
+/// address (`http://127.0.0.1:PORT/`) that it prints first.
+fn run_monitored(args: &[&str], trace: &Path) -> (std::process::Child, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_radar"))
+        .arg("run")
+        .args(args)
+        .args(["--monitor", "127.0.0.1:0", "--trace"])
+        .arg(trace)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("radar runs");
+    let stdout = lines(child.stdout.take().expect("stdout"));
+    let line = stdout
+        .recv_timeout(Duration::from_secs(30))
+        .expect("the monitor's address");
+    let url = line
+        .strip_prefix("monitor: ")
+        .and_then(|l| l.split_whitespace().next())
+        .unwrap_or_else(|| panic!("not the monitor's line: {line}"))
+        .to_string();
+    assert!(url.starts_with("http://127.0.0.1:"), "{url}");
+    (child, url)
+}
+
+/// Waits until `done`, at most `limit`.
+fn wait_for(limit: Duration, done: impl Fn() -> bool) {
+    let began = std::time::Instant::now();
+    while !done() {
+        assert!(began.elapsed() < limit, "waited {limit:?}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
 /// The monitor's event stream, read by a plain HTTP client until the
 /// server closes it: what a page would have been sent.
 fn read_events(addr: &str) -> std::thread::JoinHandle<String> {
@@ -376,26 +397,24 @@ fn a_run_that_faults_or_is_stopped_still_ends_the_pages_stream_with_its_last_rec
     // (130): either way the stream gets every record and its end.
     for (inject, stop, status) in [("0.1s:Trap.start", false, 3), ("9s:Trap.start", true, 130)] {
         let trace = dir.path().join("t.jsonl");
-        let mut child = Command::new(env!("CARGO_BIN_EXE_radar"))
-            .args(["run", &manifest, "-q", "--clock", "real", "--for", "1s"])
-            .args(["--inject", inject, "--monitor", "127.0.0.1:0", "--trace"])
-            .arg(&trace)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("radar runs");
-        let stdout = lines(child.stdout.take().expect("stdout"));
-        let line = stdout
-            .recv_timeout(Duration::from_secs(30))
-            .expect("the monitor's address");
-        let addr = line
-            .strip_prefix("monitor: http://")
-            .and_then(|l| l.split('/').next())
-            .unwrap_or_else(|| panic!("not the monitor's line: {line}"))
+        let _ = std::fs::remove_file(&trace);
+        let (mut child, url) = run_monitored(
+            &[
+                &manifest, "-q", "--clock", "real", "--for", "1s", "--inject", inject,
+            ],
+            &trace,
+        );
+        let addr = url
+            .trim_start_matches("http://")
+            .trim_end_matches('/')
             .to_string();
         let events = read_events(&addr);
         if stop {
-            std::thread::sleep(Duration::from_millis(300));
+            // Once the run has written records it is running, and stops
+            // on a signal as docs/cli.md says (not while it is built).
+            wait_for(Duration::from_secs(60), || {
+                std::fs::metadata(&trace).is_ok_and(|m| m.len() > 0)
+            });
             signal(&child, "TERM");
         }
         let out = wait_within(&mut child, Duration::from_secs(60));
