@@ -15,7 +15,10 @@ use radar::testing::scenario::{discover, Scenario};
 
 mod common;
 
-use common::{free_port, lawful_trace, text};
+use common::{free_port, lawful_trace, text, wait_for};
+
+/// How long each step of the lost-agent test may take.
+const AGENT_WAIT: Duration = Duration::from_secs(30);
 
 /// A `radar agent` process, stopped when dropped.
 struct AgentProcess(Child);
@@ -151,14 +154,6 @@ fn ctl(endpoint: &str, run_dir: &Path, args: &[&str]) -> String {
     text(&out.stdout)
 }
 
-fn wait_for(what: &str, mut done: impl FnMut() -> bool) {
-    let began = Instant::now();
-    while !done() {
-        assert!(began.elapsed() < Duration::from_secs(30), "never: {what}");
-        std::thread::sleep(Duration::from_millis(50));
-    }
-}
-
 #[test]
 fn a_lost_agent_faults_its_plugins_and_takes_them_back_when_it_returns() {
     let dir = tempfile::tempdir().expect("temp dir");
@@ -182,7 +177,7 @@ fn a_lost_agent_faults_its_plugins_and_takes_them_back_when_it_returns() {
     // The coordinator waits for its agent before it begins.
     std::thread::sleep(Duration::from_millis(300));
     let agent = AgentProcess::start("base", "--connect", &endpoint);
-    wait_for("the run has begun", || {
+    wait_for("the run has begun", AGENT_WAIT, || {
         std::fs::read_to_string(&trace).is_ok_and(|t| t.contains("activate"))
     });
     let ls = ctl(&endpoint, &run_dir, &["ls"]);
@@ -191,30 +186,30 @@ fn a_lost_agent_faults_its_plugins_and_takes_them_back_when_it_returns() {
     assert!(ls.contains("plugin Obstacle event active"), "{ls}");
     // An activation on the agent, and a start waiting behind it.
     ctl(&endpoint, &run_dir, &["write", "range", "0.3"]);
-    wait_for("Avoid is running", || {
+    wait_for("Avoid is running", AGENT_WAIT, || {
         ctl(&endpoint, &run_dir, &["ls"]).contains("plugin Avoid response running")
     });
     // Obstacle triggers on a new obstacle: the start waits in the queue.
     ctl(&endpoint, &run_dir, &["write", "range", "0.9"]);
     std::thread::sleep(Duration::from_millis(250));
     ctl(&endpoint, &run_dir, &["write", "range", "0.2"]);
-    wait_for("a start waits", || {
+    wait_for("a start waits", AGENT_WAIT, || {
         ctl(&endpoint, &run_dir, &["ls"]).contains("plugin Avoid response running version")
             && ctl(&endpoint, &run_dir, &["ls"]).contains("queued=1")
     });
     agent.kill();
-    wait_for("Avoid faulted", || {
+    wait_for("Avoid faulted", AGENT_WAIT, || {
         ctl(&endpoint, &run_dir, &["ls"]).contains("plugin Avoid response error")
     });
     // Back: the plugin is instantiated again, and its connection delivers.
     let agent = AgentProcess::start("base", "--connect", &endpoint);
-    wait_for("Avoid is back", || {
+    wait_for("Avoid is back", AGENT_WAIT, || {
         ctl(&endpoint, &run_dir, &["ls"]).contains("plugin Avoid response idle")
     });
     ctl(&endpoint, &run_dir, &["write", "range", "0.9"]);
     std::thread::sleep(Duration::from_millis(300));
     ctl(&endpoint, &run_dir, &["write", "range", "0.1"]);
-    wait_for("Avoid ran again", || {
+    wait_for("Avoid ran again", AGENT_WAIT, || {
         std::fs::read_to_string(&trace).is_ok_and(|t| {
             t.matches(r#""plugin":"Avoid","slot":"start","outcome":"completed""#)
                 .count()

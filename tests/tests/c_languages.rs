@@ -4,9 +4,9 @@
 //! byte for byte, and an interrupted response ends as the Rust one does.
 //!
 //! They are built here, when the tests run, not by the fixtures' build
-//! script: the build calls `radar tool` (the `radar` binary, which the
-//! fixtures are built before), and its first run installs the pinned clang
-//! (ziglang, from PyPI).
+//! script: the build calls `radar tool`, and the `radar` binary is built
+//! after the fixtures. The first build installs the pinned clang (ziglang,
+//! from PyPI).
 
 mod common;
 

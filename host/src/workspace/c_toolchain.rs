@@ -51,10 +51,12 @@ pub enum CToolError {
     },
 }
 
-/// An error chain on one line (wit-parser's messages span several).
+/// An error chain on one line, as `radar` says errors; wit-parser's
+/// messages span several lines, which are joined too.
 fn one_line(e: &anyhow::Error) -> String {
-    let text = format!("{e:#}");
-    text.split_whitespace().collect::<Vec<_>>().join(" ")
+    let chain = e.chain().map(|e| e as &(dyn std::error::Error + 'static));
+    let line = crate::error::one_line(chain);
+    line.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
 /// Writes the C bindings of `world` (found in the WIT folder or file

@@ -7,6 +7,15 @@ use std::process::{Child, ChildStdout, Command, Output};
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
+/// Waits until `done`, at most `limit`; `what` names it in the failure.
+pub fn wait_for(what: &str, limit: Duration, mut done: impl FnMut() -> bool) {
+    let began = Instant::now();
+    while !done() {
+        assert!(began.elapsed() < limit, "never within {limit:?}: {what}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
 /// Sends the signal `name` (`TERM`, `INT`, ...) to `child`.
 pub fn signal(child: &Child, name: &str) {
     let status = Command::new("kill")
