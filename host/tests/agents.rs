@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 use radar::network::{Control, Network, NetworkSettings};
 use radar::testing::scenario::{discover, Scenario};
 
-mod common;
+use crate::common;
 
 use common::{free_port, lawful_trace, text, wait_for};
 

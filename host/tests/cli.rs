@@ -6,7 +6,7 @@ use std::process::Command;
 
 use radar_fixtures::plugins;
 
-mod common;
+use crate::common;
 
 use common::{lawful_trace, radar, text, write_manifest};
 

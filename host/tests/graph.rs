@@ -1,7 +1,7 @@
 //! `radar graph TRACE --at TIME` (`docs/view.md`): the paper's Fig. 3 at an
 //! instant of the built-in Listing 2/3 run, from JSON Lines and from MCAP.
 
-mod common;
+use crate::common;
 
 use common::{radar, text};
 

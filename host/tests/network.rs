@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use radar_fixtures::plugins;
 use zenoh::Wait;
 
-mod common;
+use crate::common;
 
 use common::{free_port, lawful_trace, lines, radar, text, wait_within};
 

@@ -14,7 +14,7 @@ use radar::network::ros2::{cdr, MessageTypes};
 use serde_json::Value as Json;
 use zenoh::Wait;
 
-mod common;
+use crate::common;
 
 use common::{free_port, lawful_trace, lines, radar, text, wait_within, write_manifest};
 

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 use std::time::Duration;
 
-mod common;
+use crate::common;
 
 use common::{arg, radar, text, write_manifest};
 

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use radar_fixtures::plugins;
 
-mod common;
+use crate::common;
 
 use common::{lawful_trace, radar, signal, text, write_manifest};
 

@@ -10,7 +10,7 @@ use std::time::Duration;
 
 use serde_json::Value as Json;
 
-mod common;
+use crate::common;
 
 use common::{lines, radar, signal, text, wait_for, wait_within, write_manifest};
 

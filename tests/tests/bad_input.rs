@@ -2,7 +2,7 @@
 //! plugin that traps, loops or eats memory goes to `error` while the rest of
 //! the system keeps running.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

@@ -3,7 +3,7 @@
 //! read and written by plugins and deliberative code, with grants; every
 //! write is in the trace.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

@@ -6,7 +6,7 @@
 //! world's development runtime (which serves the world's `board` and
 //! `signals` imports as a build does).
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

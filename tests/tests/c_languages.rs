@@ -8,7 +8,7 @@
 //! after the fixtures. The first build installs the pinned clang (ziglang,
 //! from PyPI).
 
-mod common;
+use crate::common;
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};

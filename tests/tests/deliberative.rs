@@ -3,7 +3,7 @@
 //! manifest whose program is a component (with the native version's
 //! trace), and programs that fail or are not programs.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

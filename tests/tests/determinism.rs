@@ -5,7 +5,7 @@
 //! The examples' expected traces are scenario folders (`tests/scenarios`,
 //! run by `radar test`); here the native programs are held to them.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

@@ -3,7 +3,7 @@
 //! assertions pass on what happened and fail with the trace around the
 //! point; inputs from a thread outside the run are recorded and replayed.
 
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 use std::time::Duration;

@@ -3,7 +3,7 @@
 //! with its event and response in different languages gives the all-Rust
 //! trace, and every language's fuel use is the same run to run.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;

@@ -8,7 +8,7 @@
 //! manifest cannot say). `PROPTEST_CASES` changes the number of cases
 //! (default 256).
 
-mod common;
+use crate::common;
 
 use std::fmt;
 use std::time::Duration;

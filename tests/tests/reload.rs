@@ -5,7 +5,7 @@
 //! runtime; a broken one is refused by `--watch`'s check; and reloading the
 //! same script gives the same run again, fuel for fuel.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;

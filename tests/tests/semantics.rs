@@ -1,7 +1,7 @@
 //! One test per semantic rule of `docs/semantics.md`, each read off the trace of a
 //! virtual-clock run.
 
-mod common;
+use crate::common;
 
 use std::sync::mpsc;
 use std::time::Duration;

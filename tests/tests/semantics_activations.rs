@@ -1,7 +1,7 @@
 //! Rules about response activations: restarts, queues and what a fault or a
 //! program error does to them, and loops of connections that take no time.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

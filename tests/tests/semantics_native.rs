@@ -2,7 +2,7 @@
 //! clock, handles on other threads, spawned tasks and several contexts
 //! taking turns deterministically.
 
-mod common;
+use crate::common;
 
 use std::sync::mpsc;
 use std::time::Duration;

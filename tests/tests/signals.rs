@@ -3,7 +3,7 @@
 //! functions are its signals; calling one emits it at once, routed, typed
 //! and recorded like the built-in ones.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

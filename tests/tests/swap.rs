@@ -2,7 +2,7 @@
 //! state moved, nothing lost; refusals and rollbacks leave the old version
 //! serving. Every trace here is checked by the laws (`common::run`).
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

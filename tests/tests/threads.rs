@@ -3,7 +3,7 @@
 //! property test (`properties.rs`) runs every random system on one thread
 //! and on three; here, every scenario folder and a wide system.
 
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 use std::time::Duration;

@@ -1,0 +1,21 @@
+//! The host's integration tests, one module per file beside this one,
+//! built as one test binary: each binary links wasmtime, zenoh and the
+//! host, so one binary instead of a dozen saves minutes of a fresh build,
+//! and the tests of every file share the test threads (a file's last slow
+//! test no longer leaves a core idle). Run one file's tests with
+//! `cargo test --release -p radar --test integration view::`.
+
+mod common;
+
+mod agents;
+mod architecture;
+mod cli;
+mod graph;
+mod mcap;
+mod network;
+mod ros2;
+mod scaffold;
+mod scenarios;
+mod simulate;
+mod stopping;
+mod view;
