@@ -1,6 +1,7 @@
 //! The host's integration tests, one module per file beside this one,
 //! built as one test binary: each binary links wasmtime, zenoh and the
-//! host, so one binary instead of a dozen saves minutes of a fresh build,
+//! host, so one binary instead of one a file roughly halves the time a
+//! fresh build spends on test binaries (CONTRIBUTING.md has the figures),
 //! and the tests of every file share the test threads (a file's last slow
 //! test no longer leaves a core idle). Run one file's tests with
 //! `cargo test --release -p radar --test integration view::`.

@@ -1,7 +1,8 @@
 //! The integration tests against the example plugins, one module per file
 //! beside this one, built as one test binary: each binary links wasmtime,
-//! zenoh and the host, so one binary instead of twenty saves minutes of a
-//! fresh build, and the tests of every file share the test threads. Run
+//! zenoh and the host, so one binary instead of one a file roughly halves
+//! the time a fresh build spends on test binaries (CONTRIBUTING.md has the
+//! figures), and the tests of every file share the test threads. Run
 //! one file's tests with `cargo test --release -p radar-tests --test
 //! integration swap::`.
 //!
