@@ -19,8 +19,8 @@ use radar_fixtures::plugins;
 use serde_json::json;
 
 /// The `radar` that `guest-sdk/c/build` calls: the one `cargo test
-/// --workspace` built beside this test (this test is
-/// `target/PROFILE/deps/c_languages-HASH`, radar `target/PROFILE/radar`).
+/// --workspace` built beside this test (this test's binary is
+/// `target/PROFILE/deps/integration-HASH`, radar `target/PROFILE/radar`).
 fn radar_exe() -> PathBuf {
     let test = std::env::current_exe().expect("the test's path");
     let radar = test
