@@ -108,14 +108,27 @@ const PENDING_LOG_BYTES: usize = 16 << 20;
 
 struct Timers {
     seq: u64,
-    /// Each timer's waker, and whether it counts in `fired`.
-    queue: BTreeMap<TimerKey, (Waker, bool)>,
+    /// Each timer's waker, whether it counts in `fired`, and (real clock)
+    /// its deadline on a clock that is never late (see `ideal_now`).
+    queue: BTreeMap<TimerKey, (Waker, bool, u64)>,
     /// Timers fired so far, those of inputs applied at their time aside:
     /// where an input from outside came among the run's own timers (see
     /// `TimedInput::wakes`).
     fired: u64,
     /// Real clock: the most a timer fired after its deadline, in ns.
     latest: u64,
+    /// Real clock: where a clock that is never late would be for the
+    /// task that runs now, the time a replay of the run puts what it does
+    /// at: the never-late deadline of the sleep that last woke a task, or
+    /// the time of the input last applied. A timer set for `d` from now is
+    /// due at this plus `d` on that clock. (The latest wake, not the
+    /// latest of them all: a chain of sleeps that has drifted late is still
+    /// early on that clock when an input comes in on time.)
+    ideal_now: u64,
+    /// Real clock: the most a timer fired after its never-late deadline,
+    /// in ns: lateness added up along a chain of sleeps (a check that
+    /// sleeps after each check drifts later, check after check).
+    drift: u64,
 }
 
 /// The clock and timer queue of one system; cheap to clone.
@@ -152,6 +165,8 @@ impl TimeBase {
                 queue: BTreeMap::new(),
                 fired: 0,
                 latest: 0,
+                ideal_now: 0,
+                drift: 0,
             }),
             logs: Mutex::new(PendingLogs::default()),
             has_logs: AtomicBool::new(false),
@@ -200,16 +215,31 @@ impl TimeBase {
         }
     }
 
-    fn add(&self, deadline: u64, waker: Waker, counted: bool) -> TimerKey {
+    /// Sets a timer; returns its key and its deadline on a clock that is
+    /// never late (see `Timers::ideal_now`).
+    fn add(&self, deadline: u64, waker: Waker, counted: bool) -> (TimerKey, u64) {
+        let from_now = match self.0.kind {
+            ClockKind::Virtual => None,
+            ClockKind::Real => Some(deadline.saturating_sub(self.now())),
+        };
         let mut t = self.lock();
         t.seq += 1;
         let key = (deadline, t.seq);
-        t.queue.insert(key, (waker, counted));
-        key
+        let ideal = from_now.map_or(deadline, |d| t.ideal_now.saturating_add(d));
+        t.queue.insert(key, (waker, counted, ideal));
+        (key, ideal)
+    }
+
+    /// Real clock: a sleep due at `ideal` on a clock that is never late
+    /// has woken its task, which runs from there.
+    fn woke_at(&self, ideal: u64) {
+        if self.0.kind == ClockKind::Real {
+            self.lock().ideal_now = ideal;
+        }
     }
 
     fn refresh(&self, key: TimerKey, waker: &Waker) {
-        if let Some((w, _)) = self.lock().queue.get_mut(&key) {
+        if let Some((w, ..)) = self.lock().queue.get_mut(&key) {
             if !w.will_wake(waker) {
                 *w = waker.clone();
             }
@@ -220,6 +250,21 @@ impl TimeBase {
     /// the machine woke), in nanoseconds.
     pub fn latest_wake(&self) -> u64 {
         self.lock().latest
+    }
+
+    /// Real clock: the most a timer fired after its deadline on a clock
+    /// that is never late, lateness added up along chains of sleeps, in
+    /// nanoseconds: about how much later than its replay a record of the
+    /// run may be.
+    pub fn drift(&self) -> u64 {
+        self.lock().drift
+    }
+
+    /// Real clock: an input from outside was applied at `t` (a replay
+    /// applies it at that time, so a clock that is never late is there
+    /// too).
+    pub fn note_input(&self, t: u64) {
+        self.lock().ideal_now = t;
     }
 
     /// The run's own timers fired so far (see [`TimeBase::input_sleep`]).
@@ -251,9 +296,10 @@ impl TimeBase {
                     break;
                 }
                 let late = now - entry.key().0;
-                let (waker, counted) = entry.remove();
+                let (waker, counted, ideal) = entry.remove();
                 t.fired += u64::from(counted);
                 t.latest = t.latest.max(late);
+                t.drift = t.drift.max(now.saturating_sub(ideal));
                 due.push(waker);
             }
             due
@@ -430,7 +476,9 @@ impl StopFlag {
 pub(crate) struct Sleep {
     base: TimeBase,
     deadline: u64,
-    key: Option<TimerKey>,
+    /// Its timer once set, and the timer's deadline on a clock that is
+    /// never late.
+    key: Option<(TimerKey, u64)>,
     stop: Option<Arc<StopFlag>>,
     /// One of the run's own timers (see [`TimeBase::fired`]).
     counted: bool,
@@ -452,15 +500,18 @@ impl Future for Sleep {
             stop.register(cx.waker());
         }
         if self.base.now() >= self.deadline {
+            if let Some((_, ideal)) = self.key {
+                self.base.woke_at(ideal);
+            }
             return Poll::Ready(Ok(()));
         }
         match self.key {
-            Some(key) => self.base.refresh(key, cx.waker()),
+            Some((key, _)) => self.base.refresh(key, cx.waker()),
             None => {
-                let key = self
+                let timer = self
                     .base
                     .add(self.deadline, cx.waker().clone(), self.counted);
-                self.key = Some(key);
+                self.key = Some(timer);
             }
         }
         Poll::Pending
@@ -469,7 +520,7 @@ impl Future for Sleep {
 
 impl Drop for Sleep {
     fn drop(&mut self) {
-        if let Some(key) = self.key.take() {
+        if let Some((key, _)) = self.key.take() {
             self.base.cancel(key);
         }
     }
@@ -545,6 +596,39 @@ mod tests {
         assert_eq!(base.fired(), 2);
         base.note_wake();
         assert_eq!(base.fired(), 3);
+    }
+
+    #[test]
+    fn real_lateness_adds_up_along_a_chain_of_sleeps_as_drift() {
+        let base = TimeBase::new(ClockKind::Real);
+        let log = Arc::new(StdMutex::new(Vec::new()));
+        let late = duration_nanos(std::time::Duration::from_millis(10));
+        let tick = || Waker::from(Arc::new(Label("tick", log.clone())));
+        // Sleeps 20 ms, `late` late, then runs from its never-late time.
+        let sleep_late = || {
+            let deadline = base.now() + 20_000_000;
+            let (_, ideal) = base.add(deadline, tick(), true);
+            while base.now() < deadline + late {
+                std::thread::sleep(std::time::Duration::from_nanos(late));
+            }
+            base.fire_due(base.now());
+            base.woke_at(ideal);
+        };
+        for _ in 0..3 {
+            sleep_late();
+        }
+        assert_eq!(log.lock().expect("not poisoned").len(), 3);
+        let worst = base.latest_wake();
+        assert!(worst >= late, "{worst}");
+        // Behind a clock that is never late by each sleep's lateness: the
+        // worst one's and the other two's.
+        let chained = base.drift();
+        assert!(chained >= worst + 2 * late, "{chained} {worst}");
+        // An input comes in on time: what it starts is not behind.
+        let (_, ideal) = base.add(base.now() + 1_000_000_000, tick(), true);
+        base.note_input(base.now());
+        let (_, after_input) = base.add(base.now() + 1_000_000_000, tick(), true);
+        assert!(after_input >= ideal + 2 * late, "{after_input} {ideal}");
     }
 
     #[test]

@@ -19,13 +19,6 @@ use radar::{example, ClockKind, SwapPolicy, System};
 
 use super::say;
 
-/// How far apart in time a replay of a real-clock recording may put a
-/// record and still match (`--expect`), besides twice the worst lateness
-/// the recording noted: a real clock wakes late by up to a few
-/// milliseconds on a loaded machine, and lateness adds up along a chain
-/// of sleeps.
-const REAL_RECORDING_TOLERANCE: Duration = Duration::from_millis(50);
-
 /// How long a run waits for the agents its plugins are placed on.
 const AGENT_WAIT: Duration = Duration::from_secs(10);
 
@@ -99,7 +92,8 @@ pub struct RunArgs {
     #[arg(long)]
     expect: Option<PathBuf>,
     /// With --expect: how far apart times may be (default 0, or, replaying
-    /// a real-clock recording, 50ms plus twice its worst lateness).
+    /// a real-clock recording, 50ms plus twice how far its run fell behind
+    /// a clock that is never late: its `end` line's `drift`).
     #[arg(long, value_parser = parse_duration)]
     tolerance: Option<Duration>,
     /// Fuel as time (virtual clock): plugins' compute takes virtual time,
@@ -634,54 +628,45 @@ fn expect_trace(
 ) -> Result<()> {
     let expected = load_values(path).map_err(anyhow::Error::msg)?;
     let actual = radar::trace::to_values(&report.trace);
-    let recorded_real = replay.is_some_and(|inputs| {
-        inputs
-            .iter()
-            .any(|i| matches!(&i.input, Input::Recording { clock, .. } if clock == "real"))
-    });
-    // A real-clock recording says how late its timers fired at worst: a
-    // record may be that much later than on a clock that is never late.
-    let late = replay
-        .and_then(|inputs| {
-            inputs.iter().find_map(|i| match i.input {
-                Input::End { late, .. } => late,
-                _ => None,
-            })
-        })
-        .map_or(Duration::ZERO, Duration::from_nanos);
-    let tolerance = tolerance.unwrap_or(if recorded_real {
-        REAL_RECORDING_TOLERANCE + 2 * late
-    } else {
-        Duration::ZERO
-    });
+    // A real-clock recording says how far its run fell behind a clock
+    // that is never late, where the replay puts its records.
+    let tolerance = tolerance
+        .or_else(|| replay.and_then(inputs::real_clock_slack))
+        .unwrap_or(Duration::ZERO);
     let slack = u64::try_from(tolerance.as_nanos()).unwrap_or(u64::MAX);
     let how = Comparison {
         time_tolerance: slack,
         ..Comparison::default()
     };
     // What happened within the tolerance of the run's end may have
-    // happened on one side only: that window is not compared. What the
-    // file has after it (a run that ended early) still is.
-    let settled = |records: Vec<serde_json::Value>| -> Vec<serde_json::Value> {
-        let end = u64::try_from(report.ended_at.as_nanos()).unwrap_or(u64::MAX);
-        let window = end.saturating_sub(slack)..=end.saturating_add(slack);
-        records
-            .into_iter()
-            .filter(|r| slack == 0 || r["t"].as_u64().is_none_or(|t| !window.contains(&t)))
-            .collect()
-    };
-    let (expected, actual) = (settled(expected), settled(actual));
-    if let Some(divergence) = compare(&expected, &actual, &how) {
-        anyhow::bail!(
+    // happened on one side only: the traces may part there. What the file
+    // has after it (a run that ended early) still counts.
+    let end = u64::try_from(report.ended_at.as_nanos()).unwrap_or(u64::MAX);
+    let time = |r: &serde_json::Value| r["t"].as_u64();
+    let in_end_window =
+        |r: &serde_json::Value| time(r).is_some_and(|t| t >= end.saturating_sub(slack));
+    let beyond_end = expected
+        .iter()
+        .any(|r| time(r).is_some_and(|t| t > end.saturating_add(slack)));
+    let compared = match compare(&expected, &actual, &how) {
+        None => expected.len(),
+        Some(divergence)
+            if slack > 0
+                && !beyond_end
+                && (divergence.expected.first().is_some_and(in_end_window)
+                    || divergence.actual.first().is_some_and(in_end_window)) =>
+        {
+            divergence.index
+        }
+        Some(divergence) => anyhow::bail!(
             "the run parts from {} (times compared within {:?}): {divergence}",
             path.display(),
             tolerance
-        );
-    }
+        ),
+    };
     say(format_args!(
-        "the trace matches {} ({} records)",
+        "the trace matches {} ({compared} records)",
         path.display(),
-        expected.len()
     ));
     Ok(())
 }

@@ -49,13 +49,14 @@ pub(crate) struct Place {
     /// The run's timers fired before it (real clock): a replay applies it
     /// before the next one fires, if that comes first.
     pub wakes: Option<u64>,
+    /// Real clock: how much earlier than its recorded time it may be
+    /// applied to keep its place among the timers: about how far the
+    /// recorded run fell behind a clock that is never late
+    /// ([`crate::trace::inputs::real_clock_slack`]). A replay that has
+    /// parted from its recording (more timers than it had) does not move
+    /// inputs further.
+    pub early_at_most: u64,
 }
-
-/// How much earlier than its recorded time a real-clock input may be
-/// applied to keep its place among the timers: about how late a real
-/// clock wakes at worst. A replay that has parted from its recording
-/// (more timers than it had) does not move inputs further.
-const EARLY_AT_MOST: u64 = 50_000_000;
 
 /// What a static input does.
 pub(crate) enum StaticWhat {
@@ -119,6 +120,8 @@ pub(crate) struct PlacedInput {
     records: Option<u64>,
     /// Real clock: the timers fired before it.
     wakes: Option<u64>,
+    /// Real clock: how much earlier than `at` it may be applied.
+    early_at_most: u64,
     action: Action,
 }
 
@@ -127,7 +130,7 @@ impl PlacedInput {
     /// before the timers due now fire: it came before the next timer in
     /// the recording, whose clock was late.
     pub(super) fn before_timers(&self, now: u64, fired: u64) -> bool {
-        self.wakes.is_some_and(|w| w <= fired) && self.at.saturating_sub(now) <= EARLY_AT_MOST
+        self.wakes.is_some_and(|w| w <= fired) && self.at.saturating_sub(now) <= self.early_at_most
     }
 }
 
@@ -222,6 +225,7 @@ impl State {
                 after: place.step,
                 records: place.records,
                 wakes: place.wakes,
+                early_at_most: place.early_at_most,
                 action,
             })
             .collect())

@@ -506,6 +506,7 @@ impl Scheduler {
                 st.record_input(Input::End {
                     digest: None,
                     late: None,
+                    drift: None,
                 });
                 st.check_replay_end();
                 let mut errors: Vec<String> = st

@@ -438,8 +438,12 @@ impl State {
         );
         let virtual_clock = self.base.kind() == ClockKind::Virtual;
         let step = (placed && virtual_clock).then(|| self.moves_now());
-        // Under the real clock, its place among the run's timers.
-        let wakes = (placed && !virtual_clock).then(|| self.base.fired());
+        // Under the real clock, its place among the run's timers; a replay
+        // applies it at its time, where a clock that is never late is too.
+        let wakes = (placed && !virtual_clock).then(|| {
+            self.base.note_input(t);
+            self.base.fired()
+        });
         let end = matches!(input, Input::End { .. });
         let records = self
             .trace
@@ -451,6 +455,7 @@ impl State {
             Input::End { .. } => Input::End {
                 digest: self.trace.digest.as_ref().map(TraceDigest::hex),
                 late: (!virtual_clock).then(|| self.base.latest_wake()),
+                drift: (!virtual_clock).then(|| self.base.drift()),
             },
             other => other,
         };

@@ -27,7 +27,7 @@ use crate::plugin::{default_cache_dir, Agents, InjectedFault, Limits, Loader};
 use crate::ports::{Mode, SwapPolicy};
 use crate::scheduler::board::BoardUser;
 use crate::scheduler::{LinkSpec, LinkTarget, Place, PluginDef, StaticInput, StaticWhat};
-use crate::trace::inputs::{Input, InputRecorder, TimedInput};
+use crate::trace::inputs::{self, Input, InputRecorder, TimedInput};
 use crate::trace::TraceSink;
 use crate::watchdog::RunWatch;
 
@@ -273,6 +273,10 @@ impl SystemBuilder {
     /// times. A recording's own lines (its clock, plugin versions, end) are
     /// not inputs and are skipped here.
     pub fn inputs(mut self, inputs: &[TimedInput]) -> Self {
+        // How early a real-clock input may be applied to keep its place.
+        let early_at_most = duration_nanos(
+            inputs::real_clock_slack(inputs).unwrap_or(inputs::REAL_CLOCK_BASE_SLACK),
+        );
         for TimedInput {
             t,
             step,
@@ -291,6 +295,7 @@ impl SystemBuilder {
                 step: step.unwrap_or(0),
                 records: *records,
                 wakes: *wakes,
+                early_at_most,
             });
             let what = match input {
                 Input::Inject { to, payload } => StaticWhat::Inject {

@@ -22,6 +22,7 @@
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 use serde_json::Value as Json;
@@ -191,7 +192,42 @@ pub enum Input {
         /// allows for).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         late: Option<u64>,
+        /// Under the real clock: how far, at worst, the run fell behind a
+        /// clock that is never late, in nanoseconds: each timer's lateness
+        /// added up along its chain of sleeps (a check that sleeps after
+        /// each check drifts later, check after check), where a replay
+        /// puts its records (what a replay's default tolerance allows for).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        drift: Option<u64>,
     },
+}
+
+/// How far apart in time, at least, a replay of a real-clock recording
+/// may put a record and its recorded one (see [`real_clock_slack`]).
+pub const REAL_CLOCK_BASE_SLACK: Duration = Duration::from_millis(50);
+
+/// For a real-clock recording (its `recording` line says `real`): how far
+/// apart in time its replay may put a record and the recorded one, and how
+/// much earlier than its time an input may be applied to keep its place
+/// among the timers: [`REAL_CLOCK_BASE_SLACK`] plus twice the most the
+/// recorded run fell behind a clock that is never late (its `end` line's
+/// `drift`, or `late` in a recording that does not say). `None` for any
+/// other recording.
+pub fn real_clock_slack(inputs: &[TimedInput]) -> Option<Duration> {
+    let real = inputs
+        .iter()
+        .any(|i| matches!(&i.input, Input::Recording { clock, .. } if clock == "real"));
+    if !real {
+        return None;
+    }
+    let behind = inputs
+        .iter()
+        .find_map(|i| match i.input {
+            Input::End { late, drift, .. } => Some(late.max(drift).unwrap_or(0)),
+            _ => None,
+        })
+        .unwrap_or(0);
+    Some(REAL_CLOCK_BASE_SLACK + 2 * Duration::from_nanos(behind))
 }
 
 fn busy_drop() -> String {

@@ -180,6 +180,7 @@ pub fn write_scenario(sim: &Simulation, plan: &Plan, dir: &Path) -> Result<(), S
             Input::End {
                 digest: None,
                 late: None,
+                drift: None,
             },
         ))
         .map_err(|e| e.to_string())?,
