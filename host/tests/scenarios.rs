@@ -394,6 +394,47 @@ fn fuel_as_time_delays_what_compute_precedes() {
 }
 
 #[test]
+fn expect_with_a_tolerance_lets_the_traces_part_only_near_the_runs_end() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let full = dir.path().join("full.jsonl");
+    let out = radar(&["run", "--for", "20s", "-q", "--trace", arg(&full)]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let trace = std::fs::read_to_string(&full).expect("trace");
+    let with_one_more = |t: &str| {
+        let path = dir.path().join(format!("more-{t}.jsonl"));
+        let line = format!(
+            r#"{{"t":{t},"kind":"log","level":"info","message":"one side only","plugin":"TestEvent"}}"#
+        );
+        std::fs::write(&path, format!("{trace}{line}\n")).expect("write");
+        radar(&[
+            "run",
+            "--for",
+            "20s",
+            "-q",
+            "--expect",
+            arg(&path),
+            "--tolerance",
+            "100ms",
+        ])
+    };
+    // A record the file has 50 ms before the end, within the tolerance of
+    // it, may have happened on one side only...
+    let near_end = with_one_more("19950000000");
+    assert!(near_end.status.success(), "{}", text(&near_end.stderr));
+    assert!(
+        text(&near_end.stdout).starts_with("the trace matches "),
+        "{}",
+        text(&near_end.stdout)
+    );
+    // ...one well before it may not.
+    let earlier = with_one_more("19000000000");
+    assert!(!earlier.status.success(), "{}", text(&earlier.stdout));
+    let stderr = text(&earlier.stderr);
+    assert!(stderr.starts_with("radar: the run parts from"), "{stderr}");
+    assert!(stderr.contains("one side only"), "{stderr}");
+}
+
+#[test]
 fn expect_with_a_tolerance_still_fails_a_run_that_ends_early() {
     let dir = tempfile::tempdir().expect("temp dir");
     let full = dir.path().join("full.jsonl");
