@@ -109,22 +109,33 @@ const PENDING_LOG_BYTES: usize = 16 << 20;
 struct Timers {
     seq: u64,
     /// Each timer's waker, whether it counts in `fired`, and (real clock)
-    /// its deadline on a clock that is never late (see `ideal_now`).
+    /// its deadline on a clock that is never late (see `behind`).
     queue: BTreeMap<TimerKey, (Waker, bool, u64)>,
     /// Timers fired so far, those of inputs applied at their time aside:
     /// where an input from outside came among the run's own timers (see
     /// `TimedInput::wakes`).
     fired: u64,
+    /// Real clock: for each input's timer fired and not yet seen by its
+    /// task, `fired` when it fired. Timers due together fire in one batch
+    /// and their tasks run later, one by one: an input's place among the
+    /// run's timers is where its own timer was in the batch, not how many
+    /// had fired by the time its task ran.
+    inputs_fired: BTreeMap<TimerKey, u64>,
+    /// Real clock: `inputs_fired` of the input whose task runs now.
+    input_place: Option<u64>,
     /// Real clock: the most a timer fired after its deadline, in ns.
     latest: u64,
-    /// Real clock: where a clock that is never late would be for the
-    /// task that runs now, the time a replay of the run puts what it does
-    /// at: the never-late deadline of the sleep that last woke a task, or
-    /// the time of the input last applied. A timer set for `d` from now is
-    /// due at this plus `d` on that clock. (The latest wake, not the
-    /// latest of them all: a chain of sleeps that has drifted late is still
-    /// early on that clock when an input comes in on time.)
-    ideal_now: u64,
+    /// Real clock: how far what runs now is behind a clock that is never
+    /// late, where a replay of the run puts what it does: the sleep that
+    /// last woke a task woke this long after its never-late deadline (0
+    /// after an input from outside, which comes in at its own time). A
+    /// timer set now for `deadline` is due this much earlier on that
+    /// clock. One value for the run, not one per task: a task that sets
+    /// its next timer in the poll its sleep woke it in (a check's sleep,
+    /// a response's, an event's cadence) carries its own lateness on;
+    /// one that sets it later (a deliberative program's next `sleep`, a
+    /// call computed on another thread) takes whatever ran last's.
+    behind: u64,
     /// Real clock: the most a timer fired after its never-late deadline,
     /// in ns: lateness added up along a chain of sleeps (a check that
     /// sleeps after each check drifts later, check after check).
@@ -164,8 +175,10 @@ impl TimeBase {
                 seq: 0,
                 queue: BTreeMap::new(),
                 fired: 0,
+                inputs_fired: BTreeMap::new(),
+                input_place: None,
                 latest: 0,
-                ideal_now: 0,
+                behind: 0,
                 drift: 0,
             }),
             logs: Mutex::new(PendingLogs::default()),
@@ -216,25 +229,34 @@ impl TimeBase {
     }
 
     /// Sets a timer; returns its key and its deadline on a clock that is
-    /// never late (see `Timers::ideal_now`).
+    /// never late (see `Timers::behind`): an input's own timer is due at
+    /// its recorded time on any clock.
     fn add(&self, deadline: u64, waker: Waker, counted: bool) -> (TimerKey, u64) {
-        let from_now = match self.0.kind {
-            ClockKind::Virtual => None,
-            ClockKind::Real => Some(deadline.saturating_sub(self.now())),
-        };
         let mut t = self.lock();
         t.seq += 1;
         let key = (deadline, t.seq);
-        let ideal = from_now.map_or(deadline, |d| t.ideal_now.saturating_add(d));
+        let ideal = match self.0.kind {
+            ClockKind::Real if counted => deadline.saturating_sub(t.behind),
+            _ => deadline,
+        };
         t.queue.insert(key, (waker, counted, ideal));
         (key, ideal)
     }
 
-    /// Real clock: a sleep due at `ideal` on a clock that is never late
-    /// has woken its task, which runs from there.
-    fn woke_at(&self, ideal: u64) {
+    /// Real clock: the sleep of timer `key`, due at `ideal` on a clock
+    /// that is never late, has woken its task, which runs from now on,
+    /// that much behind; an input's is applied at its place.
+    fn woke(&self, key: TimerKey, ideal: u64, counted: bool) {
         if self.0.kind == ClockKind::Real {
-            self.lock().ideal_now = ideal;
+            let behind = self.now().saturating_sub(ideal);
+            let mut t = self.lock();
+            t.behind = behind;
+            t.drift = t.drift.max(behind);
+            t.input_place = if counted {
+                None
+            } else {
+                t.inputs_fired.remove(&key)
+            };
         }
     }
 
@@ -252,19 +274,30 @@ impl TimeBase {
         self.lock().latest
     }
 
-    /// Real clock: the most a timer fired after its deadline on a clock
-    /// that is never late, lateness added up along chains of sleeps, in
-    /// nanoseconds: about how much later than its replay a record of the
-    /// run may be.
+    /// Real clock: the most a timer fired, or its task ran, after its
+    /// deadline on a clock that is never late, lateness added up along
+    /// chains of sleeps, in nanoseconds: about how much later than its
+    /// replay a record of the run may be.
     pub fn drift(&self) -> u64 {
         self.lock().drift
     }
 
-    /// Real clock: an input from outside was applied at `t` (a replay
-    /// applies it at that time, so a clock that is never late is there
-    /// too).
-    pub fn note_input(&self, t: u64) {
-        self.lock().ideal_now = t;
+    /// Real clock: the run's tasks begin now (a replay begins them at 0),
+    /// so what they do is this much behind a clock that is never late.
+    pub fn tasks_begin(&self) {
+        if self.0.kind == ClockKind::Real {
+            let behind = self.now();
+            self.lock().behind = behind;
+        }
+    }
+
+    /// Real clock: an input from outside is applied now, at its own time
+    /// (a replay applies it at that time too): what it starts is not
+    /// behind.
+    pub fn input_applied(&self) {
+        if self.0.kind == ClockKind::Real {
+            self.lock().behind = 0;
+        }
     }
 
     /// The run's own timers fired so far (see [`TimeBase::input_sleep`]).
@@ -272,8 +305,18 @@ impl TimeBase {
         self.lock().fired
     }
 
+    /// Real clock: the run's own timers fired before the input being
+    /// applied now: before its own timer, if its task was woken by one
+    /// (see `Timers::inputs_fired`), else so far.
+    pub fn fired_before_input(&self) -> u64 {
+        let mut t = self.lock();
+        t.input_place.take().unwrap_or(t.fired)
+    }
+
     fn cancel(&self, key: TimerKey) {
-        self.lock().queue.remove(&key);
+        let mut t = self.lock();
+        t.queue.remove(&key);
+        t.inputs_fired.remove(&key);
     }
 
     /// The earliest pending deadline.
@@ -296,7 +339,12 @@ impl TimeBase {
                     break;
                 }
                 let late = now - entry.key().0;
+                let key = *entry.key();
                 let (waker, counted, ideal) = entry.remove();
+                if !counted && self.0.kind == ClockKind::Real {
+                    let fired = t.fired;
+                    t.inputs_fired.insert(key, fired);
+                }
                 t.fired += u64::from(counted);
                 t.latest = t.latest.max(late);
                 t.drift = t.drift.max(now.saturating_sub(ideal));
@@ -500,8 +548,8 @@ impl Future for Sleep {
             stop.register(cx.waker());
         }
         if self.base.now() >= self.deadline {
-            if let Some((_, ideal)) = self.key {
-                self.base.woke_at(ideal);
+            if let Some((key, ideal)) = self.key {
+                self.base.woke(key, ideal, self.counted);
             }
             return Poll::Ready(Ok(()));
         }
@@ -607,12 +655,12 @@ mod tests {
         // Sleeps 20 ms, `late` late, then runs from its never-late time.
         let sleep_late = || {
             let deadline = base.now() + 20_000_000;
-            let (_, ideal) = base.add(deadline, tick(), true);
+            let (key, ideal) = base.add(deadline, tick(), true);
             while base.now() < deadline + late {
                 std::thread::sleep(std::time::Duration::from_nanos(late));
             }
             base.fire_due(base.now());
-            base.woke_at(ideal);
+            base.woke(key, ideal, true);
         };
         for _ in 0..3 {
             sleep_late();
@@ -624,11 +672,22 @@ mod tests {
         // worst one's and the other two's.
         let chained = base.drift();
         assert!(chained >= worst + 2 * late, "{chained} {worst}");
+        // A deadline set from the wake's time (an event's cadence) is due
+        // as much earlier as the wake was late, however long the task ran
+        // before setting it.
+        let behind = base.lock().behind;
+        assert!(behind >= 3 * late, "{behind}");
+        let deadline = base.now() + 1_000_000_000;
+        std::thread::sleep(std::time::Duration::from_millis(5));
+        let (_, cadence) = base.add(deadline, tick(), true);
+        assert_eq!(cadence, deadline - behind);
+        // An input's own timer is due at its time on any clock.
+        let (_, input) = base.add(deadline, tick(), false);
+        assert_eq!(input, deadline);
         // An input comes in on time: what it starts is not behind.
-        let (_, ideal) = base.add(base.now() + 1_000_000_000, tick(), true);
-        base.note_input(base.now());
-        let (_, after_input) = base.add(base.now() + 1_000_000_000, tick(), true);
-        assert!(after_input >= ideal + 2 * late, "{after_input} {ideal}");
+        base.input_applied();
+        let (_, after_input) = base.add(deadline, tick(), true);
+        assert_eq!(after_input, deadline);
     }
 
     #[test]

@@ -400,12 +400,22 @@ fn expect_with_a_tolerance_lets_the_traces_part_only_near_the_runs_end() {
     let out = radar(&["run", "--for", "20s", "-q", "--trace", arg(&full)]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let trace = std::fs::read_to_string(&full).expect("trace");
-    let with_one_more = |t: &str| {
+    // The run's trace with one record more, in time order.
+    let with_one_more = |t: u64| {
         let path = dir.path().join(format!("more-{t}.jsonl"));
         let line = format!(
             r#"{{"t":{t},"kind":"log","level":"info","message":"one side only","plugin":"TestEvent"}}"#
         );
-        std::fs::write(&path, format!("{trace}{line}\n")).expect("write");
+        let mut lines: Vec<&str> = trace.lines().collect();
+        let at = lines
+            .iter()
+            .position(|l| {
+                let record: serde_json::Value = serde_json::from_str(l).expect("a record");
+                record["t"].as_u64().expect("a time") > t
+            })
+            .unwrap_or(lines.len());
+        lines.insert(at, &line);
+        std::fs::write(&path, lines.join("\n") + "\n").expect("write");
         radar(&[
             "run",
             "--for",
@@ -419,7 +429,7 @@ fn expect_with_a_tolerance_lets_the_traces_part_only_near_the_runs_end() {
     };
     // A record the file has 50 ms before the end, within the tolerance of
     // it, may have happened on one side only...
-    let near_end = with_one_more("19950000000");
+    let near_end = with_one_more(19_950_000_000);
     assert!(near_end.status.success(), "{}", text(&near_end.stderr));
     assert!(
         text(&near_end.stdout).starts_with("the trace matches "),
@@ -427,7 +437,7 @@ fn expect_with_a_tolerance_lets_the_traces_part_only_near_the_runs_end() {
         text(&near_end.stdout)
     );
     // ...one well before it may not.
-    let earlier = with_one_more("19000000000");
+    let earlier = with_one_more(19_000_000_000);
     assert!(!earlier.status.success(), "{}", text(&earlier.stdout));
     let stderr = text(&earlier.stderr);
     assert!(stderr.starts_with("radar: the run parts from"), "{stderr}");

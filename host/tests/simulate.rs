@@ -362,5 +362,8 @@ fn a_real_clock_recording_of_a_polling_event_replays_within_the_default_toleranc
     assert!(out.status.success(), "{}", text(&out.stderr));
     let recorded = std::fs::read_to_string(&recording).expect("recording");
     assert!(recorded.contains(r#""wakes":"#), "{recorded}");
+    // How far the run fell behind a never-late clock, which the default
+    // tolerance follows.
+    assert!(recorded.contains(r#""drift":"#), "{recorded}");
     replays_as_recorded(&manifest, &recording, &trace);
 }

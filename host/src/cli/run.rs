@@ -11,7 +11,7 @@ use radar::manifest::{parse_duration, Manifest};
 use radar::network::ros2::Ros2;
 use radar::network::Network;
 use radar::timeline::Timeline;
-use radar::trace::compare::{compare, load_values, Comparison};
+use radar::trace::compare::{compare, load_values, Comparison, Divergence};
 use radar::trace::inputs::{self, Input, TimedInput};
 use radar::trace::JsonLines;
 use radar::workspace::{self, WatchEvent};
@@ -639,25 +639,41 @@ fn expect_trace(
         ..Comparison::default()
     };
     // What happened within the tolerance of the run's end may have
-    // happened on one side only: the traces may part there. What the file
-    // has after it (a run that ended early) still counts.
+    // happened on one side only (the other's would have come after its
+    // end), and the record the other side has there instead may be up to
+    // the tolerance earlier: the traces may part there, and are not
+    // compared after it. What the file has after the end and the
+    // tolerance (a run that ended early) still counts.
     let end = u64::try_from(report.ended_at.as_nanos()).unwrap_or(u64::MAX);
-    let time = |r: &serde_json::Value| r["t"].as_u64();
-    let in_end_window =
-        |r: &serde_json::Value| time(r).is_some_and(|t| t >= end.saturating_sub(slack));
-    let beyond_end = expected
-        .iter()
-        .any(|r| time(r).is_some_and(|t| t > end.saturating_add(slack)));
+    let near_end = |divergence: &Divergence| {
+        let mut times = Vec::with_capacity(2);
+        for record in [divergence.expected.first(), divergence.actual.first()]
+            .into_iter()
+            .flatten()
+        {
+            match record["t"].as_u64() {
+                Some(t) => times.push(t),
+                None => return false,
+            }
+        }
+        // The latest record there within the tolerance of the end, the
+        // earliest within twice it.
+        match (times.iter().max(), times.iter().min()) {
+            (Some(&last), Some(&first)) => {
+                last >= end.saturating_sub(slack)
+                    && first >= end.saturating_sub(slack.saturating_mul(2))
+            }
+            _ => false,
+        }
+    };
+    let beyond_end = expected.iter().any(|r| {
+        r["t"]
+            .as_u64()
+            .is_some_and(|t| t > end.saturating_add(slack))
+    });
     let compared = match compare(&expected, &actual, &how) {
         None => expected.len(),
-        Some(divergence)
-            if slack > 0
-                && !beyond_end
-                && (divergence.expected.first().is_some_and(in_end_window)
-                    || divergence.actual.first().is_some_and(in_end_window)) =>
-        {
-            divergence.index
-        }
+        Some(divergence) if slack > 0 && !beyond_end && near_end(&divergence) => divergence.index,
         Some(divergence) => anyhow::bail!(
             "the run parts from {} (times compared within {:?}): {divergence}",
             path.display(),

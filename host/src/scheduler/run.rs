@@ -334,6 +334,9 @@ impl Scheduler {
         // that cannot start would leak its plugins' instances.
         self.absorb();
         started?;
+        // A replay begins the plugins' tasks at 0: here, under the real
+        // clock, they are already the set-up's time behind it.
+        self.core.base.tasks_begin();
         let mut spin = SpinWindow::new();
         loop {
             let (stop, lockstep) = self.core.with(|st| {

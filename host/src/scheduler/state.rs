@@ -441,8 +441,8 @@ impl State {
         // Under the real clock, its place among the run's timers; a replay
         // applies it at its time, where a clock that is never late is too.
         let wakes = (placed && !virtual_clock).then(|| {
-            self.base.note_input(t);
-            self.base.fired()
+            self.base.input_applied();
+            self.base.fired_before_input()
         });
         let end = matches!(input, Input::End { .. });
         let records = self

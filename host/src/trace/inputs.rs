@@ -189,7 +189,7 @@ pub enum Input {
         digest: Option<String>,
         /// Under the real clock: how late, at worst, a timer of the run
         /// fired, in nanoseconds (what a replay's default tolerance
-        /// allows for).
+        /// allows for where there is no `drift`).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         late: Option<u64>,
         /// Under the real clock: how far, at worst, the run fell behind a
