@@ -120,7 +120,12 @@ struct Timers {
     /// and their tasks run later, one by one: an input's place among the
     /// run's timers is where its own timer was in the batch, not how many
     /// had fired by the time its task ran.
-    inputs_fired: BTreeMap<TimerKey, u64>,
+    /// (`fired` and `noted`, when it fired.)
+    inputs_fired: BTreeMap<TimerKey, (u64, u64)>,
+    /// Real clock: waits counted without a timer (`note_wake`) so far:
+    /// those made after an input's timer fired and before its task ran
+    /// came before it.
+    noted: u64,
     /// Real clock: `inputs_fired` of the input whose task runs now.
     input_place: Option<u64>,
     /// Real clock: the most a timer fired after its deadline, in ns.
@@ -131,10 +136,12 @@ struct Timers {
     /// after an input from outside, which comes in at its own time). A
     /// timer set now for `deadline` is due this much earlier on that
     /// clock. One value for the run, not one per task: a task that sets
-    /// its next timer in the poll its sleep woke it in (a check's sleep,
-    /// a response's, an event's cadence) carries its own lateness on;
-    /// one that sets it later (a deliberative program's next `sleep`, a
-    /// call computed on another thread) takes whatever ran last's.
+    /// its next timer in the step its sleep woke it in (a check's sleep, a
+    /// response's) carries its own lateness on, and an event's cadence
+    /// carries the value its check began with ([`Sleep::behind`]); one
+    /// that sets it in a later step (a guest's `sleep` after computing
+    /// past a fuel slice, a deliberative program's next `sleep`, a call
+    /// computed on another thread) takes whatever ran last's.
     behind: u64,
     /// Real clock: the most a timer fired after its never-late deadline,
     /// in ns: lateness added up along a chain of sleeps (a check that
@@ -176,6 +183,7 @@ impl TimeBase {
                 queue: BTreeMap::new(),
                 fired: 0,
                 inputs_fired: BTreeMap::new(),
+                noted: 0,
                 input_place: None,
                 latest: 0,
                 behind: 0,
@@ -231,12 +239,19 @@ impl TimeBase {
     /// Sets a timer; returns its key and its deadline on a clock that is
     /// never late (see `Timers::behind`): an input's own timer is due at
     /// its recorded time on any clock.
-    fn add(&self, deadline: u64, waker: Waker, counted: bool) -> (TimerKey, u64) {
+    /// `behind`: the waiting task's own (else the run's, `Timers::behind`).
+    fn add(
+        &self,
+        deadline: u64,
+        waker: Waker,
+        counted: bool,
+        behind: Option<u64>,
+    ) -> (TimerKey, u64) {
         let mut t = self.lock();
         t.seq += 1;
         let key = (deadline, t.seq);
         let ideal = match self.0.kind {
-            ClockKind::Real if counted => deadline.saturating_sub(t.behind),
+            ClockKind::Real if counted => deadline.saturating_sub(behind.unwrap_or(t.behind)),
             _ => deadline,
         };
         t.queue.insert(key, (waker, counted, ideal));
@@ -252,10 +267,13 @@ impl TimeBase {
             let mut t = self.lock();
             t.behind = behind;
             t.drift = t.drift.max(behind);
+            let noted = t.noted;
             t.input_place = if counted {
                 None
             } else {
-                t.inputs_fired.remove(&key)
+                t.inputs_fired
+                    .remove(&key)
+                    .map(|(fired, then)| fired + (noted - then))
             };
         }
     }
@@ -274,6 +292,12 @@ impl TimeBase {
         self.lock().latest
     }
 
+    /// Real clock: how far what runs now is behind a clock that is never
+    /// late (see `Timers::behind`).
+    pub fn behind(&self) -> u64 {
+        self.lock().behind
+    }
+
     /// Real clock: the most a timer fired, or its task ran, after its
     /// deadline on a clock that is never late, lateness added up along
     /// chains of sleeps, in nanoseconds: about how much later than its
@@ -287,7 +311,9 @@ impl TimeBase {
     pub fn tasks_begin(&self) {
         if self.0.kind == ClockKind::Real {
             let behind = self.now();
-            self.lock().behind = behind;
+            let mut t = self.lock();
+            t.behind = behind;
+            t.drift = t.drift.max(behind);
         }
     }
 
@@ -342,8 +368,8 @@ impl TimeBase {
                 let key = *entry.key();
                 let (waker, counted, ideal) = entry.remove();
                 if !counted && self.0.kind == ClockKind::Real {
-                    let fired = t.fired;
-                    t.inputs_fired.insert(key, fired);
+                    let place = (t.fired, t.noted);
+                    t.inputs_fired.insert(key, place);
                 }
                 t.fired += u64::from(counted);
                 t.latest = t.latest.max(late);
@@ -418,6 +444,7 @@ impl TimeBase {
             key: None,
             stop,
             counted: true,
+            behind: None,
         }
     }
 
@@ -432,6 +459,7 @@ impl TimeBase {
             key: None,
             stop: None,
             counted: false,
+            behind: None,
         }
     }
 
@@ -439,7 +467,17 @@ impl TimeBase {
     /// passed already (an event's check that took longer than its period),
     /// as the same wait would count on a clock that is never late.
     pub fn note_wake(&self) {
-        self.lock().fired += 1;
+        let mut t = self.lock();
+        t.fired += 1;
+        t.noted += 1;
+    }
+
+    /// Real clock: the input whose timer woke the task polled last has
+    /// been applied, or was not one to record.
+    pub fn input_done(&self) {
+        if self.0.kind == ClockKind::Real {
+            self.lock().input_place = None;
+        }
     }
 }
 
@@ -530,6 +568,20 @@ pub(crate) struct Sleep {
     stop: Option<Arc<StopFlag>>,
     /// One of the run's own timers (see [`TimeBase::fired`]).
     counted: bool,
+    /// Real clock: how far the waiting task is behind a clock that is
+    /// never late, when it knows (see [`Sleep::behind`]).
+    behind: Option<u64>,
+}
+
+impl Sleep {
+    /// Real clock: the deadline was set from a time the waiting task was
+    /// `behind` a clock that is never late at (its [`TimeBase::behind`]
+    /// then): an event's cadence counts from its check's start, and the
+    /// check may have run over several steps meanwhile.
+    pub fn behind(mut self, behind: u64) -> Self {
+        self.behind = Some(behind);
+        self
+    }
 }
 
 impl Future for Sleep {
@@ -556,9 +608,9 @@ impl Future for Sleep {
         match self.key {
             Some((key, _)) => self.base.refresh(key, cx.waker()),
             None => {
-                let timer = self
-                    .base
-                    .add(self.deadline, cx.waker().clone(), self.counted);
+                let timer =
+                    self.base
+                        .add(self.deadline, cx.waker().clone(), self.counted, self.behind);
                 self.key = Some(timer);
             }
         }
@@ -628,10 +680,10 @@ mod tests {
         let base = TimeBase::new(ClockKind::Virtual);
         let log = Arc::new(StdMutex::new(Vec::new()));
         let waker = |l| Waker::from(Arc::new(Label(l, log.clone())));
-        base.add(200, waker("late"), true);
-        base.add(100, waker("first"), true);
-        base.add(100, waker("second"), false);
-        base.add(100, waker("third"), true);
+        base.add(200, waker("late"), true, None);
+        base.add(100, waker("first"), true, None);
+        base.add(100, waker("second"), false, None);
+        base.add(100, waker("third"), true, None);
         assert_eq!(base.next_deadline(), Some(100));
         base.advance_to(100);
         base.fire_due(100);
@@ -655,7 +707,7 @@ mod tests {
         // Sleeps 20 ms, `late` late, then runs from its never-late time.
         let sleep_late = || {
             let deadline = base.now() + 20_000_000;
-            let (key, ideal) = base.add(deadline, tick(), true);
+            let (key, ideal) = base.add(deadline, tick(), true, None);
             while base.now() < deadline + late {
                 std::thread::sleep(std::time::Duration::from_nanos(late));
             }
@@ -679,15 +731,39 @@ mod tests {
         assert!(behind >= 3 * late, "{behind}");
         let deadline = base.now() + 1_000_000_000;
         std::thread::sleep(std::time::Duration::from_millis(5));
-        let (_, cadence) = base.add(deadline, tick(), true);
+        let (_, cadence) = base.add(deadline, tick(), true, None);
         assert_eq!(cadence, deadline - behind);
         // An input's own timer is due at its time on any clock.
-        let (_, input) = base.add(deadline, tick(), false);
+        let (_, input) = base.add(deadline, tick(), false, None);
         assert_eq!(input, deadline);
         // An input comes in on time: what it starts is not behind.
         base.input_applied();
-        let (_, after_input) = base.add(deadline, tick(), true);
+        let (_, after_input) = base.add(deadline, tick(), true, None);
         assert_eq!(after_input, deadline);
+    }
+
+    #[test]
+    fn an_inputs_place_among_timers_fired_together_is_its_own_timers() {
+        let base = TimeBase::new(ClockKind::Real);
+        let log = Arc::new(StdMutex::new(Vec::new()));
+        let waker = |l| Waker::from(Arc::new(Label(l, log.clone())));
+        let now = base.now();
+        let (input, ideal) = base.add(now + 1_000_000, waker("input"), false, None);
+        base.add(now + 2_000_000, waker("check"), true, None);
+        while base.now() < now + 2_000_000 {
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        // The machine woke late for both: they fire in one batch.
+        base.fire_due(base.now());
+        assert_eq!(*log.lock().expect("not poisoned"), ["input", "check"]);
+        assert_eq!(base.fired(), 1);
+        // A check that overran its period is counted before the input's
+        // task runs: it came before the input.
+        base.note_wake();
+        base.woke(input, ideal, false);
+        assert_eq!(base.fired_before_input(), 1);
+        // Taken once; an input from outside then counts all so far.
+        assert_eq!(base.fired_before_input(), 2);
     }
 
     #[test]

@@ -9,7 +9,7 @@ use serde_json::Value as Json;
 
 use super::state::{Activation, Core, Lifecycle, Phase, State};
 use super::versions::Transition;
-use crate::clock::StopReason;
+use crate::clock::{ClockKind, StopReason};
 use crate::payload::trace_json;
 use crate::plugin::{Fault, Kind, PluginInstance};
 use crate::ports::{Signal, Slot};
@@ -69,6 +69,9 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
     let (stop, period) = core.with(|st| (st.plugins[pid].stop.clone(), st.plugins[pid].def.period));
     // Whether the wait for this check's time was a timer's (see below).
     let mut waited = false;
+    // Real clock: how far the last check began behind a clock that is
+    // never late; its cadence counts from there (see `TimeBase::behind`).
+    let mut began_behind = None;
     loop {
         core.until_ready(pid, |e| {
             e.reset_requested || e.swap.is_some() || e.lifecycle == Lifecycle::Active
@@ -94,7 +97,11 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
         }
         let next = core.with(|st| st.plugins[pid].next_check);
         if core.base.now() < next {
-            let _ = core.base.sleep_until(next, Some(stop.clone())).await;
+            let mut sleep = core.base.sleep_until(next, Some(stop.clone()));
+            if let Some(behind) = began_behind {
+                sleep = sleep.behind(behind);
+            }
+            let _ = sleep.await;
             waited = true;
             continue;
         }
@@ -105,6 +112,7 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
             core.base.note_wake();
         }
         let began = core.base.now();
+        began_behind = (core.base.kind() == ClockKind::Real).then(|| core.base.behind());
         let outcome = inst.check().await;
         core.with(|st| {
             let now = st.now();

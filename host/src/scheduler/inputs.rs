@@ -374,6 +374,9 @@ pub(super) fn input_task(core: Rc<Core>, task: impl Future<Output = ()> + 'stati
     let mut task = Box::pin(task);
     Box::pin(poll_fn(move |cx| {
         core.with(|st| st.instant.input_polled = true);
-        task.as_mut().poll(cx)
+        let polled = task.as_mut().poll(cx);
+        // Its place among the timers is its own (`TimeBase::input_done`).
+        core.base.input_done();
+        polled
     }))
 }
