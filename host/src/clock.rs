@@ -116,11 +116,10 @@ struct Timers {
     /// `TimedInput::wakes`).
     fired: u64,
     /// Real clock: for each input's timer fired and not yet seen by its
-    /// task, `fired` when it fired. Timers due together fire in one batch
-    /// and their tasks run later, one by one: an input's place among the
-    /// run's timers is where its own timer was in the batch, not how many
-    /// had fired by the time its task ran.
-    /// (`fired` and `noted`, when it fired.)
+    /// task, `fired` and `noted` when it fired. Timers due together fire
+    /// in one batch and their tasks run later, one by one: an input's
+    /// place among the run's timers is where its own timer was in the
+    /// batch, not how many had fired by the time its task ran.
     inputs_fired: BTreeMap<TimerKey, (u64, u64)>,
     /// Real clock: waits counted without a timer (`note_wake`) so far:
     /// those made after an input's timer fired and before its task ran
@@ -237,9 +236,9 @@ impl TimeBase {
     }
 
     /// Sets a timer; returns its key and its deadline on a clock that is
-    /// never late (see `Timers::behind`): an input's own timer is due at
-    /// its recorded time on any clock.
-    /// `behind`: the waiting task's own (else the run's, `Timers::behind`).
+    /// never late: `behind` (the waiting task's own, else the run's,
+    /// `Timers::behind`) earlier; an input's own timer is due at its
+    /// recorded time on any clock.
     fn add(
         &self,
         deadline: u64,
@@ -357,6 +356,7 @@ impl TimeBase {
 
     /// Wakes, in (deadline, sequence) order, every timer due at `now`.
     pub fn fire_due(&self, now: u64) {
+        let real = self.0.kind == ClockKind::Real;
         let due: Vec<Waker> = {
             let mut t = self.lock();
             let mut due = Vec::new();
@@ -364,16 +364,18 @@ impl TimeBase {
                 if entry.key().0 > now {
                     break;
                 }
-                let late = now - entry.key().0;
                 let key = *entry.key();
+                let late = now - key.0;
                 let (waker, counted, ideal) = entry.remove();
-                if !counted && self.0.kind == ClockKind::Real {
-                    let place = (t.fired, t.noted);
-                    t.inputs_fired.insert(key, place);
+                if real {
+                    if !counted {
+                        let place = (t.fired, t.noted);
+                        t.inputs_fired.insert(key, place);
+                    }
+                    t.drift = t.drift.max(now.saturating_sub(ideal));
                 }
                 t.fired += u64::from(counted);
                 t.latest = t.latest.max(late);
-                t.drift = t.drift.max(now.saturating_sub(ideal));
                 due.push(waker);
             }
             due

@@ -646,25 +646,24 @@ fn expect_trace(
     // tolerance (a run that ended early) still counts.
     let end = u64::try_from(report.ended_at.as_nanos()).unwrap_or(u64::MAX);
     let near_end = |divergence: &Divergence| {
-        let mut times = Vec::with_capacity(2);
-        for record in [divergence.expected.first(), divergence.actual.first()]
+        // The times of the records there (a record without one: no).
+        let times: Option<Vec<u64>> = [divergence.expected.first(), divergence.actual.first()]
             .into_iter()
             .flatten()
-        {
-            match record["t"].as_u64() {
-                Some(t) => times.push(t),
-                None => return false,
-            }
-        }
-        // The latest record there within the tolerance of the end, the
-        // earliest within twice it.
-        match (times.iter().max(), times.iter().min()) {
-            (Some(&last), Some(&first)) => {
-                last >= end.saturating_sub(slack)
-                    && first >= end.saturating_sub(slack.saturating_mul(2))
-            }
-            _ => false,
-        }
+            .map(|r| r["t"].as_u64())
+            .collect();
+        // The latest within the tolerance of the end, the earliest within
+        // twice it.
+        times.is_some_and(|times| {
+            times
+                .iter()
+                .max()
+                .is_some_and(|&t| t >= end.saturating_sub(slack))
+                && times
+                    .iter()
+                    .min()
+                    .is_some_and(|&t| t >= end.saturating_sub(slack.saturating_mul(2)))
+        })
     };
     let beyond_end = expected.iter().any(|r| {
         r["t"]

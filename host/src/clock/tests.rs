@@ -65,7 +65,7 @@ fn real_lateness_adds_up_along_a_chain_of_sleeps_as_drift() {
     // A deadline set from the wake's time (an event's cadence) is due
     // as much earlier as the wake was late, however long the task ran
     // before setting it.
-    let behind = base.lock().behind;
+    let behind = base.behind();
     assert!(behind >= 3 * late, "{behind}");
     let deadline = base.now() + 1_000_000_000;
     std::thread::sleep(std::time::Duration::from_millis(5));
