@@ -259,22 +259,36 @@ impl TimeBase {
 
     /// Real clock: the sleep of timer `key`, due at `ideal` on a clock
     /// that is never late, has woken its task, which runs from now on,
-    /// that much behind; an input's is applied at its place.
+    /// that much behind; an input's is applied at its place. A timer its
+    /// task found due before [`TimeBase::fire_due`] took it (the task was
+    /// polled past its deadline for another reason) fires here, counted
+    /// as it would have been there. (The virtual clock fires every timer
+    /// before any task sees its time.)
     fn woke(&self, key: TimerKey, ideal: u64, counted: bool) {
-        if self.0.kind == ClockKind::Real {
-            let behind = self.now().saturating_sub(ideal);
-            let mut t = self.lock();
-            t.behind = behind;
-            t.drift = t.drift.max(behind);
-            let noted = t.noted;
-            t.input_place = if counted {
-                None
-            } else {
-                t.inputs_fired
-                    .remove(&key)
-                    .map(|(fired, then)| fired + (noted - then))
-            };
+        if self.0.kind != ClockKind::Real {
+            return;
         }
+        let now = self.now();
+        let mut t = self.lock();
+        if t.queue.remove(&key).is_some() {
+            if !counted {
+                let place = (t.fired, t.noted);
+                t.inputs_fired.insert(key, place);
+            }
+            t.fired += u64::from(counted);
+            t.latest = t.latest.max(now.saturating_sub(key.0));
+        }
+        let behind = now.saturating_sub(ideal);
+        t.behind = behind;
+        t.drift = t.drift.max(behind);
+        let noted = t.noted;
+        t.input_place = if counted {
+            None
+        } else {
+            t.inputs_fired
+                .remove(&key)
+                .map(|(fired, then)| fired + (noted - then))
+        };
     }
 
     fn refresh(&self, key: TimerKey, waker: &Waker) {

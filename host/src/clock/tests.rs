@@ -138,3 +138,26 @@ fn a_stop_request_ends_a_sleep_early_with_its_reason() {
         "a dropped sleep leaves no timer behind"
     );
 }
+
+#[test]
+fn a_sleep_polled_past_its_deadline_before_its_timer_fired_counts_as_fired() {
+    let base = TimeBase::new(ClockKind::Real);
+    let log = Arc::new(StdMutex::new(Vec::new()));
+    let waker = Waker::from(Arc::new(Label("sleeper", log.clone())));
+    let mut cx = Context::from_waker(&waker);
+    let deadline = base.now() + 1_000_000;
+    let mut sleep = Box::pin(base.sleep_until(deadline, None));
+    assert!(sleep.as_mut().poll(&mut cx).is_pending());
+    while base.now() < deadline {
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    // Woken for another reason before the scheduler fired its timer: it
+    // ends, and its timer counts as a replay's would.
+    assert_eq!(sleep.as_mut().poll(&mut cx), Poll::Ready(Ok(())));
+    drop(sleep);
+    assert_eq!(base.fired(), 1);
+    assert_eq!(base.next_deadline(), None);
+    base.fire_due(base.now());
+    assert_eq!(base.fired(), 1, "counted once");
+    assert!(log.lock().expect("not poisoned").is_empty());
+}
