@@ -154,3 +154,46 @@ fn a_wide_system_computes_its_checks_at_once_and_runs_as_on_one_thread() {
     );
     same_run_with_calls_ahead(&one, &three, 1_000);
 }
+
+/// `pairs` `bench-event`s checking every millisecond, each check computing
+/// `work` rounds (tens of µs at 10,000), each triggering its own
+/// `bench-response`; 40 ms, as `radar run --threads N` runs it (not eager).
+fn computing_pairs(threads: usize, pairs: usize, work: u64) -> radar::RunReport {
+    let mut builder = common::virtual_system().threads(threads);
+    for i in 0..pairs {
+        builder = builder
+            .plugin(
+                radar::Plugin::file(format!("E{i}"), radar_fixtures::plugins::BENCH_EVENT)
+                    .period(Duration::from_millis(1))
+                    .config("work", work),
+            )
+            .plugin(radar::Plugin::file(
+                format!("R{i}"),
+                radar_fixtures::plugins::BENCH_RESPONSE,
+            ))
+            .connect(Link::whenever(&format!("E{i}"), &format!("R{i}")));
+    }
+    common::checked(
+        builder
+            .build()
+            .expect("the system builds")
+            .run(Some(Duration::from_millis(40)))
+            .expect("the system runs"),
+    )
+}
+
+#[test]
+fn by_default_checks_that_compute_are_computed_ahead_at_every_instant_not_only_the_first() {
+    // Each instant's checks form a batch; the responses they start run one
+    // by one after it. Those calls alone must not stop the next instant's
+    // batch (they did: only the first instant's checks computed ahead).
+    let one = computing_pairs(1, 20, 10_000);
+    let two = computing_pairs(2, 20, 10_000);
+    assert_eq!(one.computed_ahead, 0);
+    assert!(
+        two.computed_ahead >= 20 * 30,
+        "the checks of most of the 40 instants compute ahead: {}",
+        two.computed_ahead
+    );
+    assert!(two.trace == one.trace, "the trace on two threads differs");
+}

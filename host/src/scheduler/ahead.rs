@@ -22,7 +22,9 @@ use crate::executor::TaskId;
 use crate::parallel::{self, Outcome};
 use crate::plugin::Kind;
 
-/// While batches do not pay, one poll in so many tries one.
+/// While batches do not pay, one poll in so many tries one; and so many
+/// calls alone in a row, with no batch among them, stop the tries until
+/// the probe's.
 const PROBE_EVERY: u32 = 1 << 16;
 
 impl Scheduler {
@@ -67,10 +69,20 @@ impl Scheduler {
             debug_assert!(batch.len() > before, "a member's poll handed no call over");
             polled.push((next, (batch.len() > before).then_some(before)));
         }
-        // A batch of one has nothing to spread: the next tries wait.
-        self.ahead_pays = batch.len() > 1 && self.workers.compute(&mut batch);
         if batch.len() > 1 {
+            self.ahead_pays = self.workers.compute(&mut batch);
             self.computed_ahead += batch.len() as u64;
+            self.alone_since_batch = 0;
+        } else {
+            // A call alone has nothing to spread, and says nothing of
+            // whether batches pay: the calls of a system's next instant
+            // may well form one. Only a long run of calls alone (a system
+            // whose calls are never due together) leaves the next tries to
+            // the probe, so that it pays no bookkeeping for batches.
+            self.alone_since_batch = self.alone_since_batch.saturating_add(1);
+            if self.alone_since_batch >= PROBE_EVERY {
+                self.ahead_pays = false;
+            }
         }
         self.probe_in = PROBE_EVERY;
         for (task, handed) in polled {

@@ -144,6 +144,8 @@ pub(crate) struct Scheduler {
     pub(super) ahead_pays: bool,
     /// Polls until the next that may try a batch while batches do not pay.
     pub(super) probe_in: u32,
+    /// Calls handed over alone (a batch of one) since the last batch.
+    pub(super) alone_since_batch: u32,
 }
 
 impl Scheduler {
@@ -253,6 +255,7 @@ impl Scheduler {
             computed_ahead: 0,
             ahead_pays: true,
             probe_in: 0,
+            alone_since_batch: 0,
         }
     }
 
