@@ -148,7 +148,9 @@ fn main() {
         true,
     );
     println!(
-        "target: 10,000 pairs, none faulting at the kernel's default vm.max_map_count, in <= 1 GiB"
+        "target: 10,000 pairs, none faulting at the kernel's default vm.max_map_count, in <= 1 GiB \
+         (this machine's: {})",
+        max_map_count()
     );
     if std::env::var("RADAR_CONCURRENCY_SEARCH").is_ok_and(|v| v == "0") {
         return;
@@ -212,10 +214,15 @@ fn search() {
     println!(
         "largest N running at once with none faulting: {fits} (a run of {faults} faulted; \
          vm.max_map_count = {})",
-        std::fs::read_to_string("/proc/sys/vm/max_map_count")
-            .map_or("?".into(), |l| l.trim().to_string())
+        max_map_count()
     );
     if let Some(fault) = first {
         println!("         its first fault: {fault}");
     }
+}
+
+/// The kernel's limit on a process's memory mappings, as it reads here.
+fn max_map_count() -> String {
+    std::fs::read_to_string("/proc/sys/vm/max_map_count")
+        .map_or("?".into(), |l| l.trim().to_string())
 }

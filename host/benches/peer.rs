@@ -101,5 +101,5 @@ fn main() {
             radar(Duration::from_micros(period_us), count),
         );
     }
-    println!("target: p50 ≤ 2 µs warm");
+    println!("targets: Radar's p50 ≤ 2 µs warm, ≤ 10 µs cold (every second)");
 }
