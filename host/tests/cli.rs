@@ -725,6 +725,10 @@ fn mistakes_in_a_manifest_are_shown_with_their_fix() {
             "unknown busy policy `wait`: busy is `drop`, `restart` or `queue`",
         ),
         (
+            "[plugins.Slow]\nwasm = \"builtin:test-event\"\ndeadline_ms = 0\n".to_string(),
+            "plugin `Slow`: `deadline_ms` must be above 0 (leave it out for no deadline)",
+        ),
+        (
             "[plugins.Mine]\nwasm = \"mine/mine.wasm\"\n[plugins.Mine.build]\ncommand = \"true\"\n"
                 .to_string(),
             "No such file or directory (os error 2): it is built by `radar build",

@@ -478,3 +478,46 @@ fn expect_with_a_tolerance_still_fails_a_run_that_ends_early() {
     let stderr = text(&short.stderr);
     assert!(stderr.starts_with("radar: the run parts from"), "{stderr}");
 }
+
+#[test]
+fn radar_run_writes_the_same_trace_file_on_one_thread_and_on_two() {
+    // Twenty checks due together every millisecond, each computing some
+    // 10,000 rounds (tens of µs): batches worth a second thread.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mut manifest = String::new();
+    for i in 0..20 {
+        manifest += &format!(
+            "[plugins.E{i}]\nwasm = {:?}\nperiod_ms = 1\nconfig = {{ work = 10000 }}\n\
+             [plugins.R{i}]\nwasm = {:?}\n\
+             [[connect]]\nmode = \"whenever\"\nfrom = \"E{i}.triggered\"\nto = \"R{i}.start\"\n",
+            radar_fixtures::plugins::BENCH_EVENT,
+            radar_fixtures::plugins::BENCH_RESPONSE
+        );
+    }
+    let manifest = common::write_manifest(dir.path(), &manifest);
+    let trace = |threads: &str| {
+        let path = dir.path().join(format!("threads-{threads}.jsonl"));
+        let out = radar(&[
+            "run",
+            &manifest,
+            "--for",
+            "40ms",
+            "-q",
+            "--threads",
+            threads,
+            "--trace",
+            arg(&path),
+        ]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        std::fs::read(&path).expect("trace written")
+    };
+    let one = trace("1");
+    let triggers = text(&one).matches("\"triggered\"").count();
+    assert!(triggers >= 20 * 39, "{triggers} triggers in 40 ms");
+    for threads in ["2", "3"] {
+        assert!(
+            trace(threads) == one,
+            "the trace file on {threads} threads differs from the one on one thread"
+        );
+    }
+}
