@@ -148,6 +148,32 @@ struct Timers {
     drift: u64,
 }
 
+impl Timers {
+    /// Takes, in (deadline, sequence) order, every timer due at `now` up
+    /// to `upto`, counted as fired; returns their keys and wakers.
+    fn take_due(&mut self, real: bool, now: u64, upto: TimerKey) -> Vec<(TimerKey, Waker)> {
+        let mut due = Vec::new();
+        while let Some(entry) = self.queue.first_entry() {
+            let key = *entry.key();
+            if key.0 > now || key > upto {
+                break;
+            }
+            let (waker, counted, ideal) = entry.remove();
+            if real {
+                if !counted {
+                    let place = (self.fired, self.noted);
+                    self.inputs_fired.insert(key, place);
+                }
+                self.drift = self.drift.max(now.saturating_sub(ideal));
+            }
+            self.fired += u64::from(counted);
+            self.latest = self.latest.max(now - key.0);
+            due.push((key, waker));
+        }
+        due
+    }
+}
+
 /// The clock and timer queue of one system; cheap to clone.
 #[derive(Clone)]
 pub(crate) struct TimeBase(Arc<Shared>);
@@ -261,23 +287,19 @@ impl TimeBase {
     /// that is never late, has woken its task, which runs from now on,
     /// that much behind; an input's is applied at its place. A timer its
     /// task found due before [`TimeBase::fire_due`] took it (the task was
-    /// polled past its deadline for another reason) fires here, counted
-    /// as it would have been there. (The virtual clock fires every timer
-    /// before any task sees its time.)
+    /// polled past its deadline for another reason) fires here, with every
+    /// timer due before it, counted as they would have been there.
     fn woke(&self, key: TimerKey, ideal: u64, counted: bool) {
         if self.0.kind != ClockKind::Real {
             return;
         }
         let now = self.now();
         let mut t = self.lock();
-        if t.queue.remove(&key).is_some() {
-            if !counted {
-                let place = (t.fired, t.noted);
-                t.inputs_fired.insert(key, place);
-            }
-            t.fired += u64::from(counted);
-            t.latest = t.latest.max(now.saturating_sub(key.0));
-        }
+        let others: Vec<Waker> = t
+            .take_due(true, now, key)
+            .into_iter()
+            .filter_map(|(k, waker)| (k != key).then_some(waker))
+            .collect();
         let behind = now.saturating_sub(ideal);
         t.behind = behind;
         t.drift = t.drift.max(behind);
@@ -289,6 +311,10 @@ impl TimeBase {
                 .remove(&key)
                 .map(|(fired, then)| fired + (noted - then))
         };
+        drop(t);
+        for waker in others {
+            waker.wake();
+        }
     }
 
     fn refresh(&self, key: TimerKey, waker: &Waker) {
@@ -371,31 +397,9 @@ impl TimeBase {
     /// Wakes, in (deadline, sequence) order, every timer due at `now`.
     pub fn fire_due(&self, now: u64) {
         let real = self.0.kind == ClockKind::Real;
-        let due: Vec<Waker> = {
-            let mut t = self.lock();
-            let mut due = Vec::new();
-            while let Some(entry) = t.queue.first_entry() {
-                if entry.key().0 > now {
-                    break;
-                }
-                let key = *entry.key();
-                let late = now - key.0;
-                let (waker, counted, ideal) = entry.remove();
-                if real {
-                    if !counted {
-                        let place = (t.fired, t.noted);
-                        t.inputs_fired.insert(key, place);
-                    }
-                    t.drift = t.drift.max(now.saturating_sub(ideal));
-                }
-                t.fired += u64::from(counted);
-                t.latest = t.latest.max(late);
-                due.push(waker);
-            }
-            due
-        };
-        for w in due {
-            w.wake();
+        let due = self.lock().take_due(real, now, (now, u64::MAX));
+        for (_, waker) in due {
+            waker.wake();
         }
     }
 

@@ -161,3 +161,27 @@ fn a_sleep_polled_past_its_deadline_before_its_timer_fired_counts_as_fired() {
     assert_eq!(base.fired(), 1, "counted once");
     assert!(log.lock().expect("not poisoned").is_empty());
 }
+
+#[test]
+fn a_timer_fired_by_its_sleeps_poll_fires_the_timers_due_before_it_first() {
+    let base = TimeBase::new(ClockKind::Real);
+    let log = Arc::new(StdMutex::new(Vec::new()));
+    let waker = |l| Waker::from(Arc::new(Label(l, log.clone())));
+    let now = base.now();
+    let (input, ideal) = base.add(now + 1_000_000, waker("input"), false, None);
+    let sleeper = waker("sleeper");
+    let mut cx = Context::from_waker(&sleeper);
+    let mut sleep = Box::pin(base.sleep_until(now + 2_000_000, None));
+    assert!(sleep.as_mut().poll(&mut cx).is_pending());
+    while base.now() < now + 2_000_000 {
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    assert_eq!(sleep.as_mut().poll(&mut cx), Poll::Ready(Ok(())));
+    // The input's timer, due first, fired first: its task is woken, and
+    // the input came before the sleep's timer; the sleeper, running, is not
+    // woken again.
+    assert_eq!(*log.lock().expect("not poisoned"), ["input"]);
+    assert_eq!(base.fired(), 1);
+    base.woke(input, ideal, false);
+    assert_eq!(base.fired_before_input(), 0);
+}
