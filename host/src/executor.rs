@@ -41,6 +41,11 @@ impl ReadyQueue {
             .front()
             .copied()
     }
+    /// The first queued task after the front one that `live` accepts.
+    fn after_front(&self, live: impl Fn(TaskId) -> bool) -> Option<TaskId> {
+        let queue = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        queue.iter().skip(1).copied().find(|id| live(*id))
+    }
 }
 
 struct TaskWaker {
@@ -120,6 +125,13 @@ impl Executor {
             }
             self.ready.pop(); // finished or cancelled since it was woken
         }
+    }
+
+    /// The ready task after the next one, without taking either (the next
+    /// one may have finished since it was woken: then this may be the
+    /// next one that lives; good enough for a guess).
+    pub fn peek_second(&self) -> Option<TaskId> {
+        self.ready.after_front(|id| self.tasks.contains_key(&id))
     }
 
     /// Polls task `id` once, now, whether it is ready or not; `false` if

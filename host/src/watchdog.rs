@@ -113,6 +113,8 @@ pub(crate) struct CallWatch {
     /// call).
     seen: u64,
     since: Option<Instant>,
+    /// This call stopped the run as stalled.
+    stalled_here: bool,
 }
 
 impl CallWatch {
@@ -125,6 +127,7 @@ impl CallWatch {
             began_at: 0,
             seen: 0,
             since: None,
+            stalled_here: false,
         }
     }
 
@@ -134,6 +137,7 @@ impl CallWatch {
         self.began_at = now;
         self.seen = self.run.progress.load(Ordering::Relaxed);
         self.since = None;
+        self.stalled_here = false;
     }
 
     /// Whether the call may go on (see the module docs).
@@ -141,8 +145,14 @@ impl CallWatch {
         if let Some(cause) = self.stop.fault() {
             return Err(wasmtime::Error::msg(cause));
         }
-        if self.run.stopping().is_some() {
-            return Err(RunStopped.into());
+        if let Some(stopping) = self.run.stopping() {
+            // A stall stops the call that stalled. A call computed beside
+            // it (`--threads`) whose turn comes before it goes on, as on
+            // one thread, where it would have returned before the stalled
+            // call began; one whose turn comes after never has its turn.
+            if stopping.reason != "stalled" || self.stalled_here {
+                return Err(RunStopped.into());
+            }
         }
         let progress = self.run.progress.load(Ordering::Relaxed);
         if progress != self.seen || self.since.is_none() {
@@ -150,6 +160,7 @@ impl CallWatch {
             self.since = Some(Instant::now());
         } else if let (Some(after), Some(since)) = (self.run.stall_after, self.since) {
             if since.elapsed() >= after {
+                self.stalled_here = true;
                 self.run.stop(Stopping {
                     reason: "stalled",
                     message: format!(

@@ -23,8 +23,8 @@ use crate::parallel::{self, Outcome};
 use crate::plugin::Kind;
 
 /// While batches do not pay, one poll in so many tries one; and so many
-/// calls alone in a row, with no batch among them, stop the tries until
-/// the probe's.
+/// polls in a row with no batch among them stop the tries until the
+/// probe's.
 const PROBE_EVERY: u32 = 1 << 16;
 
 impl Scheduler {
@@ -32,7 +32,7 @@ impl Scheduler {
     /// ahead, the batch of calls its poll began; `false` if no task was
     /// ready.
     pub(super) fn run_ready(&mut self) -> bool {
-        if !self.workers.parallel() || !self.probe() {
+        if !self.workers.parallel() || !self.probe() || !self.may_batch() {
             let Some(task) = self.executor.run_one() else {
                 return false;
             };
@@ -74,15 +74,7 @@ impl Scheduler {
             self.computed_ahead += batch.len() as u64;
             self.alone_since_batch = 0;
         } else {
-            // A call alone has nothing to spread, and says nothing of
-            // whether batches pay: the calls of a system's next instant
-            // may well form one. Only a long run of calls alone (a system
-            // whose calls are never due together) leaves the next tries to
-            // the probe, so that it pays no bookkeeping for batches.
-            self.alone_since_batch = self.alone_since_batch.saturating_add(1);
-            if self.alone_since_batch >= PROBE_EVERY {
-                self.ahead_pays = false;
-            }
+            self.no_batch();
         }
         self.probe_in = PROBE_EVERY;
         for (task, handed) in polled {
@@ -122,6 +114,35 @@ impl Scheduler {
         }
         self.probe_in = self.probe_in.saturating_sub(1);
         self.probe_in == 0
+    }
+
+    /// Whether a batch may form at this poll: the task ready after the
+    /// next one would join it (every poll may, when `eager_threads`
+    /// spreads every batch). A task alone is polled as on one thread: a
+    /// batch of one has nothing to spread, and says nothing of whether
+    /// batches pay (an instant's checks may form one, the responses they
+    /// start come one by one after it).
+    fn may_batch(&mut self) -> bool {
+        if self.workers.eager() {
+            return true;
+        }
+        let second = self.executor.peek_second();
+        if second.is_some_and(|task| self.joins(task)) {
+            return true;
+        }
+        self.no_batch();
+        self.probe_in = PROBE_EVERY;
+        false
+    }
+
+    /// A poll that formed no batch while batches were tried: a long run
+    /// of them (a system whose calls are never due together) stops the
+    /// tries until the probe's, so that it pays no bookkeeping for them.
+    fn no_batch(&mut self) {
+        self.alone_since_batch = self.alone_since_batch.saturating_add(1);
+        if self.alone_since_batch >= PROBE_EVERY {
+            self.ahead_pays = false;
+        }
     }
 
     /// What follows each poll of a task: the step counted, the tasks it
