@@ -91,7 +91,7 @@ fn table(title: &str, sizes: &[usize], mut time: impl FnMut(usize, u64) -> Durat
         let (t_long, t_short) = (best(long), best(short));
         let cycles = n as u64 * (long - short);
         let per_cycle = t_long.saturating_sub(t_short).as_secs_f64() * 1e9 / cycles as f64;
-        let base_cost = *base.get_or_insert(per_cycle);
+        let (base_n, base_cost) = *base.get_or_insert((n, per_cycle));
         let target = match n {
             1_000 => "; target ≤ 1.5×",
             10_000 => "; target ≤ 2×",
@@ -99,7 +99,7 @@ fn table(title: &str, sizes: &[usize], mut time: impl FnMut(usize, u64) -> Durat
         };
         // A cycle is three signals: triggered, started, exited.
         println!(
-            "N = {n:>6} pairs: {per_cycle:>8.0} ns per cycle ({:.2}× N = 1{target}), \
+            "N = {n:>6} pairs: {per_cycle:>8.0} ns per cycle ({:.2}× N = {base_n}{target}), \
              {:.0} cycles/s, {:.0} signals/s \
              [{long} ms of virtual time: {:.1} ms, {short} ms: {:.1} ms]",
             per_cycle / base_cost,

@@ -1,6 +1,6 @@
 //! `--threads`: 200 behaviours ticking at 1 kHz, each check computing
-//! (`bench-event` with `work` xorshift rounds: 10,000 are about 30 µs a
-//! check on the project's machine, 30,000 about 85 µs), each connected to a
+//! (`bench-event` with `work` xorshift rounds: 10,000 are 20–30 µs a
+//! check on the project's machine, 30,000 65–85 µs), each connected to a
 //! `bench-response` whose `start` returns at once; one second of virtual
 //! time, the trace off. Prints, for each amount of work, the wall time on
 //! 1 and on 2 threads (best of three each) and the ratio (target: 2

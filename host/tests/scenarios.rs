@@ -480,7 +480,7 @@ fn expect_with_a_tolerance_still_fails_a_run_that_ends_early() {
 }
 
 #[test]
-fn radar_run_writes_the_same_trace_file_on_one_thread_and_on_two() {
+fn radar_run_writes_the_same_trace_file_on_one_two_and_three_threads() {
     // Twenty checks due together every millisecond, each computing some
     // 10,000 rounds (tens of µs): batches worth a second thread.
     let dir = tempfile::tempdir().expect("temp dir");
