@@ -13,7 +13,9 @@
 //! - the plugin has a fault waiting (a burst blamed on it, see
 //!   `scheduler`): the call traps with that cause;
 //! - the run is being stopped (a signal, a stall): the call traps, and the
-//!   scheduler ends the run with a `stopped` record saying why;
+//!   scheduler ends the run with a `stopped` record saying why (after a
+//!   stall, a call whose turn comes before the stalled call's goes on: see
+//!   [`at_turn`]);
 //! - the run has made no progress (no scheduler step, no emission, no
 //!   record) for the stall timeout while this call computes: the run is
 //!   stopped as stalled, naming the plugin and its call (under the virtual
@@ -22,6 +24,7 @@
 //! None of this changes a run that is not stopped: the callback only
 //! decides whether to go on, so a virtual-clock run stays deterministic.
 
+use std::cell::Cell;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
@@ -52,6 +55,9 @@ pub(crate) struct RunWatch {
     /// Scheduler steps so far.
     progress: AtomicU64,
     stopping_now: AtomicBool,
+    /// The run is being stopped for a reason other than a stall (see
+    /// [`at_turn`]).
+    stopping_every_call: AtomicBool,
     stopping: Mutex<Option<Stopping>>,
     /// How long the run may make no progress while a call computes
     /// (`None`: forever).
@@ -76,6 +82,9 @@ impl RunWatch {
     /// the scheduler ends the run. The first reason given is kept.
     pub(crate) fn stop(&self, stopping: Stopping) {
         let mut kept = self.stopping.lock().unwrap_or_else(|e| e.into_inner());
+        if stopping.reason != "stalled" {
+            self.stopping_every_call.store(true, Ordering::Release);
+        }
         if kept.is_none() {
             *kept = Some(stopping);
         }
@@ -92,6 +101,30 @@ impl RunWatch {
             .unwrap_or_else(|e| e.into_inner())
             .clone()
     }
+}
+
+thread_local! {
+    /// Whether this thread applies a call's turn (see [`at_turn`]).
+    static AT_TURN: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Runs `turn`, the turn of a call computed ahead with others (`--threads`,
+/// `crate::parallel`), whose turn comes before that of any call still in
+/// its batch. A stall found while the batch computed stops the call that
+/// stalled, and every other call, but not this one: on one thread it would
+/// have returned before the stalled call began, so it goes on, and the
+/// trace holds all that came before the stall. Any other reason to stop
+/// (a signal, a livelock) stops it too.
+pub(crate) fn at_turn<R>(turn: impl FnOnce() -> R) -> R {
+    struct Leave;
+    impl Drop for Leave {
+        fn drop(&mut self) {
+            AT_TURN.with(|t| t.set(false));
+        }
+    }
+    AT_TURN.with(|t| t.set(true));
+    let _leave = Leave;
+    turn()
 }
 
 /// The error a call ends with when the run is stopped around it: not the
@@ -145,14 +178,12 @@ impl CallWatch {
         if let Some(cause) = self.stop.fault() {
             return Err(wasmtime::Error::msg(cause));
         }
-        if let Some(stopping) = self.run.stopping() {
-            // A stall stops the call that stalled. A call computed beside
-            // it (`--threads`) whose turn comes before it goes on, as on
-            // one thread, where it would have returned before the stalled
-            // call began; one whose turn comes after never has its turn.
-            if stopping.reason != "stalled" || self.stalled_here {
-                return Err(RunStopped.into());
-            }
+        if self.run.stopping_now.load(Ordering::Acquire)
+            && (self.run.stopping_every_call.load(Ordering::Acquire)
+                || self.stalled_here
+                || !AT_TURN.with(Cell::get))
+        {
+            return Err(RunStopped.into());
         }
         let progress = self.run.progress.load(Ordering::Relaxed);
         if progress != self.seen || self.since.is_none() {
@@ -252,5 +283,31 @@ mod tests {
             message: "later".into(),
         });
         assert_eq!(run.stopping().map(|s| s.reason), Some("signal"));
+    }
+
+    #[test]
+    fn after_a_stall_a_call_at_its_turn_goes_on_until_a_signal_stops_every_call() {
+        let run = Arc::new(RunWatch::new(None));
+        let mut other = CallWatch::new(run.clone(), Arc::default(), "R".into());
+        other.begin("start", 0);
+        run.stop(Stopping {
+            reason: "stalled",
+            message: "Spin".into(),
+        });
+        let stopped = |result: wasmtime::Result<UpdateDeadline>| {
+            result.is_err_and(|e| e.downcast_ref::<RunStopped>().is_some())
+        };
+        assert!(stopped(other.check(1)), "ahead of its turn, or no turn");
+        assert!(at_turn(|| other.check(1)).is_ok(), "at its turn it goes on");
+        assert!(stopped(other.check(1)), "only at its turn");
+        run.stop(Stopping {
+            reason: "signal",
+            message: "SIGINT".into(),
+        });
+        assert!(
+            stopped(at_turn(|| other.check(1))),
+            "a signal stops every call"
+        );
+        assert_eq!(run.stopping().map(|s| s.reason), Some("stalled"));
     }
 }

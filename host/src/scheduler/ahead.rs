@@ -21,6 +21,7 @@ use crate::clock::ClockKind;
 use crate::executor::TaskId;
 use crate::parallel::{self, Outcome};
 use crate::plugin::Kind;
+use crate::watchdog;
 
 /// While batches do not pay, one poll in so many tries one; and so many
 /// polls in a row with no batch among them stop the tries until the
@@ -91,11 +92,13 @@ impl Scheduler {
                         self.resuming.insert(task);
                         waker.wake_by_ref();
                     } else {
-                        self.executor.poll_now(task);
+                        let executor = &mut self.executor;
+                        watchdog::at_turn(|| executor.poll_now(task));
                     }
                 }
                 _ => {
-                    self.executor.poll_now(task);
+                    let executor = &mut self.executor;
+                    watchdog::at_turn(|| executor.poll_now(task));
                 }
             }
             self.stepped(task);
