@@ -13,6 +13,13 @@ impl Wake for Label {
     }
 }
 
+/// Waits, a millisecond at a time, until the real clock `base` reads `t`.
+fn wait_until(base: &TimeBase, t: u64) {
+    while base.now() < t {
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+}
+
 #[test]
 fn timers_with_one_deadline_fire_in_the_order_they_were_set() {
     let base = TimeBase::new(ClockKind::Virtual);
@@ -88,9 +95,7 @@ fn an_inputs_place_among_timers_fired_together_is_its_own_timers() {
     let now = base.now();
     let (input, ideal) = base.add(now + 1_000_000, waker("input"), false, None);
     base.add(now + 2_000_000, waker("check"), true, None);
-    while base.now() < now + 2_000_000 {
-        std::thread::sleep(std::time::Duration::from_millis(1));
-    }
+    wait_until(&base, now + 2_000_000);
     // The machine woke late for both: they fire in one batch.
     base.fire_due(base.now());
     assert_eq!(*log.lock().expect("not poisoned"), ["input", "check"]);
@@ -148,9 +153,7 @@ fn a_sleep_polled_past_its_deadline_before_its_timer_fired_counts_as_fired() {
     let deadline = base.now() + 1_000_000;
     let mut sleep = Box::pin(base.sleep_until(deadline, None));
     assert!(sleep.as_mut().poll(&mut cx).is_pending());
-    while base.now() < deadline {
-        std::thread::sleep(std::time::Duration::from_millis(1));
-    }
+    wait_until(&base, deadline);
     // Woken for another reason before the scheduler fired its timer: it
     // ends, and its timer counts as a replay's would.
     assert_eq!(sleep.as_mut().poll(&mut cx), Poll::Ready(Ok(())));
@@ -173,9 +176,7 @@ fn a_timer_fired_by_its_sleeps_poll_fires_the_timers_due_before_it_first() {
     let mut cx = Context::from_waker(&sleeper);
     let mut sleep = Box::pin(base.sleep_until(now + 2_000_000, None));
     assert!(sleep.as_mut().poll(&mut cx).is_pending());
-    while base.now() < now + 2_000_000 {
-        std::thread::sleep(std::time::Duration::from_millis(1));
-    }
+    wait_until(&base, now + 2_000_000);
     assert_eq!(sleep.as_mut().poll(&mut cx), Poll::Ready(Ok(())));
     // The input's timer, due first, fired first: its task is woken, and
     // the input came before the sleep's timer; the sleeper, running, is not

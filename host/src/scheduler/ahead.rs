@@ -73,7 +73,7 @@ impl Scheduler {
         if batch.len() > 1 {
             self.ahead_pays = self.workers.compute(&mut batch);
             self.computed_ahead += batch.len() as u64;
-            self.alone_since_batch = 0;
+            self.polls_since_batch = 0;
         } else {
             self.no_batch();
         }
@@ -142,8 +142,8 @@ impl Scheduler {
     /// of them (a system whose calls are never due together) stops the
     /// tries until the probe's, so that it pays no bookkeeping for them.
     fn no_batch(&mut self) {
-        self.alone_since_batch = self.alone_since_batch.saturating_add(1);
-        if self.alone_since_batch >= PROBE_EVERY {
+        self.polls_since_batch = self.polls_since_batch.saturating_add(1);
+        if self.polls_since_batch >= PROBE_EVERY {
             self.ahead_pays = false;
         }
     }

@@ -144,8 +144,9 @@ pub(crate) struct Scheduler {
     pub(super) ahead_pays: bool,
     /// Polls until the next that may try a batch while batches do not pay.
     pub(super) probe_in: u32,
-    /// Calls handed over alone (a batch of one) since the last batch.
-    pub(super) alone_since_batch: u32,
+    /// Polls that formed no batch while batches were tried, since the last
+    /// batch (see `ahead`).
+    pub(super) polls_since_batch: u32,
 }
 
 impl Scheduler {
@@ -255,7 +256,7 @@ impl Scheduler {
             computed_ahead: 0,
             ahead_pays: true,
             probe_in: 0,
-            alone_since_batch: 0,
+            polls_since_batch: 0,
         }
     }
 
