@@ -514,6 +514,8 @@ pub(crate) struct StopFlag {
     waker: Mutex<Option<Waker>>,
     faulting: AtomicBool,
     fault: Mutex<Option<String>>,
+    /// The fault is a stop's bound, passed by a slot asked to stop.
+    overran: AtomicBool,
 }
 
 impl StopFlag {
@@ -542,6 +544,19 @@ impl StopFlag {
         self.wake();
     }
 
+    /// A slot asked to stop did not stop in time: its host calls trap, as
+    /// for a fault, but what ends the slot is the stop's bound, not the
+    /// plugin's doing (see [`StopFlag::take_overrun`]).
+    pub fn request_overrun(&self, cause: String) {
+        self.overran.store(true, Ordering::Release);
+        self.request_fault(cause);
+    }
+
+    /// Whether the last fault asked for was a stop's bound passed; cleared.
+    pub fn take_overrun(&self) -> bool {
+        self.overran.swap(false, Ordering::AcqRel)
+    }
+
     /// The fault waiting for the plugin, if any.
     pub fn fault(&self) -> Option<String> {
         if !self.faulting.load(Ordering::Acquire) {
@@ -552,6 +567,7 @@ impl StopFlag {
 
     /// The plugin faulted (or was reset): no fault waits any more.
     pub fn clear_fault(&self) {
+        self.overran.store(false, Ordering::Release);
         if self.faulting.swap(false, Ordering::AcqRel) {
             *self.fault.lock().unwrap_or_else(|e| e.into_inner()) = None;
         }

@@ -197,6 +197,19 @@ impl<W: Write + Send> Timeline<W> {
             } => format!("  queued at {to} (#{id}): {n} waiting"),
             Entry::SlotBegin {
                 plugin,
+                slot,
+                after: Some(after),
+                ..
+            } => match after.as_ref() {
+                "fault" => format!("  {plugin}.{slot} runs after the fault, on a fresh instance"),
+                "stop" => format!("  {plugin}.{slot} runs as the run stops"),
+                "node-lost" => {
+                    format!("  {plugin}.{slot} ran on its agent while the link was lost")
+                }
+                other => format!("  {plugin}.{slot} runs ({other})"),
+            },
+            Entry::SlotBegin {
+                plugin,
                 queued: Some(n),
                 connection,
                 ..

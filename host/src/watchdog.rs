@@ -49,8 +49,10 @@ pub(crate) struct Stopping {
     pub message: String,
 }
 
-/// What a run's stores and its scheduler share to stop a call.
-#[derive(Debug, Default)]
+/// What a run's stores and its scheduler share to stop a call, and what
+/// a stop asked for from outside the run's thread (a signal) leaves for
+/// the scheduler.
+#[derive(Debug)]
 pub(crate) struct RunWatch {
     /// Scheduler steps so far.
     progress: AtomicU64,
@@ -62,14 +64,96 @@ pub(crate) struct RunWatch {
     /// How long the run may make no progress while a call computes
     /// (`None`: forever).
     stall_after: Option<Duration>,
+    /// A stop asked for as a user asks it (a signal): the scheduler stops
+    /// the running responses and runs their exits first
+    /// (`docs/semantics.md#stopping-a-run`).
+    asked: Mutex<Option<Stopping>>,
+    asked_now: AtomicBool,
+    /// When it was asked for.
+    asked_at: Mutex<Option<Instant>>,
+    /// The scheduler is stopping the run (however it was asked to): a
+    /// call that computes on has its plugin's `exit_ms`.
+    winding: AtomicBool,
+    /// Wakes the scheduler's wait for commands when a stop is asked for.
+    wake: (
+        crossbeam_channel::Sender<()>,
+        crossbeam_channel::Receiver<()>,
+    ),
+    /// The responses whose exits a stop still waits for.
+    exits_left: Mutex<Vec<String>>,
+}
+
+impl Default for RunWatch {
+    fn default() -> Self {
+        Self::new(None)
+    }
 }
 
 impl RunWatch {
     pub(crate) fn new(stall_after: Option<Duration>) -> Self {
         Self {
+            progress: AtomicU64::new(0),
+            stopping_now: AtomicBool::new(false),
+            stopping_every_call: AtomicBool::new(false),
+            stopping: Mutex::new(None),
             stall_after,
-            ..Self::default()
+            asked: Mutex::new(None),
+            asked_now: AtomicBool::new(false),
+            asked_at: Mutex::new(None),
+            winding: AtomicBool::new(false),
+            wake: crossbeam_channel::bounded(1),
+            exits_left: Mutex::new(Vec::new()),
         }
+    }
+
+    /// Asks for the run to stop as its user does: the running responses
+    /// run their exits, then it ends. Asked a second time, it stops at
+    /// once (every call ends, see [`RunWatch::stop`]): whether this was
+    /// the first time.
+    pub(crate) fn ask_stop(&self, stopping: Stopping) -> bool {
+        let mut asked = self.asked.lock().unwrap_or_else(|e| e.into_inner());
+        if asked.is_some() {
+            drop(asked);
+            self.stop(stopping);
+            return false;
+        }
+        *asked = Some(stopping);
+        *self.asked_at.lock().unwrap_or_else(|e| e.into_inner()) = Some(Instant::now());
+        self.asked_now.store(true, Ordering::Release);
+        let _ = self.wake.0.try_send(());
+        true
+    }
+
+    /// The stop asked for with [`RunWatch::ask_stop`], if any.
+    pub(crate) fn stop_asked(&self) -> Option<Stopping> {
+        if !self.asked_now.load(Ordering::Acquire) {
+            return None;
+        }
+        self.asked.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+
+    /// The scheduler has begun to stop the run (see [`CallWatch::check`]).
+    pub(crate) fn winding(&self) {
+        self.winding.store(true, Ordering::Release);
+    }
+
+    /// What wakes the scheduler's wait when a stop is asked for.
+    pub(crate) fn wakes(&self) -> &crossbeam_channel::Receiver<()> {
+        &self.wake.1
+    }
+
+    /// The responses a stop still waits for, as the scheduler last said.
+    pub(crate) fn set_exits_left(&self, names: Vec<String>) {
+        *self.exits_left.lock().unwrap_or_else(|e| e.into_inner()) = names;
+    }
+
+    /// The responses whose exits a stop still waits for: what a second
+    /// signal skips.
+    pub(crate) fn exits_left(&self) -> Vec<String> {
+        self.exits_left
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clone()
     }
 
     /// The run made progress: the scheduler took a step, a plugin emitted,
@@ -89,6 +173,7 @@ impl RunWatch {
             *kept = Some(stopping);
         }
         self.stopping_now.store(true, Ordering::Release);
+        let _ = self.wake.0.try_send(());
     }
 
     /// Why the run is being stopped, if it is.
@@ -133,6 +218,13 @@ pub(crate) fn at_turn<R>(turn: impl FnOnce() -> R) -> R {
 #[error("the run was stopped during this call")]
 pub(crate) struct RunStopped;
 
+/// The error an event's check ends with when the run is asked to stop:
+/// the run goes on with the exits of its responses, checks no more, and
+/// does not hold the check against its plugin.
+#[derive(Debug, thiserror::Error)]
+#[error("the run is stopping: no more checks")]
+pub(crate) struct CheckEnded;
+
 /// One store's view of its running call, for its epoch callback.
 pub(crate) struct CallWatch {
     run: Arc<RunWatch>,
@@ -148,6 +240,10 @@ pub(crate) struct CallWatch {
     since: Option<Instant>,
     /// This call stopped the run as stalled.
     stalled_here: bool,
+    /// How long a call may go on once a stop is asked for (the plugin's
+    /// `exit_ms`), and when this call first saw the stop.
+    exit_limit: Duration,
+    stop_seen: Option<Instant>,
 }
 
 impl CallWatch {
@@ -161,7 +257,15 @@ impl CallWatch {
             seen: 0,
             since: None,
             stalled_here: false,
+            exit_limit: Duration::from_secs(1),
+            stop_seen: None,
         }
+    }
+
+    /// How long a call may go on once the run is asked to stop.
+    pub(crate) fn with_exit_limit(mut self, limit: Duration) -> Self {
+        self.exit_limit = limit;
+        self
     }
 
     /// A call of `export` begins at scheduler time `now`.
@@ -171,6 +275,7 @@ impl CallWatch {
         self.seen = self.run.progress.load(Ordering::Relaxed);
         self.since = None;
         self.stalled_here = false;
+        self.stop_seen = None;
     }
 
     /// Whether the call may go on (see the module docs).
@@ -184,6 +289,25 @@ impl CallWatch {
                 || !AT_TURN.with(Cell::get))
         {
             return Err(RunStopped.into());
+        }
+        if self.run.asked_now.load(Ordering::Acquire) || self.run.winding.load(Ordering::Acquire) {
+            // The run is stopping and this call computes on: a check ends
+            // now; any other call has the plugin's `exit_ms` (the
+            // scheduler's own bounds do the same where it is not held up
+            // by this call, see `scheduler::exits`).
+            if self.call == "check" {
+                return Err(CheckEnded.into());
+            }
+            let seen = *self.stop_seen.get_or_insert_with(Instant::now);
+            if seen.elapsed() >= self.exit_limit {
+                let cause = format!(
+                    "its {} did not end within its exit_ms ({} ms) of the run's stop",
+                    self.call,
+                    self.exit_limit.as_millis()
+                );
+                self.stop.request_overrun(cause.clone());
+                return Err(wasmtime::Error::msg(cause));
+            }
         }
         let progress = self.run.progress.load(Ordering::Relaxed);
         if progress != self.seen || self.since.is_none() {

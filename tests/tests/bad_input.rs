@@ -140,7 +140,7 @@ fn a_check_that_loops_forever_runs_out_of_fuel_and_the_rest_keeps_running() {
 }
 
 #[test]
-fn a_trapping_response_goes_to_error_skips_exit_and_can_be_reset() {
+fn a_trapping_response_goes_to_error_runs_its_exit_on_a_fresh_instance_and_can_be_reset() {
     let system = virtual_system()
         .plugin(Plugin::file("Trap", plugins::TRAP_RESPONSE).config("after_s", 1))
         .plugin(test_event("E", 2))
@@ -171,9 +171,19 @@ fn a_trapping_response_goes_to_error_skips_exit_and_can_be_reset() {
             json!({"kind": "fault", "plugin": "Trap", "t": ns(4.0)}),
         ],
     );
+    // Each fault is followed by the exit, on a fresh instance, and no
+    // `exited` (docs/semantics.md#exit-always-runs).
+    let exits = find(
+        &trace,
+        json!({"kind": "slot-begin", "plugin": "Trap", "slot": "exit", "after": "fault"}),
+    );
+    assert_eq!(
+        exits.iter().map(|r| r["t"].clone()).collect::<Vec<_>>(),
+        [json!(ns(1.0)), json!(ns(4.0))]
+    );
     assert!(find(
         &trace,
-        json!({"kind": "slot-begin", "plugin": "Trap", "slot": "exit"})
+        json!({"kind": "signal", "plugin": "Trap", "signal": "exited"})
     )
     .is_empty());
     // The cause is one line; the wasm backtrace has a field of its own.

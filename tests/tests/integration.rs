@@ -18,6 +18,7 @@ mod board_in_languages;
 mod c_languages;
 mod deliberative;
 mod determinism;
+mod exits;
 mod fuzz;
 mod guest_sdk;
 mod harness;

@@ -570,15 +570,26 @@ pub fn run(args: RunArgs) -> Result<()> {
 /// `--allow-faults`).
 const FAULTED: i32 = 3;
 
-/// Ctrl-C, SIGTERM or SIGHUP stop the run as its user asked: the call
-/// computing now ends, the trace is written to its end with a `stopped`
-/// record; a second signal ends the process at once.
+/// Ctrl-C, SIGTERM or SIGHUP stop the run as its user asked: the running
+/// responses are stopped and run their exits (where a robot's motors
+/// stop), then the trace is written to its end with a `stopped` record; a
+/// second signal ends the process at once, saying which exits it skipped
+/// (docs/semantics.md#stopping-a-run).
 fn stop_on_signals(system: &System) {
     let handle = system.interrupter();
     let signals = std::sync::atomic::AtomicU32::new(0);
     // Only one handler per process: a second `run` in it keeps the first.
     let _ = ctrlc::set_handler(move || {
         if signals.fetch_add(1, std::sync::atomic::Ordering::SeqCst) > 0 {
+            let left = handle.exits_left();
+            if left.is_empty() {
+                eprintln!("radar: ended at once");
+            } else {
+                eprintln!(
+                    "radar: ended at once: the exits of {} were skipped or cut short",
+                    left.join(", ")
+                );
+            }
             std::process::exit(130);
         }
         handle.interrupt("stopped by the user (SIGINT, SIGTERM or SIGHUP)");

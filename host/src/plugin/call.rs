@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use wasmtime::{Trap, WasmBacktrace};
 
-use crate::watchdog::RunStopped;
+use crate::watchdog::{CheckEnded, RunStopped};
 
 /// How a call into a plugin ended badly.
 #[derive(Debug)]
@@ -19,6 +19,9 @@ pub(crate) struct Fault {
     /// The call was ended because the run is being stopped (a signal, a
     /// stall): not the plugin's fault, and not recorded as one.
     pub run_stopped: bool,
+    /// An event's check ended because the run is stopping: not the
+    /// plugin's fault, and not recorded as one.
+    pub ended_by_stop: bool,
     /// An injected fault (see [`super::faults`]): the plugin is reset this
     /// long after it.
     pub reset_after: Option<Duration>,
@@ -33,6 +36,7 @@ impl Fault {
                 .map(|b| b.to_string().trim_end().to_string()),
             out_of_fuel: matches!(err.downcast_ref::<Trap>(), Some(Trap::OutOfFuel)),
             run_stopped: err.downcast_ref::<RunStopped>().is_some(),
+            ended_by_stop: err.downcast_ref::<CheckEnded>().is_some(),
             reset_after: None,
         }
     }
@@ -44,6 +48,7 @@ impl Fault {
             backtrace: None,
             out_of_fuel: false,
             run_stopped: false,
+            ended_by_stop: false,
             reset_after: None,
         }
     }

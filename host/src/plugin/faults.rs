@@ -22,8 +22,12 @@ pub enum FaultKind {
     /// The call runs out of fuel.
     Fuel,
     /// The instantiation fails (the run's start, a reset, a fresh store
-    /// after a store died; not a swap's new version).
+    /// for a `start` that ignored a request to stop; not a swap's new
+    /// version, nor the fresh instance an exit after a fault runs on).
     Instantiation,
+    /// The fresh instance the exit after a fault runs on cannot be made
+    /// (`at`: the plugin's n-th exit after a fault).
+    ExitInstantiation,
 }
 
 impl FaultKind {
@@ -33,6 +37,7 @@ impl FaultKind {
             FaultKind::Trap => "trap",
             FaultKind::Fuel => "fuel",
             FaultKind::Instantiation => "reset-fails",
+            FaultKind::ExitInstantiation => "exit-instance-fails",
         }
     }
 }
@@ -59,6 +64,7 @@ pub struct InjectedFault {
 pub(crate) struct FaultPlan {
     calls: AtomicU64,
     instantiations: AtomicU64,
+    exit_instantiations: AtomicU64,
     faults: Vec<InjectedFault>,
 }
 
@@ -121,6 +127,21 @@ impl FaultPlan {
             .find(|f| f.at == n && f.kind == FaultKind::Instantiation)?;
         let mut fault = Fault::new(format!(
             "instantiation failed: injected fault at its instantiation {n}"
+        ));
+        fault.reset_after = planned.reset_after;
+        Some(fault)
+    }
+
+    /// Counts a fresh instance made for an exit after a fault; the fault
+    /// it is to fail with, if one is planned.
+    pub fn on_exit_instantiation(&self) -> Option<Fault> {
+        let n = self.exit_instantiations.fetch_add(1, Ordering::Relaxed) + 1;
+        let planned = self
+            .faults
+            .iter()
+            .find(|f| f.at == n && f.kind == FaultKind::ExitInstantiation)?;
+        let mut fault = Fault::new(format!(
+            "instantiation failed: injected fault at its exit after a fault {n}"
         ));
         fault.reset_after = planned.reset_after;
         Some(fault)

@@ -91,6 +91,7 @@ pub(crate) struct LocalInstance {
     fuel_used: Arc<AtomicU64>,
     /// Real clock: how long one call may compute (`Limits::deadline`).
     deadline: Option<std::time::Duration>,
+    real_clock: bool,
     stderr: StderrTail,
     funcs: [Option<Func>; 6],
 }
@@ -154,7 +155,8 @@ impl PluginCode {
                 base: setup.base.clone(),
                 stop: setup.stop.clone(),
             },
-            watch: CallWatch::new(setup.watch, setup.stop.clone(), setup.name.clone()),
+            watch: CallWatch::new(setup.watch, setup.stop.clone(), setup.name.clone())
+                .with_exit_limit(setup.limits.exit),
             clock: ClockState {
                 base: setup.base.clone(),
                 stop: setup.stop.clone(),
@@ -228,6 +230,7 @@ impl PluginCode {
             fuel_per_call: setup.limits.fuel_per_call,
             fuel_used: setup.fuel_used,
             deadline: setup.limits.deadline.filter(|_| real_clock),
+            real_clock,
             stderr,
             funcs,
         })
@@ -293,6 +296,12 @@ impl LocalInstance {
         // `fuel_yield_interval`), so a call past its deadline is seen
         // within one such stretch.
         let deadline = self.deadline;
+        // Under the real clock a fault the scheduler asks for (an exit past
+        // its `exit_ms`) ends a call that computes at its next yield, not
+        // only at its next host call or the engine's next tick.
+        let stop = self
+            .real_clock
+            .then(|| self.store.data().clock().stop.clone());
         let mut computed = std::time::Duration::ZERO;
         let called = {
             let mut call = std::pin::pin!(func.call_async(&mut self.store, params, slots));
@@ -312,6 +321,11 @@ impl LocalInstance {
                         return std::task::Poll::Ready(Ok(Err(wasmtime::Error::new(
                             DeadlinePassed { limit, computed },
                         ))));
+                    }
+                }
+                if let (Some(stop), Ok(std::task::Poll::Pending)) = (&stop, &polled) {
+                    if let Some(cause) = stop.fault() {
+                        return std::task::Poll::Ready(Ok(Err(wasmtime::Error::msg(cause))));
                     }
                 }
                 match polled {

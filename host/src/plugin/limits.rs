@@ -8,7 +8,8 @@ use crate::limiter::GrowthLimits;
 /// and everything it can make the host hold. Each has a default that keeps
 /// one plugin from taking the machine; a manifest's plugin table overrides
 /// any of them (`fuel`, `memory_bytes`, `table_elements`, `memories`,
-/// `tables`, `instances`, `log_bytes`, `payload_bytes`).
+/// `tables`, `instances`, `log_bytes`, `payload_bytes`, `deadline_ms`,
+/// `exit_ms`).
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Limits {
     /// Fuel (roughly, wasm instructions) one call may use before it traps.
@@ -49,6 +50,17 @@ pub struct Limits {
     /// it alone. Under the virtual clock fuel is the only bound, so that a
     /// run stays deterministic.
     pub deadline: Option<std::time::Duration>,
+    /// How long a response's `exit` slot may take when it runs because
+    /// something went wrong (after a fault in `start` or `interrupt`, or
+    /// because the run is being stopped), its sleeps counted, on the run's
+    /// clock: past it the exit is ended and that is recorded
+    /// (`docs/semantics.md#exit-always-runs`). Default 1 s.
+    #[serde(default = "default_exit_bound")]
+    pub exit: std::time::Duration,
+}
+
+fn default_exit_bound() -> std::time::Duration {
+    std::time::Duration::from_secs(1)
 }
 
 impl Default for Limits {
@@ -64,6 +76,7 @@ impl Default for Limits {
             payload_bytes: 256 << 10,
             fuel_yield_interval: 10_000,
             deadline: None,
+            exit: default_exit_bound(),
         }
     }
 }

@@ -242,6 +242,7 @@ impl From<WireFault> for Fault {
             backtrace: f.backtrace,
             out_of_fuel: f.out_of_fuel,
             run_stopped: f.run_stopped,
+            ended_by_stop: false,
             reset_after: None,
         }
     }

@@ -22,22 +22,36 @@ impl Core {
     /// swap's new version is made ahead and is not (a broken build is a
     /// fault of its own, `broken-swap`).
     pub(super) async fn instantiate(&self, pid: usize) -> Option<PluginInstance> {
-        let (code, setup) = self.with(|st| st.setup(pid));
-        if let Some(fault) = setup.faults.on_instantiation() {
-            self.with(|st| st.fault(pid, fault));
-            return None;
-        }
-        // Boxed, like a transition below: an actor's future is as large as
-        // the largest future it awaits, and it lives as long as the plugin
-        // (10,000 plugins, 10,000 of them); the rare paths pay an
-        // allocation instead.
-        match Box::pin(code.instantiate(setup)).await {
+        match self.try_instantiate(pid, false).await {
             Ok(inst) => Some(inst),
             Err(fault) => {
                 self.with(|st| st.fault(pid, fault));
                 None
             }
         }
+    }
+
+    /// Builds a fresh instance (counted for injected faults, as above;
+    /// `for_exit`: the one an exit after a fault runs on, counted apart).
+    pub(super) async fn try_instantiate(
+        &self,
+        pid: usize,
+        for_exit: bool,
+    ) -> Result<PluginInstance, Fault> {
+        let (code, setup) = self.with(|st| st.setup(pid));
+        let injected = if for_exit {
+            setup.faults.on_exit_instantiation()
+        } else {
+            setup.faults.on_instantiation()
+        };
+        if let Some(fault) = injected {
+            return Err(fault);
+        }
+        // Boxed, like a transition below: an actor's future is as large as
+        // the largest future it awaits, and it lives as long as the plugin
+        // (10,000 plugins, 10,000 of them); the rare paths pay an
+        // allocation instead.
+        Box::pin(code.instantiate(setup)).await
     }
 
     /// A fresh store and instance for a plugin whose store died while it
@@ -77,6 +91,10 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
             e.reset_requested || e.swap.is_some() || e.lifecycle == Lifecycle::Active
         })
         .await;
+        if core.with(|st| st.winding.is_some()) {
+            // The run is stopping: no more checks.
+            park().await;
+        }
         // The safe point: between checks.
         if let Some(transition) = core.pending_transition(pid) {
             Box::pin(core.transition(pid, &mut instance, transition)).await;
@@ -118,10 +136,15 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
             let now = st.now();
             let entry = &mut st.plugins[pid];
             entry.next_check = began.saturating_add(period).max(now);
-            // A `restart` swap interrupted this check: its result does not count.
+            // A `restart` swap interrupted this check: its result does not
+            // count; nor while the run stops.
             let counts = entry.lifecycle == Lifecycle::Active
-                && !entry.swap.as_ref().is_some_and(|s| s.discard_check);
+                && !entry.swap.as_ref().is_some_and(|s| s.discard_check)
+                && st.winding.is_none();
             match outcome {
+                // Ended because the run stops: its store is spent, and no
+                // more checks come.
+                Err(fault) if fault.ended_by_stop => st.plugins[pid].stop.clear_fault(),
                 Err(fault) => st.fault(pid, fault),
                 Ok(Some(payload)) if counts => {
                     st.emit(pid, Signal::Triggered, payload.map(Arc::new))
@@ -136,10 +159,16 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
                 Ok(None) => {}
             }
         });
-        if core.with(|st| st.plugins[pid].lifecycle == Lifecycle::Error) {
+        if core.with(|st| st.plugins[pid].lifecycle == Lifecycle::Error || st.winding.is_some()) {
             instance = None;
         }
     }
+}
+
+/// Never ready: a task parked for the rest of the run (the run is
+/// stopping, and the executor drops it when the run ends).
+async fn park() {
+    std::future::pending::<()>().await
 }
 
 pub(super) fn slot_end(core: &Core, pid: usize, slot: Slot, outcome: &'static str) {
@@ -158,12 +187,19 @@ pub(super) fn slot_end(core: &Core, pid: usize, slot: Slot, outcome: &'static st
 
 /// A slot's call trapped: the slot ends `trapped` and the plugin faults
 /// (unless the call was ended because the run is being stopped: then
-/// nothing is recorded, and the run ends).
-fn trapped(core: &Core, pid: usize, slot: Slot, fault: Fault) {
+/// nothing is recorded, and the run ends). A fault in `start` or
+/// `interrupt` owes the activation its exit: whether it does.
+fn trapped(core: &Core, pid: usize, slot: Slot, fault: Fault) -> bool {
     if !fault.run_stopped {
         slot_end(core, pid, slot, "trapped");
     }
-    core.with(|st| st.fault(pid, fault));
+    core.with(|st| match slot {
+        Slot::Start | Slot::Interrupt => st.fault_in_activation(pid, fault),
+        Slot::Exit => {
+            st.fault(pid, fault);
+            false
+        }
+    })
 }
 
 /// `connection`: for `start`, the connection whose start began it;
@@ -184,6 +220,8 @@ pub(super) fn slot_begin(
         slot: slot.as_str().into(),
         connection,
         queued,
+        after: None,
+        ran: None,
     });
 }
 
@@ -204,6 +242,10 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
                 || (e.lifecycle != Lifecycle::Error && e.has_start_waiting())
         })
         .await;
+        if core.with(|st| st.winding.is_some()) {
+            // The run is stopping: nothing new begins.
+            park().await;
+        }
         // The safe point: between activations.
         if let Some(transition) = core.pending_transition(pid) {
             Box::pin(core.transition(pid, &mut instance, transition)).await;
@@ -253,7 +295,16 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
             st.emit(pid, Signal::Started, payload.clone());
         });
         let outcome = inst.start(payload, has_result).await;
-        let stop_request = core.with(|st| st.plugins[pid].stop_request.take());
+        // Stopped by the bound of a stop of the run, not by its own fault
+        // (the stop may have been asked for while the call held the
+        // scheduler's thread: it begins now).
+        let overran = stop.take_overrun();
+        let stop_request = core.with(|st| {
+            if overran {
+                st.notice_asked_stop();
+            }
+            st.plugins[pid].stop_request.take()
+        });
         let result = match outcome {
             Ok(value) => {
                 let how = if stop_request.is_some() {
@@ -264,10 +315,12 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
                 slot_end(&core, pid, Slot::Start, how);
                 value
             }
-            // Asked to stop, the slot ignored it until its fuel ran out: the
-            // store is dead, but the activation still ends the way the
-            // request said, on a fresh instance (`docs/semantics.md#responses`).
-            Err(fault) if fault.out_of_fuel && stop_request.is_some() => {
+            // Asked to stop, the slot ignored it until its fuel ran out (or
+            // the bound of the run's stop passed): the store is dead, but
+            // the activation still ends the way the request said, on a
+            // fresh instance (`docs/semantics.md#responses`).
+            Err(fault) if (fault.out_of_fuel || overran) && stop_request.is_some() => {
+                stop.clear_fault();
                 slot_end(&core, pid, Slot::Start, "trapped");
                 core.with(|st| {
                     let plugin = st.plugins[pid].name.clone();
@@ -288,8 +341,10 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
                 None
             }
             Err(fault) => {
-                trapped(&core, pid, Slot::Start, fault);
                 instance = None;
+                if trapped(&core, pid, Slot::Start, fault) {
+                    core.exit_after_fault(pid).await;
+                }
                 continue;
             }
         };
@@ -303,18 +358,35 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
                 st.emit(pid, Signal::Interrupted, payload.clone());
             });
             if let Err(fault) = inst.interrupt(payload).await {
-                trapped(&core, pid, Slot::Interrupt, fault);
                 instance = None;
+                if trapped(&core, pid, Slot::Interrupt, fault) {
+                    core.exit_after_fault(pid).await;
+                }
                 continue;
             }
             slot_end(&core, pid, Slot::Interrupt, "completed");
         }
-        // exit
+        // exit (bounded while the run stops)
         core.with(|st| {
             st.set_phase(pid, Phase::Exiting);
-            slot_begin(st, pid, Slot::Exit, None, None);
+            let after = st.exit_begins(pid);
+            if after.is_none() {
+                slot_begin(st, pid, Slot::Exit, None, None);
+            } else if st.trace.tracing() {
+                let plugin = st.plugins[pid].name.clone();
+                st.record(Entry::SlotBegin {
+                    plugin,
+                    slot: Slot::Exit.as_str().into(),
+                    connection: None,
+                    queued: None,
+                    after: after.map(Into::into),
+                    ran: None,
+                });
+            }
         });
-        if let Err(fault) = inst.exit().await {
+        let exited = inst.exit().await;
+        core.with(|st| st.unbind(pid));
+        if let Err(fault) = exited {
             trapped(&core, pid, Slot::Exit, fault);
             instance = None;
             continue;

@@ -11,7 +11,7 @@ use serde_json::Value as Json;
 use wasmtime::component::Val;
 
 use super::commands::Injection;
-use super::state::{Core, Delivery, Lifecycle, Phase, StartRequest, State, Target};
+use super::state::{Core, Delivery, FaultExit, Lifecycle, Phase, StartRequest, State, Target};
 use crate::clock::{duration_nanos, ClockKind, StopReason};
 use crate::error::RadarError;
 use crate::payload::{json_to_val, trace_json, Payload, Shared};
@@ -144,7 +144,13 @@ impl State {
     ) -> Result<Option<u64>, &'static str> {
         let entry = &mut self.plugins[pid];
         if entry.lifecycle == Lifecycle::Error {
-            return Err("error");
+            // While the exit of the activation that faulted is owed or
+            // runs, the response is winding down from that fault.
+            return Err(if entry.fault_exit.is_some() {
+                "fault"
+            } else {
+                "error"
+            });
         }
         let Delivery {
             via,
@@ -154,6 +160,8 @@ impl State {
             serves,
         } = delivery;
         match slot {
+            // The run is stopping: nothing new begins.
+            Slot::Start if self.winding.is_some() => Err("stopped"),
             Slot::Start => {
                 let request = StartRequest {
                     payload,
@@ -257,6 +265,22 @@ impl State {
     }
 
     pub(super) fn fault(&mut self, pid: usize, fault: Fault) {
+        self.fault_owing_exit(pid, fault, false);
+    }
+
+    /// A response's `start` or `interrupt` slot faulted: the fault as any
+    /// other, and its exit owed, to run on a fresh instance, with the
+    /// activation's `until` connection kept until it ends
+    /// (`docs/semantics.md#exit-always-runs`); not when the agent it ran
+    /// on is lost (the agent runs it, `docs/network.md`) or the run is
+    /// being ended at once. Whether the exit is owed.
+    pub(super) fn fault_in_activation(&mut self, pid: usize, fault: Fault) -> bool {
+        let owed = !fault.run_stopped && !fault.cause.starts_with("node-lost");
+        self.fault_owing_exit(pid, fault, owed);
+        owed
+    }
+
+    fn fault_owing_exit(&mut self, pid: usize, fault: Fault, owes_exit: bool) {
         if fault.run_stopped {
             // Not the plugin's doing: the run ends, and says why.
             self.stop = true;
@@ -297,7 +321,10 @@ impl State {
             plugin,
             state: "error".into(),
         });
-        if let Some(u) = activation.and_then(|a| a.until) {
+        let until = activation.and_then(|a| a.until);
+        if owes_exit {
+            self.plugins[pid].fault_exit = Some(FaultExit { until });
+        } else if let Some(u) = until {
             self.disconnect(u, "until");
         }
         // Starts it had accepted are dropped: with the fault, or with the

@@ -248,7 +248,7 @@ impl Scheduler {
                 }
                 None => {}
             }),
-            Command::Stop => core.with(|st| st.stop = true),
+            Command::Stop => core.with(|st| st.begin_stop("asked to stop")),
         }
         self.absorb();
     }

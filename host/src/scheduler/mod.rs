@@ -24,6 +24,7 @@ mod commands;
 mod connections;
 mod delivery;
 mod dispatch;
+mod exits;
 mod inputs;
 mod livelock;
 mod mailbox;

@@ -199,6 +199,8 @@ impl Scheduler {
                     activation: None,
                     stop_request: None,
                     swap: None,
+                    fault_exit: None,
+                    bound: None,
                 }
             })
             .collect();
@@ -235,6 +237,7 @@ impl Scheduler {
             faults: (0, None),
             budget,
             watch: watch.clone(),
+            winding: None,
         };
         let core = Rc::new(Core {
             base,
@@ -343,15 +346,19 @@ impl Scheduler {
         self.core.base.tasks_begin();
         let mut spin = SpinWindow::new();
         loop {
-            let (stop, lockstep) = self.core.with(|st| {
+            let (stop, lockstep, winding) = self.core.with(|st| {
                 // The step before this one is over: a native context given
                 // the turn during it goes on now.
                 st.turns.release();
-                (st.stop, st.turns.running())
+                st.notice_asked_stop();
+                let over = st.stop_is_over();
+                (st.stop || over, st.turns.running(), st.winding.is_some())
             });
             if stop || self.watch.stopping().is_some() {
                 break;
             }
+            // While the run stops, its exits run past the end of `--for`.
+            let limit = self.limit.filter(|_| !winding);
             if !self.placed.is_empty() {
                 let placed = &mut self.placed;
                 if self.core.with(|st| st.apply_placed(placed, false)) {
@@ -376,7 +383,7 @@ impl Scheduler {
             }
             if kind == ClockKind::Real {
                 let now = self.core.base.now();
-                if self.limit.is_some_and(|l| now >= l) {
+                if limit.is_some_and(|l| now >= l) {
                     break;
                 }
                 self.core.base.fire_due(now);
@@ -401,7 +408,7 @@ impl Scheduler {
             }
             match kind {
                 ClockKind::Virtual => match next {
-                    Some(d) if self.limit.is_none_or(|l| d <= l) => {
+                    Some(d) if limit.is_none_or(|l| d <= l) => {
                         self.core.base.advance_to(d);
                         let fired = self.core.base.fired();
                         if self
@@ -419,7 +426,7 @@ impl Scheduler {
                         self.core.base.fire_due(d);
                     }
                     _ => {
-                        if let Some(l) = self.limit {
+                        if let Some(l) = limit {
                             self.core.base.advance_to(l);
                         }
                         break;
@@ -427,7 +434,7 @@ impl Scheduler {
                 },
                 ClockKind::Real => {
                     let now = self.core.base.now();
-                    let until = match (next, self.limit) {
+                    let until = match (next, limit) {
                         (Some(d), Some(l)) => Some(d.min(l)),
                         (d, l) => d.or(l),
                     };
@@ -451,13 +458,13 @@ impl Scheduler {
                     let received = match wait {
                         Some(w) => {
                             let asleep = std::time::Instant::now();
-                            let received = self.commands.recv_timeout(w);
+                            let received = self.wait_for_command(w);
                             if received.is_err() {
                                 spin.woke(w, asleep.elapsed());
                             }
                             received
                         }
-                        None => self.commands.recv_timeout(crate::watchdog::TICK),
+                        None => self.wait_for_command(crate::watchdog::TICK),
                     };
                     match received {
                         Ok(cmd) => self.handle(cmd),
@@ -497,7 +504,7 @@ impl Scheduler {
                 .collect()
         });
         let faults = self.core.with(|st| std::mem::take(&mut st.faults));
-        let stopped = self.watch.stopping();
+        let stopped = self.watch.stopping().or_else(|| self.watch.stop_asked());
         let (trace, program_outcome, trace_errors, divergence, machine_limit) =
             self.core.with(|st| {
                 st.record_logs();
@@ -554,6 +561,19 @@ impl Scheduler {
         }
     }
 
+    /// Waits at most `wait` for a command; a stop asked for from another
+    /// thread (a signal) ends the wait too, as a timeout the loop's top
+    /// then sees.
+    fn wait_for_command(&self, wait: Duration) -> Result<Command, RecvTimeoutError> {
+        crossbeam_channel::select_biased! {
+            recv(self.commands) -> command => {
+                command.map_err(|_| RecvTimeoutError::Disconnected)
+            }
+            recv(self.watch.wakes()) -> _ => Err(RecvTimeoutError::Timeout),
+            default(wait) => Err(RecvTimeoutError::Timeout),
+        }
+    }
+
     /// Moves tasks spawned or cancelled during the last step into the
     /// executor, and plugin log lines into the trace.
     pub(super) fn absorb(&mut self) {
@@ -564,11 +584,13 @@ impl Scheduler {
                 std::mem::take(&mut st.cancelled),
             )
         });
-        for id in cancelled {
-            self.executor.cancel(id);
-        }
+        // Spawned first: a task may be cancelled in the step that spawned
+        // it (an exit's bound, when the exit returns at once).
         for (id, task) in spawned {
             self.executor.insert(id, task);
+        }
+        for id in cancelled {
+            self.executor.cancel(id);
         }
     }
 }

@@ -96,6 +96,23 @@ pub(super) struct Activation {
     pub(super) until: Option<u64>,
 }
 
+/// A response whose `start` or `interrupt` faulted, while its exit is owed
+/// or runs on a fresh instance (`docs/semantics.md#exit-always-runs`).
+pub(super) struct FaultExit {
+    /// The `until` connection of the activation that faulted: it ends
+    /// with the exit.
+    pub(super) until: Option<u64>,
+}
+
+/// A stop of the run under way: the responses whose exits it waits for.
+pub(crate) struct Winding {
+    /// Responses with an activation (or an exit after a fault) when the
+    /// stop began, as long as they have one.
+    pub(super) waiting: Vec<usize>,
+    /// When the run ends whatever is left: every bound has passed by then.
+    pub(super) cap: u64,
+}
+
 /// A plugin as the scheduler sees it.
 pub(crate) struct PluginDef {
     pub name: String,
@@ -149,6 +166,11 @@ pub(super) struct PluginEntry {
     pub(super) swap: Option<PendingSwap>,
     /// `Plugin.start`, the label of dropped records for accepted starts.
     pub(super) start_label: Arc<str>,
+    /// Its activation faulted and its exit is owed or running.
+    pub(super) fault_exit: Option<FaultExit>,
+    /// The task that bounds its running slot while the run stops (see
+    /// `exits`), to cancel when the slot ends.
+    pub(super) bound: Option<TaskId>,
 }
 
 impl PluginEntry {
@@ -284,6 +306,8 @@ pub(crate) struct State {
     /// The memory all plugins may take together.
     pub(super) budget: Arc<MemoryBudget>,
     pub(super) watch: Arc<RunWatch>,
+    /// The run is stopping: the exits it waits for (see `exits`).
+    pub(super) winding: Option<Winding>,
 }
 
 /// A spawned native context, running or ended.

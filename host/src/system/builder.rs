@@ -530,6 +530,13 @@ impl SystemBuilder {
                     cause: "`deadline_ms` must be above 0 (leave it out for no deadline)".into(),
                 });
             }
+            if p.limits.as_ref().is_some_and(|l| l.exit.is_zero()) {
+                // An exit with no time at all could never stop a motor.
+                return Err(RadarError::BadSetting {
+                    plugin: p.name,
+                    cause: "`exit_ms` must be above 0 (leave it out for the default, 1000)".into(),
+                });
+            }
             if let Some((host, _, _)) = p.wasi.dirs.iter().find(|(host, _, _)| !host.is_dir()) {
                 return Err(RadarError::BadSetting {
                     plugin: p.name.clone(),

@@ -409,7 +409,10 @@ impl Radar {
         code
     }
 
-    /// Ends the run.
+    /// Stops the run: every running response is stopped as by an exit
+    /// signal and runs its exit (each bounded by its `exit_ms`), nothing new
+    /// begins, and the run ends when the last exit has
+    /// (`docs/semantics.md#stopping-a-run`).
     pub fn stop(&self) {
         let _ = self.tx.send(Command::Stop);
     }
@@ -433,15 +436,25 @@ impl Interrupter {
         Self(watch)
     }
 
-    /// Stops the run: a call that computes now ends within a few tens of
-    /// milliseconds (not held against its plugin), the scheduler stops
-    /// within as long, the trace sinks write what they hold, and the
-    /// trace's last record is `stopped`, reason `signal`, saying `why`.
-    pub fn interrupt(&self, why: impl Into<String>) {
-        self.0.stop(Stopping {
+    /// Stops the run as [`Radar::stop`](crate::Radar::stop) does (the
+    /// running responses run their exits, each bounded by its `exit_ms`),
+    /// the trace sinks write what they hold, and the trace's last record is
+    /// `stopped`, reason `signal`, saying `why`. Called a second time, it
+    /// stops the run at once: a call that computes now ends within a few
+    /// tens of milliseconds (not held against its plugin), and exits not
+    /// yet run are skipped (see [`Interrupter::exits_left`]). Whether this
+    /// was the first time.
+    pub fn interrupt(&self, why: impl Into<String>) -> bool {
+        self.0.ask_stop(Stopping {
             reason: "signal",
             message: why.into(),
-        });
+        })
+    }
+
+    /// The responses whose exits the stop under way still waits for: what
+    /// a second [`Interrupter::interrupt`] skips.
+    pub fn exits_left(&self) -> Vec<String> {
+        self.0.exits_left()
     }
 }
 

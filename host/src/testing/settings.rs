@@ -97,7 +97,9 @@ impl From<FuelForm> for FuelSettings {
 pub struct FaultSettings {
     /// The plugin.
     pub plugin: String,
-    /// `trap`, `fuel` (at `call`) or `reset-fails` (at `instantiation`).
+    /// `trap`, `fuel` (at `call`), `reset-fails` (at `instantiation`) or
+    /// `exit-instance-fails` (at `instantiation`: the n-th exit after a
+    /// fault gets no fresh instance).
     pub kind: String,
     /// Its call (from 1, over all its instances) that traps or runs out of
     /// fuel.
@@ -117,6 +119,7 @@ impl FaultSettings {
             ("trap", Some(call), None) => (FaultKind::Trap, call),
             ("fuel", Some(call), None) => (FaultKind::Fuel, call),
             ("reset-fails", None, Some(n)) => (FaultKind::Instantiation, n),
+            ("exit-instance-fails", None, Some(n)) => (FaultKind::ExitInstantiation, n),
             ("trap" | "fuel", _, _) => {
                 return Err(format!(
                     "[[fault]] of {plugin}: a `{}` fault says its `call` (and no \
@@ -124,15 +127,16 @@ impl FaultSettings {
                     self.kind
                 ))
             }
-            ("reset-fails", _, _) => {
+            ("reset-fails" | "exit-instance-fails", _, _) => {
                 return Err(format!(
-                    "[[fault]] of {plugin}: a `reset-fails` fault says its `instantiation` (and \
-                     no `call`)"
+                    "[[fault]] of {plugin}: a `{}` fault says its `instantiation` (and no \
+                     `call`)",
+                    self.kind
                 ))
             }
             (other, _, _) => {
                 return Err(format!(
-                    "[[fault]] of {plugin}: kind `{other}`: expected trap, fuel or reset-fails"
+                    "[[fault]] of {plugin}: kind `{other}`: expected trap, fuel, reset-fails or exit-instance-fails"
                 ))
             }
         };

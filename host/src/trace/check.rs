@@ -35,7 +35,11 @@
 //!   traps leads to a fault, or (stopped by its fuel after a stop request) to
 //!   a fresh instance on which interrupt and exit still run.
 //! - **Faults**: no slot of a plugin in `error` begins, and it emits nothing
-//!   but `faulted`, until a `reset`. An event triggers only while active.
+//!   but `faulted`, until a `reset`; except the exit a fault in `start` or
+//!   `interrupt` owes (`slot-begin` with `after` `fault`, once, before any
+//!   reset or swap, and no `exited` after it), and an exit an agent ran
+//!   alone for an activation lost with it (`after` `node-lost`). An event
+//!   triggers only while active.
 
 use std::collections::{BTreeMap, HashMap, HashSet, VecDeque};
 use std::fmt;
@@ -44,7 +48,7 @@ use super::record::{Entry, Record};
 
 /// Reasons of a `dropped` record for a start that had been accepted (it was
 /// delivered, then left the queue without beginning).
-pub const WITHDRAWN: &[&str] = &["restarted", "fault", "node-lost", "swap-refused"];
+pub const WITHDRAWN: &[&str] = &["restarted", "fault", "node-lost", "swap-refused", "stopped"];
 
 /// A rule a trace breaks.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -163,6 +167,12 @@ enum Step {
     StartTrapped,
     Interrupting,
     InterruptEnded,
+    /// The interrupt slot trapped: a fault comes next.
+    InterruptTrapped,
+    /// Start or interrupt faulted: the exit after the fault may begin.
+    FaultExitOwed,
+    /// The exit after a fault runs; no `exited` follows it.
+    FaultExiting,
     Exiting,
     /// Exit completed; `exited` is owed.
     Exited,
@@ -180,6 +190,11 @@ struct Checker {
     steps: HashMap<String, Step>,
     states: HashMap<String, String>,
     faulted: HashSet<String>,
+    /// Per response: activations lost with their agent, whose exit the
+    /// agent may report.
+    lost_activations: HashMap<String, u32>,
+    /// Responses whose reported exit (`after` `node-lost`) has begun.
+    reporting: HashSet<String>,
     active_events: HashSet<String>,
     /// The signal the next record must be, as a slot has just begun.
     announce: Option<(String, &'static str)>,
@@ -397,7 +412,16 @@ impl Checker {
                 self.owe_start(to, *id);
             }
             Entry::Dropped { id, to, reason } => {
-                if WITHDRAWN.contains(&reason.as_ref()) {
+                // A fresh delivery to a response winding down from a fault,
+                // or to any while the run stops, is dropped with reason
+                // `fault` or `stopped` too: a withdrawal only if such a
+                // start was owed.
+                let owed = self
+                    .owed_starts
+                    .get(plugin_of(to))
+                    .is_some_and(|owed| owed.contains(id));
+                let fresh = matches!(reason.as_ref(), "fault" | "stopped") && !owed;
+                if WITHDRAWN.contains(&reason.as_ref()) && !fresh {
                     self.settle_start(plugin_of(to), Some(*id), &format!("was dropped ({reason})"));
                 } else {
                     self.answer(*id, "dropped");
@@ -407,8 +431,13 @@ impl Checker {
                 plugin,
                 slot,
                 connection,
+                after,
                 ..
-            } => self.slot_begin(plugin, slot, *connection),
+            } => match after.as_deref() {
+                Some("fault") if slot == "exit" => self.exit_after_fault(plugin),
+                Some("node-lost") if slot == "exit" => self.exit_reported(plugin),
+                _ => self.slot_begin(plugin, slot, *connection),
+            },
             Entry::SlotEnd {
                 plugin,
                 slot,
@@ -425,11 +454,21 @@ impl Checker {
                 }
                 self.states.insert(plugin.to_string(), state.to_string());
             }
-            Entry::Fault { plugin, .. } => {
+            Entry::Fault { plugin, error, .. } => {
                 self.faulted.insert(plugin.to_string());
-                self.set_step(plugin, Step::Idle);
+                let step = self.step_of(plugin);
+                let lost = error.starts_with("node-lost");
+                let next = match step {
+                    Step::StartTrapped | Step::InterruptTrapped if !lost => Step::FaultExitOwed,
+                    _ => Step::Idle,
+                };
+                if lost && step != Step::Idle {
+                    *self.lost_activations.entry(plugin.to_string()).or_default() += 1;
+                }
+                self.set_step(plugin, next);
             }
             Entry::Reset { plugin } => {
+                self.require_no_exit_owed(plugin, "reset");
                 self.faulted.remove(plugin.as_ref());
                 if self.step_of(plugin) == Step::StartTrapped {
                     // Stopped by its fuel after a stop request: interrupt
@@ -449,6 +488,7 @@ impl Checker {
                     .push(*id);
             }
             Entry::Swap { plugin, .. } => {
+                self.require_no_exit_owed(plugin, "swap");
                 // A faulted plugin swapped for a new version runs again.
                 self.faulted.remove(plugin.as_ref());
             }
@@ -477,7 +517,9 @@ impl Checker {
             self.require_nothing_owed(plugin, "faulted");
             return;
         }
-        if self.faulted.contains(plugin) {
+        // The exit after a fault may emit (a stop command, say).
+        let exiting = self.step_of(plugin) == Step::FaultExiting;
+        if self.faulted.contains(plugin) && !exiting {
             self.fail(
                 "fault",
                 format!("{source} emitted while {plugin} is in error"),
@@ -535,7 +577,51 @@ impl Checker {
         }
     }
 
+    /// The exit a fault owed begins (on a fresh instance).
+    fn exit_after_fault(&mut self, plugin: &str) {
+        if self.expect_step(plugin, &[Step::FaultExitOwed], "exit after a fault") {
+            self.set_step(plugin, Step::FaultExiting);
+        }
+    }
+
+    /// An exit the agent ran alone begins, as the agent reports it.
+    fn exit_reported(&mut self, plugin: &str) {
+        match self.lost_activations.get_mut(plugin) {
+            Some(n) if *n > 0 => *n -= 1,
+            _ => self.fail(
+                "activation",
+                format!(
+                    "{plugin}'s exit reported by its agent, but no activation was lost with it"
+                ),
+            ),
+        }
+        self.reporting.insert(plugin.to_string());
+    }
+
+    /// A reset or a swap waits for the exit a fault owed.
+    fn require_no_exit_owed(&mut self, plugin: &str, what: &str) {
+        let step = self.step_of(plugin);
+        if matches!(step, Step::FaultExiting) {
+            self.fail(
+                "activation",
+                format!("{what} of {plugin} while its exit after a fault runs"),
+            );
+        }
+        if matches!(step, Step::FaultExitOwed | Step::FaultExiting) {
+            self.set_step(plugin, Step::Idle);
+        }
+    }
+
     fn slot_end(&mut self, plugin: &str, slot: &str, outcome: &str) {
+        if slot == "exit" && self.reporting.remove(plugin) {
+            return;
+        }
+        if slot == "exit" && self.step_of(plugin) == Step::FaultExiting {
+            // No `exited` follows an exit after a fault; a trapped one is
+            // followed by its `fault` record.
+            self.set_step(plugin, Step::Idle);
+            return;
+        }
         let trapped = outcome == "trapped";
         let (during, next) = match slot {
             "start" if trapped => (Step::Starting, Step::StartTrapped),
@@ -550,107 +636,12 @@ impl Checker {
             if trapped && slot == "start" {
                 self.set_step(plugin, Step::StartTrapped);
             }
+            if trapped && slot == "interrupt" {
+                self.set_step(plugin, Step::InterruptTrapped);
+            }
         }
     }
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::trace::parse_json_lines;
-
-    /// The rules broken by a trace written as JSON Lines.
-    fn broken(lines: &str) -> Vec<&'static str> {
-        let records = parse_json_lines(lines).expect("test traces parse");
-        check(&records).into_iter().map(|v| v.rule).collect()
-    }
-
-    const WIRED: &str = r#"
-{"t":0,"kind":"state","plugin":"R","state":"idle"}
-{"t":0,"kind":"state","plugin":"E","state":"inactive"}
-{"t":0,"kind":"connect","id":1,"from":"E.triggered","to":"R.start","mode":"once","busy":"drop"}
-{"t":0,"kind":"activate","plugin":"E"}
-"#;
-
-    #[test]
-    fn a_lawful_activation_passes() {
-        let trace = format!(
-            "{WIRED}{}",
-            r#"{"t":1,"kind":"signal","plugin":"E","signal":"triggered","payload":1}
-{"t":1,"kind":"state","plugin":"R","state":"running"}
-{"t":1,"kind":"deliver","id":1,"to":"R.start"}
-{"t":1,"kind":"disconnect","id":1,"reason":"fired"}
-{"t":1,"kind":"deactivate","plugin":"E"}
-{"t":1,"kind":"slot-begin","plugin":"R","slot":"start","connection":1}
-{"t":1,"kind":"signal","plugin":"R","signal":"started","payload":1}
-{"t":2,"kind":"slot-end","plugin":"R","slot":"start","outcome":"completed"}
-{"t":2,"kind":"state","plugin":"R","state":"exiting"}
-{"t":2,"kind":"slot-begin","plugin":"R","slot":"exit"}
-{"t":2,"kind":"slot-end","plugin":"R","slot":"exit","outcome":"completed"}
-{"t":2,"kind":"state","plugin":"R","state":"idle"}
-{"t":2,"kind":"signal","plugin":"R","signal":"exited","payload":null}"#
-        );
-        assert_eq!(broken(&trace), Vec::<&str>::new());
-    }
-
-    #[test]
-    fn a_signal_that_reaches_no_record_breaks_conservation() {
-        let trace = format!(
-            "{WIRED}{}",
-            r#"{"t":1,"kind":"signal","plugin":"E","signal":"triggered","payload":1}
-{"t":2,"kind":"signal","plugin":"E","signal":"triggered","payload":1}
-{"t":2,"kind":"dropped","id":1,"to":"R.start","reason":"busy"}"#
-        );
-        assert_eq!(broken(&trace), ["conservation"]);
-    }
-
-    #[test]
-    fn a_once_that_takes_two_signals_is_caught() {
-        let trace = format!(
-            "{WIRED}{}",
-            r#"{"t":1,"kind":"signal","plugin":"E","signal":"triggered","payload":1}
-{"t":1,"kind":"dropped","id":1,"to":"R.start","reason":"busy"}
-{"t":2,"kind":"signal","plugin":"E","signal":"triggered","payload":1}
-{"t":2,"kind":"dropped","id":1,"to":"R.start","reason":"busy"}"#
-        );
-        assert_eq!(broken(&trace), ["once"]);
-    }
-
-    #[test]
-    fn an_accepted_start_that_vanishes_or_is_withdrawn_twice_is_caught() {
-        let vanished = format!(
-            "{WIRED}{}",
-            r#"{"t":1,"kind":"signal","plugin":"E","signal":"triggered","payload":1}
-{"t":1,"kind":"deliver","id":1,"to":"R.start"}
-{"t":1,"kind":"fault","plugin":"R","error":"trapped"}
-{"t":1,"kind":"state","plugin":"R","state":"error"}
-{"t":1,"kind":"signal","plugin":"R","signal":"faulted","payload":"trapped"}"#
-        );
-        assert_eq!(broken(&vanished), ["conservation"]);
-        let withdrawn = format!(
-            "{WIRED}{}",
-            r#"{"t":1,"kind":"signal","plugin":"E","signal":"triggered","payload":1}
-{"t":1,"kind":"deliver","id":1,"to":"R.start"}
-{"t":1,"kind":"dropped","id":1,"to":"R.start","reason":"restarted"}
-{"t":1,"kind":"dropped","id":1,"to":"R.start","reason":"restarted"}"#
-        );
-        assert_eq!(broken(&withdrawn), ["conservation"]);
-    }
-
-    #[test]
-    fn exited_while_exiting_and_slots_of_a_faulted_plugin_are_caught() {
-        let trace = r#"{"t":0,"kind":"state","plugin":"R","state":"idle"}
-{"t":0,"kind":"inject","to":"R.start","payload":null}
-{"t":0,"kind":"deliver","id":0,"to":"R.start"}
-{"t":0,"kind":"slot-begin","plugin":"R","slot":"start","connection":0}
-{"t":0,"kind":"signal","plugin":"R","signal":"started","payload":null}
-{"t":1,"kind":"slot-end","plugin":"R","slot":"start","outcome":"completed"}
-{"t":1,"kind":"state","plugin":"R","state":"exiting"}
-{"t":1,"kind":"slot-begin","plugin":"R","slot":"exit"}
-{"t":1,"kind":"slot-end","plugin":"R","slot":"exit","outcome":"completed"}
-{"t":1,"kind":"signal","plugin":"R","signal":"exited","payload":null}
-{"t":2,"kind":"fault","plugin":"R","error":"trapped"}
-{"t":2,"kind":"slot-begin","plugin":"R","slot":"exit"}"#;
-        assert_eq!(broken(trace), ["activation", "fault", "activation"]);
-    }
-}
+mod tests;

@@ -91,6 +91,17 @@ pub enum Entry {
         /// For a `start` taken from the queue: how many starts still wait.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         queued: Option<u64>,
+        /// For an `exit` that runs because something went wrong: `fault`
+        /// (its `start` or `interrupt` faulted: it runs on a fresh
+        /// instance), `stop` (the run is being stopped), `node-lost` (its
+        /// agent lost the coordinator and ran it alone, reported when the
+        /// link came back).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        after: Option<Name>,
+        /// With `after` `node-lost`: when, on the run's clock as the agent
+        /// kept it, the exit began and ended on the agent.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        ran: Option<(u64, u64)>,
     },
     /// A slot finished: `completed`, `interrupted` or `trapped`.
     SlotEnd {

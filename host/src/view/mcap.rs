@@ -238,6 +238,7 @@ fn schema(kind: &str) -> String {
             ("slot", string),
             ("connection", integer),
             ("queued", integer),
+            ("after", string),
         ],
         "slot-end" => &[("plugin", string), ("slot", string), ("outcome", string)],
         "board-write" => &[("entry", string), ("by", string), ("value", any)],

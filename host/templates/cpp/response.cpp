@@ -36,6 +36,10 @@ extern "C" bool exports_local_{{snake}}_slots_start(uint32_t payload, uint32_t *
 
 extern "C" void exports_local_{{snake}}_slots_interrupt() { say("interrupted"); }
 
+// Always runs last: after `start` returns, after a fault (on a fresh
+// instance) and when the run is stopped. Stop the motors here, with
+// constants, so that running it twice is harmless. For a fail-safe that
+// holds even when this cannot run, see radar.toml.
 extern "C" void exports_local_{{snake}}_slots_exit() { say("exit"); }
 
 // Hand the state over on a hot swap.

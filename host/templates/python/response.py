@@ -22,6 +22,10 @@ class Slots(exports.Slots):
     def interrupt(self) -> None:
         info("interrupted")
 
+    # Always runs last: after `start` returns, after a fault (on a fresh
+    # instance) and when the run is stopped. Stop the motors here, with
+    # constants, so that running it twice is harmless. For a fail-safe that
+    # holds even when this cannot run, see radar.toml.
     def exit(self) -> None:
         info("exit")
 

@@ -31,6 +31,10 @@ impl Guest for Plugin {
         info("interrupted");
     }
 
+    // Always runs last: after `start` returns, after a fault (on a fresh
+    // instance) and when the run is stopped. Stop the motors here, with
+    // constants, so that running it twice is harmless. For a fail-safe that
+    // holds even when this cannot run, see radar.toml.
     fn exit() {
         info("exit");
     }

@@ -1,5 +1,6 @@
 //! Test fixture: `start` sleeps `after_s` seconds (default 1) and then traps
-//! (a Rust panic is a wasm `unreachable`). Its exit slot never runs.
+//! (a Rust panic is a wasm `unreachable`). Its exit slot then runs on a
+//! fresh instance (`docs/semantics.md#exit-always-runs`).
 use radar_guest::prelude::*;
 
 radar_guest::plugin!(
@@ -23,7 +24,7 @@ impl Guest for TrapResponse {
     }
 
     fn exit() {
-        info("exit (never reached after a trap)");
+        info("exit (after the trap, on a fresh instance)");
     }
 }
 

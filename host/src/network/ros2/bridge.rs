@@ -100,7 +100,7 @@ impl Ros2 {
         }
         let mut publications = Vec::new();
         for p in &settings.publish {
-            let values = match &p.values {
+            let values = match p.message.as_ref().or(p.values.as_ref()) {
                 Some(table) => serde_json::to_value(table).map_err(|e| {
                     Ros2Error::Settings(format!("topic `{}`: values: {e}", p.topic))
                 })?,
@@ -111,7 +111,7 @@ impl Ros2 {
                 topic: settings.full_topic(&p.topic),
                 message: load(&p.topic, &p.type_name)?,
                 field: p.field.clone(),
-                use_payload: p.use_payload,
+                use_payload: p.use_payload && p.message.is_none(),
                 values,
                 qos: Qos::parse(p.qos.as_deref(), p.depth).map_err(Ros2Error::Settings)?,
             });

@@ -89,6 +89,12 @@ pub struct Publish {
     /// Fixed values for fields the payload does not fill.
     #[serde(default)]
     pub values: Option<toml::Table>,
+    /// A fixed message, sent whole whenever the signal fires, whatever it
+    /// carries (fields left out are zero): a fail-safe route, such as a
+    /// zero `Twist` on `X.faulted` (`docs/sandbox.md#fail-safe-routes`).
+    /// The same as `use_payload = false` with these `values`.
+    #[serde(default)]
+    pub message: Option<toml::Table>,
     /// `reliable` (default) or `best_effort`.
     #[serde(default)]
     pub qos: Option<String>,
@@ -198,6 +204,13 @@ impl Ros2Settings {
             Qos::parse(qos.as_deref(), depth).map_err(|e| format!("[ros2]: {e}"))?;
         }
         for p in &self.publish {
+            if p.message.is_some() && (p.values.is_some() || p.field.is_some() || !p.use_payload) {
+                return Err(format!(
+                    "[[ros2.publish]] signal `{}`: `message` is the whole message sent; give it \
+                     without `values`, `field` or `use_payload`",
+                    p.signal
+                ));
+            }
             if !p.signal.contains('.') {
                 return Err(format!(
                     "[[ros2.publish]] signal `{}`: expected `Plugin.signal` (e.g. `Avoid.started`)",

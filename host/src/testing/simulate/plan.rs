@@ -356,6 +356,11 @@ pub fn describe(injection: &Injection) -> String {
                 fault.at,
                 after(fault.reset_after)
             ),
+            FaultKind::ExitInstantiation => format!(
+                "{plugin}'s exit after its fault {} gets no fresh instance{}",
+                fault.at,
+                after(fault.reset_after)
+            ),
             kind => format!(
                 "{} in {plugin} at its call {}{}",
                 if kind == FaultKind::Fuel {

@@ -102,7 +102,8 @@ pub fn shrink(sim: &Simulation, plan: Plan, failure: Failure) -> Shrunk {
         // Earlier faults.
         for i in 0..best.plan.faults.len() {
             if let Injection::Plugin { fault, .. } = &best.plan.faults[i] {
-                if fault.kind != FaultKind::Instantiation && fault.at > 1 {
+                let calls = matches!(fault.kind, FaultKind::Trap | FaultKind::Fuel);
+                if calls && fault.at > 1 {
                     let mut candidate = best.plan.clone();
                     if let Injection::Plugin { fault, .. } = &mut candidate.faults[i] {
                         fault.at /= 2;
@@ -312,7 +313,9 @@ fn settings_text(sim: &Simulation, plan: &Plan, spec: &RunSpec) -> Result<String
             table.insert("kind".into(), fault.kind.as_str().into());
             let at = toml::Value::Integer(fault.at as i64);
             match fault.kind {
-                FaultKind::Instantiation => table.insert("instantiation".into(), at),
+                FaultKind::Instantiation | FaultKind::ExitInstantiation => {
+                    table.insert("instantiation".into(), at)
+                }
                 _ => table.insert("call".into(), at),
             };
             if let Some(after) = fault.reset_after {
