@@ -692,3 +692,58 @@ to = "R.start"
     );
     run.ok(&["stop"]);
 }
+
+#[test]
+fn ctl_stop_runs_the_exits_of_running_responses_and_a_replay_stops_there_too() {
+    let plugins_table = format!(
+        "[plugins.M]\nwasm = \"{}\"\nconfig = {{ exit_sleep_ms = 200 }}\n",
+        plugins::MOTOR_RESPONSE
+    );
+    let run = Running::start(
+        "stopped",
+        &plugins_table,
+        "",
+        &[
+            "--clock",
+            "real",
+            "--for",
+            "60s",
+            "--inject",
+            "0.2s:M.start",
+            "--record",
+            "DIR/rec.jsonl",
+        ],
+    );
+    std::thread::sleep(Duration::from_millis(800));
+    assert_eq!(run.ok(&["stop"]), "stopping\n");
+    let (out, dir) = run.finish(Duration::from_secs(30));
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let (trace, _) = lawful_trace(&dir.path().join("trace.jsonl"));
+    assert!(
+        trace.contains(r#""kind":"slot-begin","plugin":"M","slot":"exit","after":"stop""#),
+        "{trace}"
+    );
+    assert!(
+        trace.contains(r#""signal":"command","payload":0.0"#),
+        "{trace}"
+    );
+    let recording = std::fs::read_to_string(dir.path().join("rec.jsonl")).expect("recording");
+    assert!(recording.contains(r#""kind":"stop""#), "{recording}");
+    // Replayed under the virtual clock, the run stops where it did.
+    let replayed = dir.path().join("replay.jsonl");
+    let out = radar(&[
+        "run",
+        dir.path().join("radar.toml").to_str().expect("utf-8"),
+        "-q",
+        "--replay",
+        dir.path().join("rec.jsonl").to_str().expect("utf-8"),
+        "--trace",
+        replayed.to_str().expect("utf-8"),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let (replay, _) = lawful_trace(&replayed);
+    assert!(
+        replay.contains(r#""slot":"exit","after":"stop""#),
+        "{replay}"
+    );
+}

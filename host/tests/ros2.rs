@@ -508,3 +508,76 @@ fn the_obstacle_example_runs_against_zenoh_ros2_sdks_publisher_and_subscriber() 
     };
     assert_eq!(kept(&replay), kept(&trace));
 }
+
+#[test]
+fn a_fail_safe_route_sends_its_fixed_message_when_a_response_faults_and_the_exit_runs_too() {
+    let python = python();
+    let run = Running::start(
+        |ep| {
+            format!(
+                "[plugins.M]\nwasm = \"{}\"\nconfig = {{ fail = \"trap\", fail_after_ms = 1500 }}\n\n\
+                 [ros2]\nnode = \"radar_base\"\nlisten = [\"{ep}\"]\n\n\
+                 [[ros2.publish]]\nsignal = \"M.command\"\ntopic = \"/cmd_vel\"\n\
+                 type = \"geometry_msgs/msg/Twist\"\nfield = \"linear.x\"\n\n\
+                 [[ros2.publish]]\nsignal = \"M.faulted\"\ntopic = \"/cmd_vel\"\n\
+                 type = \"geometry_msgs/msg/Twist\"\nmessage = {{}}\n",
+                radar_fixtures::plugins::MOTOR_RESPONSE
+            )
+        },
+        &[
+            "--clock",
+            "real",
+            "--for",
+            "8s",
+            "--allow-faults",
+            "--inject",
+            "3s:M.start",
+        ],
+    );
+    let port = run.port.to_string();
+    let twists = Client::start(
+        &python,
+        "subscribe.py",
+        &[
+            "--port",
+            &port,
+            "--topic",
+            "/cmd_vel",
+            "--type",
+            "geometry_msgs/msg/Twist",
+            "--count",
+            "3",
+            "--timeout",
+            "15",
+        ],
+    );
+    assert_eq!(twists.line(Duration::from_secs(20)), "ready");
+    let (ok, lines, stderr) = twists.finish();
+    assert!(ok, "{stderr}");
+    let messages: Vec<Json> = lines
+        .iter()
+        .filter(|l| l.starts_with('{'))
+        .map(|l| serde_json::from_str(l).expect("JSON"))
+        .collect();
+    // Backing away, then the fail-safe's zero Twist at the fault, then the
+    // exit's own stop, run on a fresh instance.
+    assert_eq!(messages.len(), 3, "{lines:?}");
+    let speed = |m: &Json| m["linear"]["x"].as_f64();
+    assert!(
+        (speed(&messages[0]).expect("x") + 0.2).abs() < 1e-6,
+        "{lines:?}"
+    );
+    assert_eq!(
+        messages[1],
+        serde_json::json!({"linear": {"x": 0.0, "y": 0.0, "z": 0.0}, "angular": {"x": 0.0, "y": 0.0, "z": 0.0}}),
+        "{lines:?}"
+    );
+    assert_eq!(speed(&messages[2]), Some(0.0), "{lines:?}");
+    let (out, dir) = run.finish(Duration::from_secs(30));
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let (trace, _) = lawful_trace(&dir.path().join("trace.jsonl"));
+    assert!(
+        trace.contains(r#""kind":"slot-begin","plugin":"M","slot":"exit","after":"fault""#),
+        "{trace}"
+    );
+}

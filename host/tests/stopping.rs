@@ -220,3 +220,153 @@ fn the_manifest_sets_the_systems_memory_budget_and_each_plugins_limits() {
         "{logs:?}"
     );
 }
+
+/// A base's back-off M (`motor-response`), started at 0.3 s by an
+/// injection; `extra` lines in its table.
+fn motor_manifest(dir: &Path, extra: &str) -> String {
+    write_manifest(
+        dir,
+        &format!(
+            "[plugins.M]\nwasm = \"{}\"\n{extra}\n",
+            plugins::MOTOR_RESPONSE
+        ),
+    )
+}
+
+/// The speeds M commanded, in order, and the `after` of its exits.
+fn commands_and_exits(records: &[serde_json::Value]) -> (Vec<f64>, Vec<String>) {
+    let commands = records
+        .iter()
+        .filter(|r| r["kind"] == "signal" && r["signal"] == "command")
+        .filter_map(|r| r["payload"].as_f64())
+        .collect();
+    let exits = records
+        .iter()
+        .filter(|r| r["kind"] == "slot-begin" && r["slot"] == "exit")
+        .map(|r| r["after"].as_str().unwrap_or("").to_string())
+        .collect();
+    (commands, exits)
+}
+
+#[test]
+fn sigint_and_sigterm_run_the_exits_of_running_responses_before_the_run_ends() {
+    for name in ["INT", "TERM"] {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let manifest = motor_manifest(dir.path(), "config = { exit_sleep_ms = 300 }");
+        let trace_path = dir.path().join("t.jsonl");
+        let child = start(&[
+            "run",
+            &manifest,
+            "--clock",
+            "real",
+            "--for",
+            "60s",
+            "-q",
+            "--inject",
+            "0.3s:M.start",
+            "--trace",
+            trace_path.to_str().expect("utf-8"),
+        ]);
+        std::thread::sleep(Duration::from_millis(1500));
+        let asked = Instant::now();
+        signal(&child, name);
+        let (status, stderr) = wait(child, Duration::from_secs(20));
+        let took = asked.elapsed();
+        assert_eq!(status.code(), Some(130), "{stderr}");
+        assert_eq!(stderr.lines().count(), 1, "one line: {stderr}");
+        // The exit's 300 ms sleep is waited for.
+        assert!(took >= Duration::from_millis(300), "{took:?}");
+        let records = trace(&trace_path);
+        assert_stopped(&records, "signal");
+        let (commands, exits) = commands_and_exits(&records);
+        assert_eq!(commands, [-0.2, 0.0], "SIG{name}: the motors stopped");
+        assert_eq!(exits, ["stop"], "SIG{name}");
+        assert!(
+            records.iter().any(|r| r["kind"] == "signal"
+                && r["signal"] == "exited"
+                && r["payload"] == serde_json::json!({"err": "exit"})),
+            "SIG{name}: stopped as by an exit signal"
+        );
+    }
+}
+
+#[test]
+fn a_second_signal_ends_at_once_naming_the_exits_it_skipped() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let manifest = motor_manifest(
+        dir.path(),
+        "config = { exit_sleep_ms = 20000 }\nexit_ms = 30000",
+    );
+    let trace_path = dir.path().join("t.jsonl");
+    let child = start(&[
+        "run",
+        &manifest,
+        "--clock",
+        "real",
+        "--for",
+        "60s",
+        "-q",
+        "--inject",
+        "0.3s:M.start",
+        "--trace",
+        trace_path.to_str().expect("utf-8"),
+    ]);
+    std::thread::sleep(Duration::from_millis(1000));
+    signal(&child, "INT");
+    std::thread::sleep(Duration::from_millis(500));
+    let asked = Instant::now();
+    signal(&child, "INT");
+    let (status, stderr) = wait(child, Duration::from_secs(10));
+    assert!(asked.elapsed() < Duration::from_secs(5));
+    assert_eq!(status.code(), Some(130), "{stderr}");
+    assert!(
+        stderr.contains("ended at once: the exits of M were skipped or cut short"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn an_exit_that_outlasts_its_exit_ms_at_a_stop_is_ended_and_the_run_ends() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let manifest = motor_manifest(
+        dir.path(),
+        "config = { exit_sleep_ms = 20000 }\nexit_ms = 400",
+    );
+    let trace_path = dir.path().join("t.jsonl");
+    let child = start(&[
+        "run",
+        &manifest,
+        "--clock",
+        "real",
+        "--for",
+        "60s",
+        "-q",
+        "--allow-faults",
+        "--inject",
+        "0.3s:M.start",
+        "--trace",
+        trace_path.to_str().expect("utf-8"),
+    ]);
+    std::thread::sleep(Duration::from_millis(1000));
+    let asked = Instant::now();
+    signal(&child, "TERM");
+    let (status, stderr) = wait(child, Duration::from_secs(20));
+    assert!(
+        asked.elapsed() < Duration::from_secs(5),
+        "{:?}",
+        asked.elapsed()
+    );
+    assert_eq!(status.code(), Some(130), "{stderr}");
+    let records = trace(&trace_path);
+    assert_stopped(&records, "signal");
+    let fault = records
+        .iter()
+        .find(|r| r["kind"] == "fault")
+        .expect("the overrun is recorded");
+    assert!(
+        fault["error"]
+            .as_str()
+            .is_some_and(|e| e.contains("exit_ms (400 ms)")),
+        "{fault}"
+    );
+}

@@ -203,6 +203,10 @@ impl State {
             self.stop = true;
             return;
         }
+        // A replay stops here too, and runs the same exits.
+        self.record_input(crate::trace::inputs::Input::Stop {
+            why: why.to_string(),
+        });
         let names: Vec<String> = waiting
             .iter()
             .map(|pid| self.plugins[*pid].name.to_string())

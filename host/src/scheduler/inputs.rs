@@ -86,6 +86,8 @@ pub(crate) enum StaticWhat {
     NodeLost(String),
     /// An agent back.
     NodeBack(String),
+    /// A stop of the run.
+    Stop(String),
     /// A refused command's record.
     Refused {
         command: String,
@@ -279,6 +281,7 @@ impl State {
             }
             Action::Outside(StaticWhat::NodeLost(node)) => self.node_lost(&node),
             Action::Outside(StaticWhat::NodeBack(node)) => self.node_back(&node),
+            Action::Outside(StaticWhat::Stop(why)) => self.begin_stop(&why),
             Action::Outside(StaticWhat::Reset(plugin)) => {
                 let _ = self.request_reset(&plugin, true);
             }
@@ -336,6 +339,7 @@ impl State {
             Action::Outside(StaticWhat::Reset(plugin)) => format!("the reset of {plugin}"),
             Action::Outside(StaticWhat::NodeLost(node)) => format!("the loss of agent {node}"),
             Action::Outside(StaticWhat::NodeBack(node)) => format!("the return of agent {node}"),
+            Action::Outside(StaticWhat::Stop(_)) => "the stop of the run".to_string(),
             Action::Outside(_) => "a refused command".to_string(),
         };
         self.trace.divergence = Some(format!(

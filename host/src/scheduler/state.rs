@@ -459,6 +459,7 @@ impl State {
                 | Input::Refused { .. }
                 | Input::NodeLost { .. }
                 | Input::NodeBack { .. }
+                | Input::Stop { .. }
         );
         let virtual_clock = self.base.kind() == ClockKind::Virtual;
         let step = (placed && virtual_clock).then(|| self.moves_now());

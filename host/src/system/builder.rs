@@ -344,6 +344,7 @@ impl SystemBuilder {
                 Input::Reset { plugin } => StaticWhat::Reset(plugin.clone()),
                 Input::NodeLost { node } => StaticWhat::NodeLost(node.clone()),
                 Input::NodeBack { node } => StaticWhat::NodeBack(node.clone()),
+                Input::Stop { why } => StaticWhat::Stop(why.clone()),
                 Input::Refused {
                     command,
                     from,

@@ -159,6 +159,13 @@ pub enum Input {
         /// The agent.
         node: String,
     },
+    /// The run was stopped (a signal, `radar ctl stop`, `Radar::stop`)
+    /// while responses ran: their exits ran before it ended
+    /// (`docs/semantics.md#stopping-a-run`).
+    Stop {
+        /// Why, as the trace's log line says.
+        why: String,
+    },
     /// A recording's first line: the clock it was made on.
     Recording {
         /// `virtual` or `real`.

@@ -18,7 +18,7 @@ radar_guest::plugin!(
     /// What the base is told.
     interface signals {
         /// A speed command, m/s.
-        command: func(speed: f32);
+        command: func(speed: f64);
     }
 
     world motor-response {
