@@ -581,3 +581,85 @@ fn a_fail_safe_route_sends_its_fixed_message_when_a_response_faults_and_the_exit
         "{trace}"
     );
 }
+
+#[test]
+fn a_killed_agent_faults_its_response_and_the_fail_safe_route_stops_the_base() {
+    let python = python();
+    let agent_port = free_port();
+    let mut agent = Command::new(env!("CARGO_BIN_EXE_radar"))
+        .args(["agent", "--name", "base", "--listen"])
+        .arg(format!("tcp/127.0.0.1:{agent_port}"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("radar agent starts");
+    let agent_up = lines(agent.stdout.take().expect("stdout"));
+    assert!(agent_up
+        .recv_timeout(Duration::from_secs(30))
+        .is_ok_and(|l| l.starts_with("agent base on")));
+    let run = Running::start(
+        |ep| {
+            format!(
+                "[plugins.M]\nwasm = \"{}\"\nnode = \"base\"\nconfig = {{ drive_s = 30 }}\n\n\
+                 [network]\nsystem = \"failsafe\"\nlisten = [\"{ep}\"]\n\
+                 connect = [\"tcp/127.0.0.1:{agent_port}\"]\n\n\
+                 [ros2]\nnode = \"radar_base\"\n\n\
+                 [[ros2.publish]]\nsignal = \"M.faulted\"\ntopic = \"/cmd_vel\"\n\
+                 type = \"geometry_msgs/msg/Twist\"\nmessage = {{}}\n",
+                radar_fixtures::plugins::MOTOR_RESPONSE
+            )
+        },
+        &[
+            "--clock",
+            "real",
+            "--for",
+            "12s",
+            "--allow-faults",
+            "--inject",
+            "2s:M.start",
+        ],
+    );
+    let twists = Client::start(
+        &python,
+        "subscribe.py",
+        &[
+            "--port",
+            &run.port.to_string(),
+            "--topic",
+            "/cmd_vel",
+            "--type",
+            "geometry_msgs/msg/Twist",
+            "--count",
+            "1",
+            "--timeout",
+            "25",
+        ],
+    );
+    assert_eq!(twists.line(Duration::from_secs(20)), "ready");
+    let trace = run.dir.path().join("trace.jsonl");
+    common::wait_for("M runs on the agent", Duration::from_secs(30), || {
+        std::fs::read_to_string(&trace)
+            .is_ok_and(|t| t.contains(r#""plugin":"M","signal":"started""#))
+    });
+    let _ = agent.kill();
+    let _ = agent.wait();
+    let (ok, lines, stderr) = twists.finish();
+    assert!(ok, "{stderr}");
+    let zero: Json = lines
+        .iter()
+        .find(|l| l.starts_with('{'))
+        .map(|l| serde_json::from_str(l).expect("JSON"))
+        .expect("a message");
+    assert_eq!(zero["linear"]["x"], 0.0, "{lines:?}");
+    let (out, dir) = run.finish(Duration::from_secs(30));
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let (trace, _) = lawful_trace(&dir.path().join("trace.jsonl"));
+    assert!(
+        trace.contains(r#""kind":"signal","plugin":"M","signal":"faulted","payload":"node-lost"#),
+        "{trace}"
+    );
+    assert!(
+        !trace.contains(r#""slot":"exit""#),
+        "the coordinator never runs a remote plugin's exit: {trace}"
+    );
+}

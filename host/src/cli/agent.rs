@@ -24,6 +24,11 @@ pub struct AgentArgs {
     /// The user's password (or set RADAR_PASSWORD).
     #[arg(long, env = "RADAR_PASSWORD", hide_env_values = true)]
     password: Option<String>,
+    /// How long the coordinator may go silent before this agent counts it
+    /// as lost and runs the exits of its running responses alone (and the
+    /// other way round), in milliseconds.
+    #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u64).range(100..))]
+    lease_ms: u64,
 }
 
 pub fn agent(args: AgentArgs) -> Result<()> {
@@ -35,7 +40,8 @@ pub fn agent(args: AgentArgs) -> Result<()> {
         (Some(_), None) => anyhow::bail!("--user needs --password (or RADAR_PASSWORD)"),
         _ => None,
     };
-    let agent = Agent::start(&args.name, &args.listen, &args.connect, credentials)?;
+    let lease = std::time::Duration::from_millis(args.lease_ms);
+    let agent = Agent::start(&args.name, &args.listen, &args.connect, credentials, lease)?;
     let (tx, rx) = crossbeam_channel::bounded::<()>(1);
     let _ = ctrlc::set_handler(move || {
         let _ = tx.try_send(());
@@ -48,6 +54,9 @@ pub fn agent(args: AgentArgs) -> Result<()> {
         places.join(", ")
     ));
     let _ = rx.recv();
+    // The responses it runs stop as by an exit signal and run their exits
+    // first (each says so on stderr).
+    agent.stop();
     say(format_args!("agent {} stopped", agent.name()));
     Ok(())
 }

@@ -13,7 +13,7 @@ use zenoh::{Session, Wait};
 
 use super::error::NetworkError;
 use super::keys;
-use crate::plugin::remote::{AgentLink, FromAgent, ToAgent};
+use crate::plugin::remote::{AgentLink, ExitReport, FromAgent, ToAgent};
 
 /// How long a call may go without a word from its agent before the agent
 /// counts as lost (a call computes for well under a second on its fuel).
@@ -26,6 +26,9 @@ const INBOX: usize = 64;
 /// What happens when an agent comes and goes: given the agent's name.
 pub(super) type OnAgent = Box<dyn Fn(&str, bool) + Send + Sync>;
 
+/// What happens with the exits an agent reports it ran alone.
+pub(super) type OnReport = Box<dyn Fn(&str, Vec<ExitReport>) + Send + Sync>;
+
 type Inbox = (Sender<FromAgent>, Receiver<FromAgent>);
 
 /// Zenoh declarations, alive as long as this is.
@@ -37,6 +40,13 @@ pub(super) struct ZenohAgents {
     inboxes: Mutex<HashMap<(String, String), Inbox>>,
     alive: Mutex<HashSet<String>>,
     on_agent: Mutex<Option<OnAgent>>,
+    on_report: Mutex<Option<OnReport>>,
+    /// The reports taken, by name: an agent sends one until it hears it
+    /// was taken, so it may come twice.
+    reports: Mutex<HashSet<String>>,
+    /// This run's name (see [`AgentLink::run_id`]).
+    run: String,
+    system: String,
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
@@ -55,6 +65,10 @@ impl ZenohAgents {
             inboxes: Mutex::default(),
             alive: Mutex::default(),
             on_agent: Mutex::default(),
+            on_report: Mutex::default(),
+            reports: Mutex::default(),
+            run: crate::plugin::remote::nonce(),
+            system: system.to_string(),
         });
         let declare = |what: &str, e: zenoh::Error| NetworkError::Declare {
             what: what.to_string(),
@@ -71,6 +85,10 @@ impl ZenohAgents {
                     };
                     let bytes = sample.payload().to_bytes();
                     if let Ok(message) = serde_json::from_slice::<FromAgent>(&bytes) {
+                        if let FromAgent::ExitsRan { plugin, run, exits } = message {
+                            this.take_report(node, plugin, run, exits);
+                            return;
+                        }
                         // Only to an instance the coordinator opened, and
                         // bounded: a flood cannot grow it.
                         let key = (node.to_string(), message.plugin().to_string());
@@ -124,6 +142,31 @@ impl ZenohAgents {
     /// Calls `on_agent` when an agent comes back or is lost.
     pub(super) fn on_agent(&self, on_agent: OnAgent) {
         *lock(&self.on_agent) = Some(on_agent);
+    }
+
+    /// Calls `on_report` with the exits an agent ran alone for this run.
+    pub(super) fn on_report(&self, on_report: OnReport) {
+        *lock(&self.on_report) = Some(on_report);
+    }
+
+    /// An agent's report of the exits it ran alone: taken once (a report
+    /// of another run, an earlier coordinator's, is only acknowledged),
+    /// and acknowledged so that the agent stops sending it.
+    fn take_report(&self, node: &str, name: String, run: String, exits: Vec<ExitReport>) {
+        let first = lock(&self.reports).insert(name.clone());
+        if first && run == self.run {
+            if let Some(on_report) = lock(&self.on_report).as_ref() {
+                on_report(node, exits);
+            }
+        }
+        let _ = self.send(
+            node,
+            &ToAgent::ReportTaken {
+                system: self.system.clone(),
+                plugin: name,
+            },
+            &[],
+        );
     }
 
     /// Waits until every agent in `nodes` is alive, at most `limit`; the
@@ -209,5 +252,9 @@ impl AgentLink for ZenohAgents {
 
     fn is_alive(&self, node: &str) -> bool {
         lock(&self.alive).contains(node)
+    }
+
+    fn run_id(&self) -> String {
+        self.run.clone()
     }
 }

@@ -201,6 +201,10 @@ impl Network {
         self.agents.on_agent(Box::new(move |node, came| {
             let _ = handle.agent_changed(node, !came);
         }));
+        let handle = radar.clone();
+        self.agents.on_report(Box::new(move |node, exits| {
+            let _ = handle.exits_reported(node, exits);
+        }));
         let server = Server {
             radar,
             session: self.session.clone(),

@@ -16,6 +16,7 @@
 
 mod agent;
 mod agents;
+mod alone;
 pub mod client;
 mod control;
 mod coordinator;

@@ -25,8 +25,20 @@ fn base(
     listen: &[String],
     connect: &[String],
     credentials: Option<(&str, &str)>,
+    lease: Option<std::time::Duration>,
 ) -> Result<Config, NetworkError> {
     let mut config = Config::default();
+    if let Some(lease) = lease {
+        // How long a peer may go silent before its session (and with it
+        // its liveliness tokens) is taken as lost: a coordinator and its
+        // agents each learn of a cut link within about this long. Keep
+        // alives go out four times a lease.
+        let ms = u64::try_from(lease.as_millis())
+            .unwrap_or(u64::MAX)
+            .max(100);
+        set(&mut config, "transport/link/tx/lease", ms.into())?;
+        set(&mut config, "transport/link/tx/keep_alive", 4.into())?;
+    }
     set(&mut config, "mode", mode.into())?;
     set(&mut config, "listen/endpoints", serde_json::json!(listen))?;
     set(&mut config, "connect/endpoints", serde_json::json!(connect))?;
@@ -58,7 +70,13 @@ pub(super) fn coordinator(
     users: Option<&Path>,
 ) -> Result<Session, NetworkError> {
     let credentials = settings.user.as_deref().zip(settings.password.as_deref());
-    let mut config = base("peer", &settings.listen, &settings.connect, credentials)?;
+    let mut config = base(
+        "peer",
+        &settings.listen,
+        &settings.connect,
+        credentials,
+        Some(settings.lease()),
+    )?;
     if let Some(file) = users {
         if !file.is_file() {
             return Err(NetworkError::Settings(format!(
@@ -77,13 +95,15 @@ pub(super) fn coordinator(
         .map_err(|e| NetworkError::Session(one_line(&e.to_string())))
 }
 
-/// An agent's session: a peer on the endpoints given.
+/// An agent's session (or a ROS 2 bridge's): a peer on the endpoints
+/// given, with `lease` (none: Zenoh's default, 10 s).
 pub(super) fn peer(
     listen: &[String],
     connect: &[String],
     credentials: Option<(&str, &str)>,
+    lease: Option<std::time::Duration>,
 ) -> Result<Session, NetworkError> {
-    let config = base("peer", listen, connect, credentials)?;
+    let config = base("peer", listen, connect, credentials, lease)?;
     zenoh::open(config)
         .wait()
         .map_err(|e| NetworkError::Session(one_line(&e.to_string())))
@@ -95,7 +115,7 @@ pub fn client(
     connect: &[String],
     credentials: Option<(&str, &str)>,
 ) -> Result<Session, NetworkError> {
-    let config = base("client", &[], connect, credentials)?;
+    let config = base("client", &[], connect, credentials, None)?;
     zenoh::open(config).wait().map_err(|e| {
         // Zenoh says only that it could not connect: a TCP endpoint that
         // accepts a connection but not the session refused the user.

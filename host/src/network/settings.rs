@@ -62,6 +62,11 @@ pub struct NetworkSettings {
     /// See `user`.
     #[serde(default)]
     pub password: Option<String>,
+    /// How long, in milliseconds, a peer (an agent, the coordinator) may
+    /// go silent before it counts as lost (Zenoh's link lease; default
+    /// 1000). Agents take theirs from `radar agent --lease-ms`.
+    #[serde(default)]
+    pub lease_ms: Option<u64>,
 }
 
 fn default_system() -> String {
@@ -69,6 +74,14 @@ fn default_system() -> String {
 }
 
 impl NetworkSettings {
+    /// The link lease (see `lease_ms`).
+    pub fn lease(&self) -> std::time::Duration {
+        self.lease_ms.map_or(
+            super::agent::DEFAULT_LEASE,
+            std::time::Duration::from_millis,
+        )
+    }
+
     /// Checks what the manifest's parser cannot: names and the pairing of
     /// keys.
     pub fn validate(&self) -> Result<(), NetworkError> {
@@ -81,6 +94,11 @@ impl NetworkSettings {
         if self.control == Control::Authenticated && self.users.is_none() {
             return Err(NetworkError::Settings(
                 "control = \"authenticated\" needs `users`, a file of user:password lines".into(),
+            ));
+        }
+        if self.lease_ms.is_some_and(|ms| ms < 100) {
+            return Err(NetworkError::Settings(
+                "lease_ms must be at least 100 (keep alives go out four times a lease)".into(),
             ));
         }
         if self.user.is_some() != self.password.is_some() {

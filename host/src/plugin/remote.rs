@@ -77,6 +77,9 @@ pub(crate) trait AgentLink: Send + Sync {
     fn forget(&self, node: &str, route: &str);
     /// Whether agent `node` is alive now.
     fn is_alive(&self, node: &str) -> bool;
+    /// This run's name among the coordinator's runs (random): what an
+    /// agent's report of the exits it ran alone is for.
+    fn run_id(&self) -> String;
 }
 
 /// A message from the coordinator to an agent.
@@ -99,6 +102,9 @@ pub(crate) enum ToAgent {
         seed: u64,
         fuel_per_second: Option<u64>,
         now: u64,
+        /// The coordinator's run (see [`AgentLink::run_id`]).
+        #[serde(default)]
+        run: String,
     },
     /// Call `export`.
     Call {
@@ -128,6 +134,8 @@ pub(crate) enum ToAgent {
     },
     /// The instance is no longer needed.
     Drop { system: String, plugin: String },
+    /// The report `plugin` names (see [`FromAgent::ExitsRan`]) was taken.
+    ReportTaken { system: String, plugin: String },
 }
 
 impl ToAgent {
@@ -138,7 +146,8 @@ impl ToAgent {
             | ToAgent::Call { system, plugin, .. }
             | ToAgent::Wake { system, plugin, .. }
             | ToAgent::Answer { system, plugin, .. }
-            | ToAgent::Drop { system, plugin } => (system, plugin),
+            | ToAgent::Drop { system, plugin }
+            | ToAgent::ReportTaken { system, plugin } => (system, plugin),
         }
     }
 }
@@ -181,7 +190,18 @@ pub(crate) enum FromAgent {
         value: WireVal,
         logs: Vec<WireLog>,
     },
+    /// The exits the agent ran alone while it had lost the coordinator
+    /// (`docs/network.md`), sent when the link is back until taken;
+    /// `plugin` names the report.
+    ExitsRan {
+        plugin: String,
+        /// The coordinator's run they were activations of.
+        run: String,
+        exits: Vec<ExitReport>,
+    },
 }
+
+pub(crate) use crate::trace::inputs::ReportedExit as ExitReport;
 
 impl FromAgent {
     /// The plugin it is about.
@@ -192,7 +212,8 @@ impl FromAgent {
             | FromAgent::Wait { plugin, .. }
             | FromAgent::Emit { plugin, .. }
             | FromAgent::BoardRead { plugin, .. }
-            | FromAgent::BoardWrite { plugin, .. } => plugin,
+            | FromAgent::BoardWrite { plugin, .. }
+            | FromAgent::ExitsRan { plugin, .. } => plugin,
         }
     }
 
@@ -204,12 +225,13 @@ impl FromAgent {
             | FromAgent::Emit { logs, .. }
             | FromAgent::BoardRead { logs, .. }
             | FromAgent::BoardWrite { logs, .. } => std::mem::take(logs),
+            FromAgent::ExitsRan { .. } => Vec::new(),
         }
     }
 }
 
 /// A log line from the agent.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub(crate) struct WireLog {
     pub level: String,
     pub message: String,
@@ -368,7 +390,7 @@ pub(crate) fn mirror_stop(stop: &StopFlag, code: Option<u8>, fault: Option<Strin
 }
 
 /// A level name the trace knows, for a line an agent logged.
-fn static_level(level: &str) -> &'static str {
+pub(crate) fn static_level(level: &str) -> &'static str {
     match level {
         "trace" => "trace",
         "debug" => "debug",
@@ -384,7 +406,7 @@ pub(crate) fn node_lost(node: &str, why: &str) -> Fault {
 }
 
 /// 64 random bits, as hex.
-fn nonce() -> String {
+pub(crate) fn nonce() -> String {
     let mut bytes = [0u8; 8];
     let _ = std::fs::File::open("/dev/urandom")
         .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut bytes));
@@ -455,6 +477,7 @@ impl RemoteInstance {
                 .fuel_per_second()
                 .map(|own| setup.fuel_rate.unwrap_or(own)),
             now: setup.base.now(),
+            run: this.remote.link.run_id(),
         };
         this.send(&message, &code.bytes)?;
         match this.recv()? {
@@ -599,7 +622,9 @@ impl RemoteInstance {
                         .map_err(|e| e.to_string());
                     self.answer(result)?;
                 }
-                other @ FromAgent::Instantiated { .. } => return Err(self.confused(&other)),
+                other @ (FromAgent::Instantiated { .. } | FromAgent::ExitsRan { .. }) => {
+                    return Err(self.confused(&other))
+                }
             }
         }
     }

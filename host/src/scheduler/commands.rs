@@ -101,6 +101,11 @@ pub(crate) enum Command {
         node: String,
         lost: bool,
     },
+    /// An agent reports the exits it ran alone while the link was lost.
+    ExitsReported {
+        node: String,
+        exits: Vec<crate::trace::inputs::ReportedExit>,
+    },
     /// A command from outside was refused: recorded.
     Refused {
         command: String,
@@ -227,6 +232,7 @@ impl Command {
                 | Command::Reset { external: true, .. }
                 | Command::Refused { .. }
                 | Command::Node { .. }
+                | Command::ExitsReported { .. }
                 | Command::Swap {
                     origin: Some(_),
                     ..

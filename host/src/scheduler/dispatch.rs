@@ -52,6 +52,9 @@ impl Scheduler {
                     st.node_back(&node);
                 }
             }),
+            Command::ExitsReported { node, exits } => {
+                core.with(|st| st.exits_reported(&node, exits))
+            }
             Command::Overview { reply } => {
                 let _ = reply.send(core.with(|st| st.overview()));
             }

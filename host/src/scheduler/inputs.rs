@@ -88,6 +88,8 @@ pub(crate) enum StaticWhat {
     NodeBack(String),
     /// A stop of the run.
     Stop(String),
+    /// Exits an agent ran alone.
+    AgentExits(String, Vec<crate::trace::inputs::ReportedExit>),
     /// A refused command's record.
     Refused {
         command: String,
@@ -282,6 +284,9 @@ impl State {
             Action::Outside(StaticWhat::NodeLost(node)) => self.node_lost(&node),
             Action::Outside(StaticWhat::NodeBack(node)) => self.node_back(&node),
             Action::Outside(StaticWhat::Stop(why)) => self.begin_stop(&why),
+            Action::Outside(StaticWhat::AgentExits(node, exits)) => {
+                self.exits_reported(&node, exits)
+            }
             Action::Outside(StaticWhat::Reset(plugin)) => {
                 let _ = self.request_reset(&plugin, true);
             }
@@ -340,6 +345,9 @@ impl State {
             Action::Outside(StaticWhat::NodeLost(node)) => format!("the loss of agent {node}"),
             Action::Outside(StaticWhat::NodeBack(node)) => format!("the return of agent {node}"),
             Action::Outside(StaticWhat::Stop(_)) => "the stop of the run".to_string(),
+            Action::Outside(StaticWhat::AgentExits(node, _)) => {
+                format!("the exits agent {node} ran alone")
+            }
             Action::Outside(_) => "a refused command".to_string(),
         };
         self.trace.divergence = Some(format!(

@@ -7,9 +7,10 @@
 use super::commands::{LinkSpec, LinkTarget};
 use super::state::{Lifecycle, State};
 use crate::error::RadarError;
+use crate::plugin::remote::static_level;
 use crate::plugin::Fault;
 use crate::ports::{ConnectionOverview, Overview, PluginOverview, PluginState};
-use crate::trace::inputs::Input;
+use crate::trace::inputs::{Input, ReportedExit};
 use crate::trace::Entry;
 
 impl State {
@@ -99,6 +100,59 @@ impl State {
                 let name = entry.def.name.clone();
                 let _ = self.request_reset(&name, true);
             }
+        }
+    }
+
+    /// Agent `node` ran these exits alone while it had lost this
+    /// coordinator: each goes into the trace now, as the end of the
+    /// activation the coordinator faulted (`node-lost`) when it lost the
+    /// agent (`slot-begin` with `after` `node-lost` and when it `ran` on the
+    /// agent, what it logged, `slot-end`). Recorded as an input.
+    pub(super) fn exits_reported(&mut self, node: &str, exits: Vec<ReportedExit>) {
+        self.record_input(Input::AgentExits {
+            node: node.to_string(),
+            exits: exits.clone(),
+        });
+        for exit in exits {
+            let Some(pid) = self.by_name.get(&exit.plugin).copied() else {
+                continue;
+            };
+            if self.plugins[pid].def.node.as_deref() != Some(node) {
+                continue; // not a plugin this agent holds
+            }
+            let plugin = self.plugins[pid].name.clone();
+            self.record(Entry::SlotBegin {
+                plugin: plugin.clone(),
+                slot: "exit".into(),
+                connection: None,
+                queued: None,
+                after: Some("node-lost".into()),
+                ran: Some((exit.began, exit.ended)),
+            });
+            for line in exit.logs {
+                self.record(Entry::Log {
+                    plugin: plugin.clone(),
+                    level: static_level(&line.level).into(),
+                    message: line.message,
+                });
+            }
+            if let Some(cause) = exit.cause {
+                self.record(Entry::Log {
+                    plugin: plugin.clone(),
+                    level: "error".into(),
+                    message: format!("its exit on agent `{node}` did not complete: {cause}"),
+                });
+            }
+            let outcome = if exit.outcome == "completed" {
+                "completed"
+            } else {
+                "trapped"
+            };
+            self.record(Entry::SlotEnd {
+                plugin,
+                slot: "exit".into(),
+                outcome: outcome.into(),
+            });
         }
     }
 

@@ -460,6 +460,7 @@ impl State {
                 | Input::NodeLost { .. }
                 | Input::NodeBack { .. }
                 | Input::Stop { .. }
+                | Input::AgentExits { .. }
         );
         let virtual_clock = self.base.kind() == ClockKind::Virtual;
         let step = (placed && virtual_clock).then(|| self.moves_now());

@@ -345,6 +345,9 @@ impl SystemBuilder {
                 Input::NodeLost { node } => StaticWhat::NodeLost(node.clone()),
                 Input::NodeBack { node } => StaticWhat::NodeBack(node.clone()),
                 Input::Stop { why } => StaticWhat::Stop(why.clone()),
+                Input::AgentExits { node, exits } => {
+                    StaticWhat::AgentExits(node.clone(), exits.clone())
+                }
                 Input::Refused {
                     command,
                     from,

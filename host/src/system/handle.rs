@@ -278,6 +278,22 @@ impl Radar {
             .map_err(|_| RadarError::Stopped)
     }
 
+    /// Agent `node` ran these exits alone while it had lost this
+    /// coordinator, and reports them now that the link is back
+    /// (`docs/network.md`): merged into the trace.
+    pub(crate) fn exits_reported(
+        &self,
+        node: &str,
+        exits: Vec<crate::trace::inputs::ReportedExit>,
+    ) -> Result<(), RadarError> {
+        self.tx
+            .send(Command::ExitsReported {
+                node: node.to_string(),
+                exits,
+            })
+            .map_err(|_| RadarError::Stopped)
+    }
+
     /// The system now: every plugin (kind, state, version, node) and every
     /// live connection (id, mode, busy policy, until).
     pub fn overview(&self) -> Result<crate::ports::Overview, RadarError> {

@@ -159,6 +159,14 @@ pub enum Input {
         /// The agent.
         node: String,
     },
+    /// Agent `node` reported the exits it ran alone while it had lost the
+    /// coordinator (`docs/network.md`).
+    AgentExits {
+        /// The agent.
+        node: String,
+        /// What it ran.
+        exits: Vec<ReportedExit>,
+    },
     /// The run was stopped (a signal, `radar ctl stop`, `Radar::stop`)
     /// while responses ran: their exits ran before it ended
     /// (`docs/semantics.md#stopping-a-run`).
@@ -520,4 +528,34 @@ mod tests {
         .expect_err("bad policy");
         assert!(err.cause.contains("drain or restart"), "{}", err.cause);
     }
+}
+
+/// An exit an agent ran alone, for an activation the coordinator had lost
+/// with it (`docs/network.md`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ReportedExit {
+    /// The plugin's name.
+    pub plugin: String,
+    /// When the exit began, on the run's clock as the agent kept it after
+    /// the link was lost (nanoseconds).
+    pub began: u64,
+    /// When it ended, likewise.
+    pub ended: u64,
+    /// `completed` or `trapped`.
+    pub outcome: String,
+    /// What ended it, when it did not complete.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cause: Option<String>,
+    /// What it logged, and the signals it emitted that nothing could route.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub logs: Vec<ReportedLine>,
+}
+
+/// A line an exit run alone logged: its level and message.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ReportedLine {
+    /// `info`, `warn`, ...
+    pub level: String,
+    /// The line.
+    pub message: String,
 }

@@ -186,7 +186,7 @@ impl Ros2 {
                 } else {
                     settings.connect.clone()
                 };
-                let session = session::peer(&settings.listen, &connect, None)
+                let session = session::peer(&settings.listen, &connect, None, None)
                     .map_err(|e| Ros2Error::Session(e.to_string()))?;
                 (session, None)
             }
