@@ -238,3 +238,43 @@ inputs moved: 12 (at most 17.544 ms)
 compute (Gfuel/s): Avoid 1.36, Obstacle 0.90
 ";
 const PINNED_OFFSETS_7: [i64; 3] = [-12_309_509, 2_558_277, 14_135_130];
+
+#[test]
+fn after_every_injected_fault_of_a_response_its_exit_runs_whatever_the_seed() {
+    let scenario = load("obstacle-exits");
+    let sim = Simulation::new(&scenario).expect("it runs");
+    let mut kinds = std::collections::BTreeSet::new();
+    let mut exits = 0;
+    for seed in 0..100 {
+        let run = sim.run_seed(seed);
+        assert!(
+            run.failure.is_none(),
+            "seed {seed}: {}\n{}",
+            run.failure.as_ref().map_or("", |f| f.message.as_str()),
+            run.plan.describe()
+        );
+        let report = scenario.run_spec(&sim.spec(&run.plan)).expect("runs");
+        assert!(radar::trace::check(&report.trace).is_empty());
+        for record in &report.trace {
+            match &record.entry {
+                Entry::Fault { plugin, error, .. } if &**plugin == "Avoid" => {
+                    kinds.insert(error.split(':').next().unwrap_or("").to_string());
+                }
+                Entry::SlotBegin {
+                    plugin,
+                    after: Some(after),
+                    ..
+                } if &**plugin == "Avoid" && after == "fault" => exits += 1,
+                _ => {}
+            }
+        }
+    }
+    // Every kind the folder allows came, and each fault had its exit.
+    for kind in ["trapped", "fuel exhausted", "memory"] {
+        assert!(
+            kinds.iter().any(|k| k.starts_with(kind)),
+            "{kind} not among {kinds:?}"
+        );
+    }
+    assert!(exits > 10, "{exits}");
+}

@@ -21,6 +21,8 @@ pub enum FaultKind {
     Trap,
     /// The call runs out of fuel.
     Fuel,
+    /// The call fails on its memory limit (`memory_bytes`).
+    Memory,
     /// The instantiation fails (the run's start, a reset, a fresh store
     /// for a `start` that ignored a request to stop; not a swap's new
     /// version, nor the fresh instance an exit after a fault runs on).
@@ -36,6 +38,7 @@ impl FaultKind {
         match self {
             FaultKind::Trap => "trap",
             FaultKind::Fuel => "fuel",
+            FaultKind::Memory => "memory",
             FaultKind::Instantiation => "reset-fails",
             FaultKind::ExitInstantiation => "exit-instance-fails",
         }
@@ -89,9 +92,12 @@ impl FaultPlan {
 
     /// Whether a call of the plugin may end with a planned fault.
     pub fn plans_call_faults(&self) -> bool {
-        self.faults
-            .iter()
-            .any(|f| matches!(f.kind, FaultKind::Trap | FaultKind::Fuel))
+        self.faults.iter().any(|f| {
+            matches!(
+                f.kind,
+                FaultKind::Trap | FaultKind::Fuel | FaultKind::Memory
+            )
+        })
     }
 
     /// Counts a call; the fault it is to end with, if one is planned.
@@ -100,10 +106,13 @@ impl FaultPlan {
         if self.faults.is_empty() {
             return None;
         }
-        let planned = self
-            .faults
-            .iter()
-            .find(|f| f.at == n && matches!(f.kind, FaultKind::Trap | FaultKind::Fuel))?;
+        let planned = self.faults.iter().find(|f| {
+            f.at == n
+                && matches!(
+                    f.kind,
+                    FaultKind::Trap | FaultKind::Fuel | FaultKind::Memory
+                )
+        })?;
         let mut fault = match planned.kind {
             FaultKind::Fuel => {
                 let mut fault =
@@ -111,6 +120,9 @@ impl FaultPlan {
                 fault.out_of_fuel = true;
                 fault
             }
+            FaultKind::Memory => Fault::new(format!(
+                "memory: a growth over its limit (`memory_bytes`): injected fault at its call {n}"
+            )),
             _ => Fault::new(format!("trapped: injected fault at its call {n}")),
         };
         fault.reset_after = planned.reset_after;

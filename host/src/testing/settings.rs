@@ -97,7 +97,7 @@ impl From<FuelForm> for FuelSettings {
 pub struct FaultSettings {
     /// The plugin.
     pub plugin: String,
-    /// `trap`, `fuel` (at `call`), `reset-fails` (at `instantiation`) or
+    /// `trap`, `fuel`, `memory` (at `call`), `reset-fails` (at `instantiation`) or
     /// `exit-instance-fails` (at `instantiation`: the n-th exit after a
     /// fault gets no fresh instance).
     pub kind: String,
@@ -118,9 +118,10 @@ impl FaultSettings {
         let (kind, at) = match (self.kind.as_str(), self.call, self.instantiation) {
             ("trap", Some(call), None) => (FaultKind::Trap, call),
             ("fuel", Some(call), None) => (FaultKind::Fuel, call),
+            ("memory", Some(call), None) => (FaultKind::Memory, call),
             ("reset-fails", None, Some(n)) => (FaultKind::Instantiation, n),
             ("exit-instance-fails", None, Some(n)) => (FaultKind::ExitInstantiation, n),
-            ("trap" | "fuel", _, _) => {
+            ("trap" | "fuel" | "memory", _, _) => {
                 return Err(format!(
                     "[[fault]] of {plugin}: a `{}` fault says its `call` (and no \
                      `instantiation`)",
@@ -136,7 +137,7 @@ impl FaultSettings {
             }
             (other, _, _) => {
                 return Err(format!(
-                    "[[fault]] of {plugin}: kind `{other}`: expected trap, fuel, reset-fails or exit-instance-fails"
+                    "[[fault]] of {plugin}: kind `{other}`: expected trap, fuel, memory, reset-fails or exit-instance-fails"
                 ))
             }
         };
@@ -167,6 +168,8 @@ pub enum SimFault {
     Trap,
     /// A plugin's call runs out of fuel.
     Fuel,
+    /// A plugin's call fails on its memory limit.
+    Memory,
     /// A plugin traps, and the reset that follows fails once.
     ResetFails,
     /// A plugin is swapped for a broken build.

@@ -49,7 +49,16 @@ pub(super) enum Term {
         state: String,
         negated: bool,
     },
+    /// `Plugin.exit` (or `Plugin's exit ran`): the slot ran to its end
+    /// (`start`, `interrupt` or `exit`).
+    Slot {
+        plugin: String,
+        slot: String,
+    },
 }
+
+/// The slots a term may name.
+const SLOTS: [&str; 3] = ["start", "interrupt", "exit"];
 
 #[derive(Clone, Debug)]
 /// A test of a payload's or an entry's value (or of a field of it).
@@ -140,6 +149,19 @@ impl Clause {
 impl Term {
     pub(super) fn parse(text: &str) -> Result<Self, String> {
         let text = text.trim();
+        // `Plugin's exit ran`: a slot that ran to its end, in words.
+        if let Some((plugin, rest)) = split_outside_quotes(text, "'s ") {
+            let slot = rest.trim().strip_suffix(" ran").map(str::trim);
+            if let Some(slot) = slot.filter(|s| SLOTS.contains(s)) {
+                if plugin.is_empty() || plugin.contains([' ', '.']) {
+                    return Err(format!("`{text}`: expected `Plugin's {slot} ran`"));
+                }
+                return Ok(Term::Slot {
+                    plugin: plugin.into(),
+                    slot: slot.into(),
+                });
+            }
+        }
         if let Some((plugin, state)) = split_outside_quotes(text, " is ") {
             let plugin = plugin.trim();
             let (negated, state) = match state.trim().strip_prefix("not ") {
@@ -196,6 +218,15 @@ impl Term {
                 "`{left}`: a field is named without a test (`{left} == VALUE`)"
             ));
         }
+        if SLOTS.contains(&second) && first != "board" {
+            if test.is_some() {
+                return Err(format!("`{left}`: a slot that ran has no value to test"));
+            }
+            return Ok(Term::Slot {
+                plugin: first.into(),
+                slot: second.into(),
+            });
+        }
         let test = test.map(|(op, value)| Test { path, op, value });
         Ok(if first == "board" {
             Term::Board {
@@ -213,7 +244,10 @@ impl Term {
 
     /// An occurrence (each emission, each write), not a condition.
     pub(super) fn is_occurrence(&self) -> bool {
-        matches!(self, Term::Signal { .. } | Term::Board { test: None, .. })
+        matches!(
+            self,
+            Term::Signal { .. } | Term::Board { test: None, .. } | Term::Slot { .. }
+        )
     }
 
     /// The term as a name.
@@ -227,6 +261,7 @@ impl Term {
                 state,
                 negated,
             } => format!("{plugin} is {}{state}", if *negated { "not " } else { "" }),
+            Term::Slot { plugin, slot } => format!("{plugin}'s {slot} ran"),
         }
     }
 }

@@ -256,7 +256,19 @@ impl Term {
                     entry: e, value, ..
                 },
             ) if e == entry => Some(format!("board.{entry} = {value}")),
-            (Term::Signal { .. }, _) | (Term::Board { test: None, .. }, _) => None,
+            (
+                Term::Slot { plugin, slot },
+                Entry::SlotEnd {
+                    plugin: p,
+                    slot: s,
+                    outcome,
+                },
+            ) if &**p == plugin && s == slot && outcome == "completed" => {
+                Some(format!("{plugin}'s {slot} ran"))
+            }
+            (Term::Signal { .. }, _)
+            | (Term::Board { test: None, .. }, _)
+            | (Term::Slot { .. }, _) => None,
             _ => (self.holds(world) == Some(true)).then(|| self.describe(world)),
         }
     }
@@ -272,7 +284,7 @@ impl Term {
                 "board.{entry} = {}",
                 world.board.get(entry).unwrap_or(&Json::Null)
             ),
-            Term::Signal { .. } => self.short(),
+            Term::Signal { .. } | Term::Slot { .. } => self.short(),
         }
     }
 }

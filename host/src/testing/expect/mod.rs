@@ -20,7 +20,11 @@
 //!   entry's value passes the test (a condition, judged once it has one);
 //! - `Plugin is STATE`, `Plugin is not STATE`: the plugin's state (a
 //!   condition): `idle`, `running`, `interrupting`, `exiting`, `error`,
-//!   and for events `active`, `inactive`.
+//!   and for events `active`, `inactive`;
+//! - `Plugin.exit` (or `Plugin's exit ran`; likewise `start`,
+//!   `interrupt`): the slot ran to its end (an occurrence), so that
+//!   `always = ["Avoid's exit ran within 1s of Avoid.faulted"]` says the
+//!   motors were stopped after every fault.
 //!
 //! `OP` is one of `==`, `!=`, `<`, `<=`, `>`, `>=`; `VALUE` is JSON (a
 //! bare word is a string). A clause is a term, or `A within D of B`
@@ -103,7 +107,7 @@ impl Expectations {
                     Term::Signal { plugin, signal, .. } => {
                         system.signal_type(&format!("{plugin}.{signal}")).map(drop)
                     }
-                    Term::State { plugin, .. } => {
+                    Term::State { plugin, .. } | Term::Slot { plugin, .. } => {
                         system.signal_type(&format!("{plugin}.faulted")).map(drop)
                     }
                     Term::Board { entry, .. } => match system.entry_type(entry) {

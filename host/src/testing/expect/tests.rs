@@ -223,3 +223,39 @@ fn bad_clauses_say_what_is_wrong() {
         .expect_err("refused")
         .contains("without a test"));
 }
+
+#[test]
+fn a_slot_that_ran_is_an_occurrence_after_each_fault() {
+    let trace = parse_json_lines(
+        r#"{"t":0,"kind":"state","plugin":"M","state":"idle"}
+{"t":1000000000,"kind":"signal","plugin":"M","signal":"faulted","payload":"trapped"}
+{"t":1000000000,"kind":"slot-begin","plugin":"M","slot":"exit","after":"fault"}
+{"t":1200000000,"kind":"slot-end","plugin":"M","slot":"exit","outcome":"completed"}
+{"t":3000000000,"kind":"signal","plugin":"M","signal":"faulted","payload":"trapped"}
+{"t":3000000000,"kind":"slot-begin","plugin":"M","slot":"exit","after":"fault"}
+{"t":3000000000,"kind":"slot-end","plugin":"M","slot":"exit","outcome":"trapped"}"#,
+    )
+    .expect("trace");
+    for clause in [
+        "M's exit ran within 500ms of M.faulted",
+        "M.exit within 500ms of M.faulted",
+    ] {
+        let broken: Vec<String> = expect(&[], &[clause], &[])
+            .judge(&trace, 10_000_000_000)
+            .iter()
+            .map(ToString::to_string)
+            .collect();
+        assert_eq!(
+            broken,
+            [format!(
+                "`always {clause}`: M.faulted(\"trapped\") at 3.000 s was not followed by M's exit ran within 0.500 s"
+            )]
+        );
+    }
+    let refused = Expectations::parse(&ExpectSettings {
+        always: vec!["M.exit == 1 within 1s of M.faulted".into()],
+        ..ExpectSettings::default()
+    })
+    .expect_err("refused");
+    assert!(refused.contains("no value to test"), "{refused}");
+}

@@ -151,16 +151,16 @@ impl Plan {
                     break;
                 };
                 match kind {
-                    SimFault::Trap | SimFault::Fuel | SimFault::ResetFails => {
+                    SimFault::Trap | SimFault::Fuel | SimFault::Memory | SimFault::ResetFails => {
                         let Some(plugin) = stream.pick(&calling).copied() else {
                             continue;
                         };
                         let at = stream.between(1, plugin.calls);
                         let fault = InjectedFault {
-                            kind: if kind == SimFault::Fuel {
-                                FaultKind::Fuel
-                            } else {
-                                FaultKind::Trap
+                            kind: match kind {
+                                SimFault::Fuel => FaultKind::Fuel,
+                                SimFault::Memory => FaultKind::Memory,
+                                _ => FaultKind::Trap,
                             },
                             at,
                             reset_after,
@@ -363,10 +363,10 @@ pub fn describe(injection: &Injection) -> String {
             ),
             kind => format!(
                 "{} in {plugin} at its call {}{}",
-                if kind == FaultKind::Fuel {
-                    "fuel exhaustion"
-                } else {
-                    "a trap"
+                match kind {
+                    FaultKind::Fuel => "fuel exhaustion",
+                    FaultKind::Memory => "its memory limit",
+                    _ => "a trap",
                 },
                 fault.at,
                 after(fault.reset_after)

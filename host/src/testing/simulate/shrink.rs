@@ -102,7 +102,10 @@ pub fn shrink(sim: &Simulation, plan: Plan, failure: Failure) -> Shrunk {
         // Earlier faults.
         for i in 0..best.plan.faults.len() {
             if let Injection::Plugin { fault, .. } = &best.plan.faults[i] {
-                let calls = matches!(fault.kind, FaultKind::Trap | FaultKind::Fuel);
+                let calls = matches!(
+                    fault.kind,
+                    FaultKind::Trap | FaultKind::Fuel | FaultKind::Memory
+                );
                 if calls && fault.at > 1 {
                     let mut candidate = best.plan.clone();
                     if let Injection::Plugin { fault, .. } = &mut candidate.faults[i] {
