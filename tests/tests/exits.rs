@@ -396,3 +396,41 @@ fn a_start_that_ignores_the_runs_stop_is_ended_after_its_exit_ms_and_its_exit_ru
     );
     assert_eq!(last_command(&trace), Some(0.0));
 }
+
+#[test]
+fn a_start_past_its_deadline_under_the_real_clock_faults_and_its_exit_runs() {
+    let plugin = motor("fuel").limits(Limits {
+        deadline: Some(Duration::from_millis(50)),
+        fuel_per_call: u64::MAX / 2,
+        ..Limits::default()
+    });
+    let report = crate::common::checked(
+        radar::System::builder()
+            .clock(radar::ClockKind::Real)
+            .trace_limit(None)
+            .plugin(plugin)
+            .build()
+            .expect("builds")
+            .run_with(Some(Duration::from_secs(2)), |radar| {
+                radar.inject("M.start", json!(null))
+            })
+            .expect("runs"),
+    );
+    let trace = records(&report);
+    let fault = &find(&trace, json!({"kind": "fault", "plugin": "M"}))[0];
+    assert!(
+        fault["error"]
+            .as_str()
+            .is_some_and(|e| e.starts_with("deadline passed")),
+        "{fault}"
+    );
+    assert_sequence(
+        &trace,
+        &[
+            json!({"kind": "signal", "plugin": "M", "signal": "faulted"}),
+            json!({"kind": "slot-begin", "plugin": "M", "slot": "exit", "after": "fault"}),
+            json!({"kind": "slot-end", "plugin": "M", "slot": "exit", "outcome": "completed"}),
+        ],
+    );
+    assert_eq!(last_command(&trace), Some(0.0));
+}
