@@ -69,8 +69,6 @@ pub(crate) struct RunWatch {
     /// (`docs/semantics.md#stopping-a-run`).
     asked: Mutex<Option<Stopping>>,
     asked_now: AtomicBool,
-    /// When it was asked for.
-    asked_at: Mutex<Option<Instant>>,
     /// The scheduler is stopping the run (however it was asked to): a
     /// call that computes on has its plugin's `exit_ms`.
     winding: AtomicBool,
@@ -99,7 +97,6 @@ impl RunWatch {
             stall_after,
             asked: Mutex::new(None),
             asked_now: AtomicBool::new(false),
-            asked_at: Mutex::new(None),
             winding: AtomicBool::new(false),
             wake: crossbeam_channel::bounded(1),
             exits_left: Mutex::new(Vec::new()),
@@ -118,7 +115,6 @@ impl RunWatch {
             return false;
         }
         *asked = Some(stopping);
-        *self.asked_at.lock().unwrap_or_else(|e| e.into_inner()) = Some(Instant::now());
         self.asked_now.store(true, Ordering::Release);
         let _ = self.wake.0.try_send(());
         true

@@ -509,6 +509,29 @@ fn the_obstacle_example_runs_against_zenoh_ros2_sdks_publisher_and_subscriber() 
     assert_eq!(kept(&replay), kept(&trace));
 }
 
+/// zenoh-ros2-sdk subscribed to `/cmd_vel` (Twists) at `port`, ready:
+/// it ends after `count` messages or `timeout` seconds.
+fn twists_on_cmd_vel(python: &str, port: u16, count: u32, timeout: u32) -> Client {
+    let client = Client::start(
+        python,
+        "subscribe.py",
+        &[
+            "--port",
+            &port.to_string(),
+            "--topic",
+            "/cmd_vel",
+            "--type",
+            "geometry_msgs/msg/Twist",
+            "--count",
+            &count.to_string(),
+            "--timeout",
+            &timeout.to_string(),
+        ],
+    );
+    assert_eq!(client.line(Duration::from_secs(20)), "ready");
+    client
+}
+
 #[test]
 fn a_fail_safe_route_sends_its_fixed_message_when_a_response_faults_and_the_exit_runs_too() {
     let python = python();
@@ -534,24 +557,7 @@ fn a_fail_safe_route_sends_its_fixed_message_when_a_response_faults_and_the_exit
             "3s:M.start",
         ],
     );
-    let port = run.port.to_string();
-    let twists = Client::start(
-        &python,
-        "subscribe.py",
-        &[
-            "--port",
-            &port,
-            "--topic",
-            "/cmd_vel",
-            "--type",
-            "geometry_msgs/msg/Twist",
-            "--count",
-            "3",
-            "--timeout",
-            "15",
-        ],
-    );
-    assert_eq!(twists.line(Duration::from_secs(20)), "ready");
+    let twists = twists_on_cmd_vel(&python, run.port, 3, 15);
     let (ok, lines, stderr) = twists.finish();
     assert!(ok, "{stderr}");
     let messages: Vec<Json> = lines
@@ -619,23 +625,7 @@ fn a_killed_agent_faults_its_response_and_the_fail_safe_route_stops_the_base() {
             "2s:M.start",
         ],
     );
-    let twists = Client::start(
-        &python,
-        "subscribe.py",
-        &[
-            "--port",
-            &run.port.to_string(),
-            "--topic",
-            "/cmd_vel",
-            "--type",
-            "geometry_msgs/msg/Twist",
-            "--count",
-            "1",
-            "--timeout",
-            "25",
-        ],
-    );
-    assert_eq!(twists.line(Duration::from_secs(20)), "ready");
+    let twists = twists_on_cmd_vel(&python, run.port, 1, 25);
     let trace = run.dir.path().join("trace.jsonl");
     common::wait_for("M runs on the agent", Duration::from_secs(30), || {
         std::fs::read_to_string(&trace)

@@ -233,6 +233,28 @@ fn motor_manifest(dir: &Path, extra: &str) -> String {
     )
 }
 
+/// `radar run` of M (`motor_manifest` with `extra`) on the real clock,
+/// started at 0.3 s, its trace in `DIR/t.jsonl`; `more` flags.
+fn start_motor_run(dir: &Path, extra: &str, more: &[&str]) -> (Child, std::path::PathBuf) {
+    let manifest = motor_manifest(dir, extra);
+    let trace_path = dir.join("t.jsonl");
+    let mut args = vec![
+        "run",
+        &manifest,
+        "--clock",
+        "real",
+        "--for",
+        "60s",
+        "-q",
+        "--inject",
+        "0.3s:M.start",
+        "--trace",
+        trace_path.to_str().expect("utf-8"),
+    ];
+    args.extend_from_slice(more);
+    (start(&args), trace_path)
+}
+
 /// The speeds M commanded, in order, and the `after` of its exits.
 fn commands_and_exits(records: &[serde_json::Value]) -> (Vec<f64>, Vec<String>) {
     let commands = records
@@ -249,24 +271,11 @@ fn commands_and_exits(records: &[serde_json::Value]) -> (Vec<f64>, Vec<String>) 
 }
 
 #[test]
-fn sigint_and_sigterm_run_the_exits_of_running_responses_before_the_run_ends() {
-    for name in ["INT", "TERM"] {
+fn sigint_sigterm_and_sighup_run_the_exits_of_running_responses_before_the_run_ends() {
+    for name in ["INT", "TERM", "HUP"] {
         let dir = tempfile::tempdir().expect("temp dir");
-        let manifest = motor_manifest(dir.path(), "config = { exit_sleep_ms = 300 }");
-        let trace_path = dir.path().join("t.jsonl");
-        let child = start(&[
-            "run",
-            &manifest,
-            "--clock",
-            "real",
-            "--for",
-            "60s",
-            "-q",
-            "--inject",
-            "0.3s:M.start",
-            "--trace",
-            trace_path.to_str().expect("utf-8"),
-        ]);
+        let (child, trace_path) =
+            start_motor_run(dir.path(), "config = { exit_sleep_ms = 300 }", &[]);
         std::thread::sleep(Duration::from_millis(1500));
         let asked = Instant::now();
         signal(&child, name);
@@ -293,24 +302,11 @@ fn sigint_and_sigterm_run_the_exits_of_running_responses_before_the_run_ends() {
 #[test]
 fn a_second_signal_ends_at_once_naming_the_exits_it_skipped() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let manifest = motor_manifest(
+    let (child, _) = start_motor_run(
         dir.path(),
         "config = { exit_sleep_ms = 20000 }\nexit_ms = 30000",
+        &[],
     );
-    let trace_path = dir.path().join("t.jsonl");
-    let child = start(&[
-        "run",
-        &manifest,
-        "--clock",
-        "real",
-        "--for",
-        "60s",
-        "-q",
-        "--inject",
-        "0.3s:M.start",
-        "--trace",
-        trace_path.to_str().expect("utf-8"),
-    ]);
     std::thread::sleep(Duration::from_millis(1000));
     signal(&child, "INT");
     std::thread::sleep(Duration::from_millis(500));
@@ -328,25 +324,11 @@ fn a_second_signal_ends_at_once_naming_the_exits_it_skipped() {
 #[test]
 fn an_exit_that_outlasts_its_exit_ms_at_a_stop_is_ended_and_the_run_ends() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let manifest = motor_manifest(
+    let (child, trace_path) = start_motor_run(
         dir.path(),
         "config = { exit_sleep_ms = 20000 }\nexit_ms = 400",
+        &["--allow-faults"],
     );
-    let trace_path = dir.path().join("t.jsonl");
-    let child = start(&[
-        "run",
-        &manifest,
-        "--clock",
-        "real",
-        "--for",
-        "60s",
-        "-q",
-        "--allow-faults",
-        "--inject",
-        "0.3s:M.start",
-        "--trace",
-        trace_path.to_str().expect("utf-8"),
-    ]);
     std::thread::sleep(Duration::from_millis(1000));
     let asked = Instant::now();
     signal(&child, "TERM");

@@ -434,3 +434,54 @@ fn a_start_past_its_deadline_under_the_real_clock_faults_and_its_exit_runs() {
     );
     assert_eq!(last_command(&trace), Some(0.0));
 }
+
+#[test]
+fn an_exit_running_when_the_run_is_stopped_is_bounded_by_its_exit_ms() {
+    let plugin = with_exit_ms(motor("").config("exit_sleep_ms", 5000), 300);
+    let report = run(virtual_system().plugin(plugin), 30, |radar| {
+        radar.inject("M.start", json!(null))?;
+        radar.sleep(Duration::from_millis(100))?;
+        radar.inject("M.exit", json!(null))?; // its exit sleeps 5 s
+        radar.sleep(Duration::from_millis(100))?;
+        radar.stop();
+        Ok(())
+    });
+    let trace = records(&report);
+    assert_sequence(
+        &trace,
+        &[
+            json!({"kind": "slot-begin", "plugin": "M", "slot": "exit", "t": ns(0.1)}),
+            json!({"kind": "log", "plugin": "(radar)", "t": ns(0.2)}),
+            json!({"kind": "slot-end", "plugin": "M", "slot": "exit", "outcome": "trapped", "t": ns(0.5)}),
+            json!({"kind": "fault", "plugin": "M", "t": ns(0.5)}),
+        ],
+    );
+    assert_eq!(report.ended_at, Duration::from_millis(500));
+}
+
+#[test]
+fn an_interrupt_past_its_bound_at_a_stop_is_not_a_fault_and_the_exit_runs() {
+    let plugin = with_exit_ms(motor("").config("interrupt_sleep_ms", 5000), 300);
+    let report = run(virtual_system().plugin(plugin), 30, |radar| {
+        radar.inject("M.start", json!(null))?;
+        radar.sleep(Duration::from_millis(100))?;
+        radar.inject("M.interrupt", json!(null))?; // its interrupt sleeps 5 s
+        radar.sleep(Duration::from_millis(100))?;
+        radar.stop();
+        Ok(())
+    });
+    let trace = records(&report);
+    assert_eq!(count(&trace, json!({"kind": "fault"})), 0, "not a fault");
+    assert_sequence(
+        &trace,
+        &[
+            json!({"kind": "slot-begin", "plugin": "M", "slot": "interrupt", "t": ns(0.1)}),
+            json!({"kind": "slot-end", "plugin": "M", "slot": "interrupt", "outcome": "trapped", "t": ns(0.5)}),
+            json!({"kind": "log", "plugin": "M", "level": "warn"}),
+            json!({"kind": "reset", "plugin": "M"}),
+            json!({"kind": "slot-begin", "plugin": "M", "slot": "exit", "after": "stop", "t": ns(0.5)}),
+            json!({"kind": "signal", "plugin": "M", "signal": "exited"}),
+        ],
+    );
+    assert_eq!(last_command(&trace), Some(0.0));
+}

@@ -6,33 +6,27 @@
 
 use std::cell::{Cell, RefCell};
 use std::collections::HashMap;
-use std::future::Future;
 use std::rc::Rc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
-use std::task::{Context, Poll, Wake, Waker};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use crossbeam_channel::{unbounded, Receiver, Sender};
 use wasmtime::component::Val;
-use zenoh::qos::CongestionControl;
 use zenoh::sample::SampleKind;
 use zenoh::{Session, Wait};
 
 use super::alone::{reporter, Reports};
 use super::error::NetworkError;
 use super::keys;
+use super::link::{logs, Link, Outbox};
 use super::protocol::split;
-use crate::capability::running::{self, RunningSystem};
-use crate::clock::{ClockKind, StopFlag, StopReason, TimeBase};
+use crate::capability::running;
+use crate::clock::{ClockKind, StopFlag, TimeBase};
 use crate::limiter::MemoryBudget;
-use crate::plugin::remote::{
-    mirror_stop, ExitReport, FromAgent, ToAgent, WireFault, WireLog, WireVal,
-};
+use crate::plugin::remote::{mirror_stop, ExitReport, FromAgent, ToAgent, WireFault, WireVal};
 use crate::plugin::{Export, Fault, InstanceSetup, Loader};
-use crate::ports::SignalName;
-use crate::trace::inputs::ReportedLine;
 use crate::watchdog::RunWatch;
 
 /// A running agent: dropping it leaves the network, after the exits of
@@ -44,6 +38,7 @@ pub struct Agent {
     workers: Workers,
     threads: Arc<Mutex<Vec<JoinHandle<()>>>>,
     running: Arc<AtomicBool>,
+    reports: Arc<Reports>,
 }
 
 type Inbox = Sender<(ToAgent, Vec<u8>)>;
@@ -54,14 +49,9 @@ type Workers = Arc<Mutex<HashMap<(String, String), Inbox>>>;
 /// How long [`Agent::stop`] waits for its workers' exits, at most.
 const STOP_WAIT: Duration = Duration::from_secs(10);
 
-/// The Zenoh lease an agent announces, unless told otherwise: how long
-/// its coordinator goes without a word from it before it counts as lost,
-/// and the other way round (`docs/network.md`).
-pub const DEFAULT_LEASE: Duration = Duration::from_secs(1);
-
 impl Agent {
     /// Joins the network on `listen`/`connect` as agent `name` and starts
-    /// taking plugins; `lease`: see [`DEFAULT_LEASE`].
+    /// taking plugins; `lease`: how long its coordinator may go silent before it counts as lost (1 s is the default of `radar agent`).
     pub fn start(
         name: &str,
         listen: &[String],
@@ -206,6 +196,7 @@ impl Agent {
             workers,
             threads,
             running,
+            reports,
         })
     }
 
@@ -219,6 +210,7 @@ impl Agent {
     /// each bounded by its `exit_ms` (what the agent ran is said on
     /// stderr); waits for them, at most 10 s.
     pub fn stop(&self) {
+        self.reports.leave();
         self.workers
             .lock()
             .unwrap_or_else(|e| e.into_inner())
@@ -244,35 +236,6 @@ impl Drop for Agent {
         self._declared.clear();
         let _ = self.session.close().wait();
     }
-}
-
-/// Where a worker's messages go.
-#[derive(Clone)]
-struct Outbox {
-    session: Session,
-    key: String,
-}
-
-impl Outbox {
-    fn send(&self, message: &FromAgent) {
-        let bytes = serde_json::to_vec(message).unwrap_or_default();
-        let _ = self
-            .session
-            .put(&self.key, bytes)
-            .congestion_control(CongestionControl::Block)
-            .express(true)
-            .wait();
-    }
-}
-
-fn logs(base: &TimeBase) -> Vec<WireLog> {
-    base.take_logs()
-        .into_iter()
-        .map(|l| WireLog {
-            level: l.level.to_string(),
-            message: l.message,
-        })
-        .collect()
 }
 
 /// What a worker is told besides its inbox.
@@ -448,7 +411,12 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
             }
             break;
         }
-        if export == Export::Exit {
+        // The activation is over: its exit returned, or its start or
+        // interrupt faulted (the coordinator runs the exit after the
+        // fault on a fresh instance, a worker of its own).
+        if export == Export::Exit
+            || (result.is_err() && matches!(export, Export::Start | Export::Interrupt))
+        {
             activation = false;
         }
         let result = result
@@ -514,314 +482,4 @@ fn say_and_keep(node: &str, system: &str, run: &str, report: ExitReport, reports
         report.ended.saturating_sub(report.began) as f64 / 1e6
     );
     reports.add(system, run, report);
-}
-
-/// A worker's line to its coordinator, in the middle of a call; alone
-/// once the coordinator is lost.
-struct Link {
-    rx: Receiver<(ToAgent, Vec<u8>)>,
-    out: Outbox,
-    base: TimeBase,
-    plugin: String,
-    /// The coordinator's time as last heard, and when it was heard.
-    synced: Cell<(u64, Instant)>,
-    alone: RefCell<Option<Alone>>,
-    /// The plugin's `exit_ms`.
-    exit_limit: Duration,
-    /// Its stop request, mirrored from the coordinator's.
-    stop: Arc<StopFlag>,
-}
-
-/// A worker without its coordinator.
-struct Alone {
-    /// When the slot running alone must have ended.
-    bound: Instant,
-    /// What the slot did that the coordinator would have routed or
-    /// recorded.
-    lines: Vec<ReportedLine>,
-}
-
-/// Wakes a flag: whether the future asked to be polled again at once.
-struct Flag(AtomicBool);
-
-impl Wake for Flag {
-    fn wake(self: Arc<Self>) {
-        self.0.store(true, Ordering::Release);
-    }
-    fn wake_by_ref(self: &Arc<Self>) {
-        self.0.store(true, Ordering::Release);
-    }
-}
-
-impl Link {
-    /// The coordinator's time is `now`.
-    fn sync(&self, now: u64) {
-        self.base.advance_to(now);
-        self.synced.set((now, Instant::now()));
-    }
-
-    /// The run's time as this worker keeps it: the coordinator's, or
-    /// alone, the last it heard plus the wall time since.
-    fn now(&self) -> u64 {
-        let (at, when) = self.synced.get();
-        if self.is_alone() {
-            at.saturating_add(crate::clock::duration_nanos(when.elapsed()))
-                .max(self.base.now())
-        } else {
-            self.base.now()
-        }
-    }
-
-    fn is_alone(&self) -> bool {
-        self.alone.borrow().is_some()
-    }
-
-    /// The coordinator is lost: the slot running now is stopped as by an
-    /// exit signal and has `limit` to end.
-    fn go_alone(&self, stop: &StopFlag, limit: Duration) {
-        if self.is_alone() {
-            return;
-        }
-        *self.alone.borrow_mut() = Some(Alone {
-            bound: Instant::now() + limit,
-            lines: Vec::new(),
-        });
-        self.catch_up();
-        mirror_stop(stop, Some(StopReason::Exit as u8), None);
-    }
-
-    /// Alone: the plugin's clock is brought to the wall clock's time, as
-    /// this worker keeps the run's time.
-    fn catch_up(&self) {
-        let now = self.now();
-        self.base.advance_to(now);
-        self.base.fire_due(now);
-    }
-
-    /// The slot about to run alone has `limit` to end.
-    fn bound(&self, limit: Duration) {
-        if let Some(alone) = self.alone.borrow_mut().as_mut() {
-            alone.bound = Instant::now() + limit;
-        }
-        self.catch_up();
-    }
-
-    /// An exit that ran alone from `began`, as a report.
-    fn report(&self, plugin: &str, began: u64, ended: Result<(), Fault>) -> ExitReport {
-        let mut logs: Vec<ReportedLine> = self
-            .base
-            .take_logs()
-            .into_iter()
-            .map(|l| ReportedLine {
-                level: l.level.to_string(),
-                message: l.message,
-            })
-            .collect();
-        if let Some(alone) = self.alone.borrow_mut().as_mut() {
-            logs.append(&mut alone.lines);
-        }
-        let (outcome, cause) = match ended {
-            Ok(()) => ("completed", None),
-            Err(fault) => ("trapped", Some(fault.cause)),
-        };
-        ExitReport {
-            plugin: plugin.to_string(),
-            began,
-            ended: self.now(),
-            outcome: outcome.to_string(),
-            cause,
-            logs,
-        }
-    }
-
-    /// Runs `future` (a call) to its end; each time it waits, the
-    /// coordinator waits for it and says when to go on (alone, the worker
-    /// waits on the wall clock). `None`: the coordinator dropped the
-    /// instance.
-    fn drive<F: Future>(&self, future: F, stop: &StopFlag) -> Option<F::Output> {
-        let flag = Arc::new(Flag(AtomicBool::new(false)));
-        let waker = Waker::from(flag.clone());
-        let mut cx = Context::from_waker(&waker);
-        let mut future = std::pin::pin!(future);
-        loop {
-            flag.0.store(false, Ordering::Release);
-            if let Poll::Ready(output) = future.as_mut().poll(&mut cx) {
-                return Some(output);
-            }
-            let yields = flag.0.load(Ordering::Acquire);
-            if self.is_alone() {
-                self.wait_alone(yields, stop);
-                continue;
-            }
-            let deadline = if yields {
-                None
-            } else {
-                self.base.next_deadline()
-            };
-            self.out.send(&FromAgent::Wait {
-                plugin: self.plugin.clone(),
-                deadline,
-                logs: logs(&self.base),
-            });
-            loop {
-                match self.rx.recv() {
-                    Ok((
-                        ToAgent::Wake {
-                            now,
-                            stop: code,
-                            fault,
-                            ..
-                        },
-                        _,
-                    )) => {
-                        self.sync(now);
-                        mirror_stop(stop, code, fault);
-                        self.base.fire_due(now);
-                        break;
-                    }
-                    Ok((ToAgent::Drop { .. }, _)) => return None,
-                    Err(_) => {
-                        let limit = self.exit_limit_now();
-                        self.go_alone(stop, limit);
-                        break;
-                    }
-                    Ok(_) => {}
-                }
-            }
-        }
-    }
-
-    /// How long the slot running when the link goes has: its plugin's
-    /// `exit_ms`.
-    fn exit_limit_now(&self) -> Duration {
-        self.exit_limit
-    }
-
-    /// Alone, a call waits: until its timer, on the wall clock, or past
-    /// its bound (then it faults at its next host call).
-    fn wait_alone(&self, yields: bool, stop: &StopFlag) {
-        let bound = self
-            .alone
-            .borrow()
-            .as_ref()
-            .map_or_else(Instant::now, |a| a.bound);
-        if Instant::now() >= bound {
-            if stop.fault().is_none() {
-                stop.request_fault(format!(
-                    "it did not end within its exit_ms of the loss of the coordinator ({} ms)",
-                    self.exit_limit_now().as_millis()
-                ));
-            }
-            return;
-        }
-        if yields {
-            return;
-        }
-        let now = self.now();
-        let until = self.base.next_deadline().unwrap_or(u64::MAX);
-        let wait = Duration::from_nanos(until.saturating_sub(now))
-            .min(bound.saturating_duration_since(Instant::now()));
-        std::thread::sleep(wait);
-        self.catch_up();
-    }
-
-    /// Asks the coordinator and waits for its answer.
-    fn ask(&self, message: FromAgent) -> wasmtime::Result<Option<WireVal>> {
-        self.out.send(&message);
-        loop {
-            match self.rx.recv() {
-                Ok((ToAgent::Answer { result, .. }, _)) => {
-                    return result.map_err(|e| wasmtime::format_err!("{e}"));
-                }
-                Ok((ToAgent::Drop { .. }, _)) => {
-                    return Err(wasmtime::format_err!(
-                        "the coordinator dropped the instance"
-                    ));
-                }
-                Err(_) => {
-                    // Lost while it asked: alone from here (see `note`).
-                    self.go_alone(&self.stop, self.exit_limit);
-                    self.note("the link to the coordinator went while it asked it".into());
-                    return Ok(None);
-                }
-                Ok(_) => {}
-            }
-        }
-    }
-
-    /// Alone, what the slot does that the coordinator would have routed:
-    /// kept for the report.
-    fn note(&self, line: String) -> bool {
-        match self.alone.borrow_mut().as_mut() {
-            Some(alone) => {
-                alone.lines.push(ReportedLine {
-                    level: "info".into(),
-                    message: line,
-                });
-                true
-            }
-            None => false,
-        }
-    }
-}
-
-impl RunningSystem for Link {
-    fn emit(
-        &self,
-        _plugin: &str,
-        signal: SignalName,
-        payload: Option<Val>,
-    ) -> wasmtime::Result<()> {
-        let shown = payload.as_ref().map_or(String::new(), |v| {
-            format!("({})", crate::payload::trace_json(v))
-        });
-        if self.note(format!(
-            "emitted {}{shown} while the coordinator was lost (not routed)",
-            signal.as_str()
-        )) {
-            return Ok(());
-        }
-        let payload = payload
-            .as_ref()
-            .map(WireVal::from_val)
-            .transpose()
-            .map_err(|e| wasmtime::format_err!("{e}"))?;
-        self.ask(FromAgent::Emit {
-            plugin: self.plugin.clone(),
-            signal: signal.as_str().to_string(),
-            payload,
-            logs: logs(&self.base),
-        })
-        .map(drop)
-    }
-
-    fn board_read(&self, _plugin: &str, entry: &str) -> wasmtime::Result<Option<Val>> {
-        if self.is_alone() {
-            // The blackboard is the coordinator's: nothing to read alone.
-            return Ok(None);
-        }
-        self.ask(FromAgent::BoardRead {
-            plugin: self.plugin.clone(),
-            entry: entry.to_string(),
-            logs: logs(&self.base),
-        })
-        .map(|v| v.map(WireVal::into_val))
-    }
-
-    fn board_write(&self, _plugin: &str, entry: &str, value: Val) -> wasmtime::Result<()> {
-        if self.note(format!(
-            "wrote {entry} = {} while the coordinator was lost (not written)",
-            crate::payload::trace_json(&value)
-        )) {
-            return Ok(());
-        }
-        let value = WireVal::from_val(&value).map_err(|e| wasmtime::format_err!("{e}"))?;
-        self.ask(FromAgent::BoardWrite {
-            plugin: self.plugin.clone(),
-            entry: entry.to_string(),
-            value,
-            logs: logs(&self.base),
-        })
-        .map(drop)
-    }
 }

@@ -30,6 +30,9 @@ struct Pending {
 pub(super) struct Reports {
     pending: Mutex<Vec<Pending>>,
     alive: Mutex<HashSet<String>>,
+    /// The agent is leaving: its coordinators still look alive, but have
+    /// not lost it yet, so nothing is sent (its exits are said on stderr).
+    leaving: AtomicBool,
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
@@ -62,8 +65,16 @@ impl Reports {
         }
     }
 
+    /// The agent is leaving: no report is sent from now on.
+    pub(super) fn leave(&self) {
+        self.leaving.store(true, Ordering::Relaxed);
+    }
+
     /// Sends every report whose coordinator is alive.
     fn send(&self, session: &Session, node: &str) {
+        if self.leaving.load(Ordering::Relaxed) {
+            return;
+        }
         let alive = lock(&self.alive).clone();
         let due: Vec<(String, FromAgent)> = lock(&self.pending)
             .iter()

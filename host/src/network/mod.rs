@@ -22,6 +22,7 @@ mod control;
 mod coordinator;
 mod error;
 pub mod keys;
+mod link;
 mod local_key;
 pub mod protocol;
 mod publish;

@@ -69,6 +69,11 @@ pub struct NetworkSettings {
     pub lease_ms: Option<u64>,
 }
 
+/// The Zenoh lease an agent announces, unless told otherwise: how long
+/// its coordinator goes without a word from it before it counts as lost,
+/// and the other way round (`docs/network.md`).
+pub const DEFAULT_LEASE: std::time::Duration = std::time::Duration::from_secs(1);
+
 fn default_system() -> String {
     "radar".into()
 }
@@ -76,10 +81,8 @@ fn default_system() -> String {
 impl NetworkSettings {
     /// The link lease (see `lease_ms`).
     pub fn lease(&self) -> std::time::Duration {
-        self.lease_ms.map_or(
-            super::agent::DEFAULT_LEASE,
-            std::time::Duration::from_millis,
-        )
+        self.lease_ms
+            .map_or(DEFAULT_LEASE, std::time::Duration::from_millis)
     }
 
     /// Checks what the manifest's parser cannot: names and the pairing of

@@ -132,6 +132,7 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
         let began = core.base.now();
         began_behind = (core.base.kind() == ClockKind::Real).then(|| core.base.behind());
         let outcome = inst.check().await;
+        let ended_by_stop = matches!(&outcome, Err(fault) if fault.ended_by_stop);
         core.with(|st| {
             let now = st.now();
             let entry = &mut st.plugins[pid];
@@ -159,10 +160,29 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
                 Ok(None) => {}
             }
         });
-        if core.with(|st| st.plugins[pid].lifecycle == Lifecycle::Error || st.winding.is_some()) {
+        if ended_by_stop
+            || core.with(|st| st.plugins[pid].lifecycle == Lifecycle::Error || st.winding.is_some())
+        {
+            // Its store is spent (or no more checks come).
             instance = None;
         }
     }
+}
+
+/// A slot asked to stop ignored it until its fuel ran out (or a stop's
+/// bound passed): said in the trace, before its fresh instance.
+fn ignored_stop(core: &Core, pid: usize, slot: &str, fault: &Fault) {
+    core.with(|st| {
+        let plugin = st.plugins[pid].name.clone();
+        st.record(Entry::Log {
+            plugin,
+            level: "warn".into(),
+            message: format!(
+                "{slot} ignored the request to stop ({}); re-instantiated",
+                fault.cause
+            ),
+        });
+    });
 }
 
 /// Never ready: a task parked for the rest of the run (the run is
@@ -200,6 +220,20 @@ fn trapped(core: &Core, pid: usize, slot: Slot, fault: Fault) -> bool {
             false
         }
     })
+}
+
+/// An exit that runs because something went wrong (`after`: `fault`,
+/// `stop`) begins.
+pub(super) fn exit_begins_after(st: &mut State, pid: usize, after: &'static str) {
+    let plugin = st.plugins[pid].name.clone();
+    st.record(Entry::SlotBegin {
+        plugin,
+        slot: Slot::Exit.as_str().into(),
+        connection: None,
+        queued: None,
+        after: Some(after.into()),
+        ran: None,
+    });
 }
 
 /// `connection`: for `start`, the connection whose start began it;
@@ -322,20 +356,13 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
             Err(fault) if (fault.out_of_fuel || overran) && stop_request.is_some() => {
                 stop.clear_fault();
                 slot_end(&core, pid, Slot::Start, "trapped");
-                core.with(|st| {
-                    let plugin = st.plugins[pid].name.clone();
-                    st.record(Entry::Log {
-                        plugin,
-                        level: "warn".into(),
-                        message: format!(
-                            "start ignored the request to stop ({}); re-instantiated",
-                            fault.cause
-                        ),
-                    });
-                });
+                ignored_stop(&core, pid, "start", &fault);
                 instance = core.fresh_instance(pid).await;
                 let Some(fresh) = instance.as_mut() else {
-                    continue; // instantiation failed: the plugin is in error
+                    // Instantiation failed: the plugin is in error, and
+                    // its exit could not run.
+                    core.with(|st| st.exit_not_run_after_reset_failed(pid));
+                    continue;
                 };
                 inst = fresh;
                 None
@@ -357,31 +384,37 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
                 slot_begin(st, pid, Slot::Interrupt, None, None);
                 st.emit(pid, Signal::Interrupted, payload.clone());
             });
-            if let Err(fault) = inst.interrupt(payload).await {
-                instance = None;
-                if trapped(&core, pid, Slot::Interrupt, fault) {
-                    core.exit_after_fault(pid).await;
+            match inst.interrupt(payload).await {
+                Ok(()) => slot_end(&core, pid, Slot::Interrupt, "completed"),
+                Err(fault) if !stop.take_overrun() => {
+                    instance = None;
+                    if trapped(&core, pid, Slot::Interrupt, fault) {
+                        core.exit_after_fault(pid).await;
+                    }
+                    continue;
                 }
-                continue;
+                // Past the bound of the run's stop: not its own fault; its
+                // exit runs on a fresh instance, as for a `start` that
+                // ignored a request to stop.
+                Err(fault) => {
+                    slot_end(&core, pid, Slot::Interrupt, "trapped");
+                    stop.clear_fault();
+                    ignored_stop(&core, pid, "interrupt", &fault);
+                    instance = core.fresh_instance(pid).await;
+                    let Some(fresh) = instance.as_mut() else {
+                        core.with(|st| st.exit_not_run_after_reset_failed(pid));
+                        continue;
+                    };
+                    inst = fresh;
+                }
             }
-            slot_end(&core, pid, Slot::Interrupt, "completed");
         }
         // exit (bounded while the run stops)
         core.with(|st| {
             st.set_phase(pid, Phase::Exiting);
-            let after = st.exit_begins(pid);
-            if after.is_none() {
-                slot_begin(st, pid, Slot::Exit, None, None);
-            } else if st.trace.tracing() {
-                let plugin = st.plugins[pid].name.clone();
-                st.record(Entry::SlotBegin {
-                    plugin,
-                    slot: Slot::Exit.as_str().into(),
-                    connection: None,
-                    queued: None,
-                    after: after.map(Into::into),
-                    ran: None,
-                });
+            match st.exit_begins(pid) {
+                Some(after) => exit_begins_after(st, pid, after),
+                None => slot_begin(st, pid, Slot::Exit, None, None),
             }
         });
         let exited = inst.exit().await;

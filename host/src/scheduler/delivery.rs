@@ -286,6 +286,9 @@ impl State {
             self.stop = true;
             return;
         }
+        // A bound of the run's stop on the slot that faulted is over: the
+        // exit after the fault has its own.
+        self.unbind(pid);
         let entry = &mut self.plugins[pid];
         entry.lifecycle = Lifecycle::Error;
         entry.stop.clear();

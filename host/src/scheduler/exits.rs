@@ -8,6 +8,7 @@
 //! run it (no fresh instance, an exit that faults or overruns) is recorded
 //! and not tried again.
 
+use super::actors::exit_begins_after;
 use super::state::{Core, Phase, StartRequest, State, Winding};
 use crate::clock::{duration_nanos, StopReason};
 use crate::executor::TaskId;
@@ -27,15 +28,7 @@ impl Core {
         match self.try_instantiate(pid, true).await {
             Ok(mut fresh) => {
                 let bound = self.with(|st| {
-                    let plugin = st.plugins[pid].name.clone();
-                    st.record(Entry::SlotBegin {
-                        plugin,
-                        slot: Slot::Exit.as_str().into(),
-                        connection: None,
-                        queued: None,
-                        after: Some("fault".into()),
-                        ran: None,
-                    });
+                    exit_begins_after(st, pid, "fault");
                     st.bound_exit(pid, "after its fault")
                 });
                 let ended = fresh.exit().await;
@@ -117,7 +110,11 @@ impl State {
                     slot: Slot::Exit.as_str().into(),
                     outcome: "trapped".into(),
                 });
-                let cause = if fault.cause.starts_with("its exit") {
+                let cause = if fault.cause.starts_with("its exit")
+                    || fault.cause.starts_with("node-lost")
+                {
+                    // (Lost with its agent: the agent finishes it, and
+                    // reports it when the link is back.)
                     fault.cause
                 } else {
                     format!("its exit {why} faulted: {}", fault.cause)
@@ -125,6 +122,18 @@ impl State {
                 self.exit_not_run(pid, cause);
             }
         }
+    }
+
+    /// A `start` (or `interrupt`) that ignored a request to stop was ended,
+    /// and no fresh instance could be made for the rest of its activation
+    /// (the plugin faulted already, saying why): its exit did not run.
+    pub(super) fn exit_not_run_after_reset_failed(&mut self, pid: usize) {
+        self.exit_not_run(
+            pid,
+            "its exit did not run: no fresh instance could be made after it ignored a \
+             request to stop"
+                .into(),
+        );
     }
 
     /// An exit owed after a fault could not run, or did not finish: a
@@ -178,7 +187,11 @@ impl State {
                     entry.stop_request = Some((StopReason::Exit, None));
                     entry.stop.request(StopReason::Exit);
                 }
-                if matches!(entry.phase, Phase::Running | Phase::Interrupting) {
+                if entry.phase == Phase::Exiting {
+                    // An exit already running has its `exit_ms` from now.
+                    let bound = self.bound_exit(pid, "at the run's stop");
+                    self.plugins[pid].bound = bound;
+                } else if matches!(entry.phase, Phase::Running | Phase::Interrupting) {
                     let cause = format!(
                         "it did not stop within its exit_ms ({} ms) of the run's stop",
                         limit / 1_000_000

@@ -167,8 +167,11 @@ enum Step {
     StartTrapped,
     Interrupting,
     InterruptEnded,
-    /// The interrupt slot trapped: a fault comes next.
+    /// The interrupt slot trapped: a fault comes next (or, past a stop's
+    /// bound, a fresh instance).
     InterruptTrapped,
+    /// The exit slot trapped: a fault comes next.
+    ExitTrapped,
     /// Start or interrupt faulted: the exit after the fault may begin.
     FaultExitOwed,
     /// The exit after a fault runs; no `exited` follows it.
@@ -470,10 +473,13 @@ impl Checker {
             Entry::Reset { plugin } => {
                 self.require_no_exit_owed(plugin, "reset");
                 self.faulted.remove(plugin.as_ref());
-                if self.step_of(plugin) == Step::StartTrapped {
+                match self.step_of(plugin) {
                     // Stopped by its fuel after a stop request: interrupt
                     // and exit run on this fresh instance.
-                    self.set_step(plugin, Step::StartEnded);
+                    Step::StartTrapped => self.set_step(plugin, Step::StartEnded),
+                    // Ended by a stop's bound: exit runs on it.
+                    Step::InterruptTrapped => self.set_step(plugin, Step::InterruptEnded),
+                    _ => {}
                 }
             }
             Entry::SwapRequest {
@@ -598,13 +604,14 @@ impl Checker {
         self.reporting.insert(plugin.to_string());
     }
 
-    /// A reset or a swap waits for the exit a fault owed.
+    /// A reset or a swap waits for the exit a fault owed, which runs, or
+    /// is recorded as not run, first.
     fn require_no_exit_owed(&mut self, plugin: &str, what: &str) {
         let step = self.step_of(plugin);
-        if matches!(step, Step::FaultExiting) {
+        if matches!(step, Step::FaultExiting | Step::FaultExitOwed) {
             self.fail(
                 "activation",
-                format!("{what} of {plugin} while its exit after a fault runs"),
+                format!("{what} of {plugin} before its exit after a fault ran or was recorded as not run"),
             );
         }
         if matches!(step, Step::FaultExitOwed | Step::FaultExiting) {
@@ -619,7 +626,15 @@ impl Checker {
         if slot == "exit" && self.step_of(plugin) == Step::FaultExiting {
             // No `exited` follows an exit after a fault; a trapped one is
             // followed by its `fault` record.
-            self.set_step(plugin, Step::Idle);
+            let trapped = outcome == "trapped";
+            self.set_step(
+                plugin,
+                if trapped {
+                    Step::ExitTrapped
+                } else {
+                    Step::Idle
+                },
+            );
             return;
         }
         let trapped = outcome == "trapped";
@@ -638,6 +653,9 @@ impl Checker {
             }
             if trapped && slot == "interrupt" {
                 self.set_step(plugin, Step::InterruptTrapped);
+            }
+            if trapped && slot == "exit" {
+                self.set_step(plugin, Step::ExitTrapped);
             }
         }
     }

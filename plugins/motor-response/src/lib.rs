@@ -7,6 +7,8 @@
 //!   `start` after `fail_after_ms` (default 500); `interrupt` (its
 //!   `interrupt` slot traps); `ignore` (asked to stop, `start` spins and
 //!   never returns);
+//! - `interrupt_sleep_ms`: `interrupt` sleeps this long (its sleep
+//!   ignored if ended early);
 //! - `exit_sleep_ms`: `exit` sleeps this long before stopping the motors;
 //!   `exit_fail`: `trap` (`exit` traps).
 use radar_guest::prelude::*;
@@ -79,6 +81,10 @@ impl Guest for MotorResponse {
     fn interrupt() {
         if config_or("fail", String::new()) == "interrupt" {
             panic!("the fixture's interrupt traps on purpose");
+        }
+        let pause = config_or("interrupt_sleep_ms", 0u64);
+        if pause > 0 {
+            let _ = sleep(Duration::from_millis(pause));
         }
         info("interrupted");
     }
