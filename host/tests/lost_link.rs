@@ -144,6 +144,7 @@ fn a_killed_coordinator_leaves_the_agent_to_run_the_exits_of_its_running_respons
 struct Proxy {
     port: u16,
     cut: Arc<AtomicBool>,
+    closed: Arc<AtomicBool>,
     streams: Arc<Mutex<Vec<TcpStream>>>,
 }
 
@@ -152,10 +153,15 @@ impl Proxy {
         let listener = TcpListener::bind("127.0.0.1:0").expect("binds");
         let port = listener.local_addr().expect("address").port();
         let cut = Arc::new(AtomicBool::new(false));
+        let closed = Arc::new(AtomicBool::new(false));
         let streams: Arc<Mutex<Vec<TcpStream>>> = Arc::default();
         let (accept_cut, accept_streams) = (cut.clone(), streams.clone());
+        let accept_closed = closed.clone();
         std::thread::spawn(move || {
             for client in listener.incoming() {
+                if accept_closed.load(Ordering::SeqCst) {
+                    break; // the proxy was dropped: the thread ends
+                }
                 let Ok(client) = client else { continue };
                 if accept_cut.load(Ordering::SeqCst) {
                     continue; // refused: dropped at once
@@ -191,13 +197,30 @@ impl Proxy {
                 kept.push(server);
             }
         });
-        Self { port, cut, streams }
+        Self {
+            port,
+            cut,
+            closed,
+            streams,
+        }
     }
 
     fn cut(&self) {
         self.cut.store(true, Ordering::SeqCst);
     }
+}
 
+impl Drop for Proxy {
+    /// Everything it carries is closed, and its accepting thread woken to
+    /// end.
+    fn drop(&mut self) {
+        self.closed.store(true, Ordering::SeqCst);
+        self.mend();
+        let _ = TcpStream::connect(("127.0.0.1", self.port));
+    }
+}
+
+impl Proxy {
     /// Carries again: the connections that went silent are closed (their
     /// ends gave them up at their lease), new ones are carried.
     fn mend(&self) {

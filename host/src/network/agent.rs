@@ -333,7 +333,7 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
         .as_ref()
         .map_err(|e| Fault::new(e.cause.clone()))
         .and_then(|code| {
-            link.drive(code.instantiate_here(setup.clone()), &stop)
+            link.drive(code.instantiate_here(setup.clone()))
                 .ok_or_else(|| Fault::new("the coordinator left"))
                 .and_then(|r| r)
         });
@@ -365,7 +365,7 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
         let message = match rx.recv() {
             Ok((message, _)) => message,
             Err(_) => {
-                link.go_alone(&stop, exit_limit);
+                link.go_alone();
                 break;
             }
         };
@@ -396,8 +396,7 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
             _ => {}
         }
         let args: Vec<Val> = args.into_iter().map(WireVal::into_val).collect();
-        let Some(result) = link.drive(instance.call_export(export, &args, has_result), &stop)
-        else {
+        let Some(result) = link.drive(instance.call_export(export, &args, has_result)) else {
             return; // dropped by the coordinator in the middle of the call
         };
         if link.is_alone() {
@@ -442,7 +441,7 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
         let Ok(code) = &code else { return };
         stop.clear();
         stop.clear_fault();
-        match link.drive(code.instantiate_here(setup), &stop) {
+        match link.drive(code.instantiate_here(setup)) {
             Some(Ok(fresh)) => instance = fresh,
             _ => {
                 let began = link.now();
@@ -463,7 +462,7 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
     stop.clear_fault();
     link.bound(exit_limit);
     let began = link.now();
-    let ended = link.drive(instance.call_export(Export::Exit, &[], false), &stop);
+    let ended = link.drive(instance.call_export(Export::Exit, &[], false));
     let ended = ended.unwrap_or_else(|| Err(Fault::new("dropped")));
     let report = link.report(&name, began, ended.map(drop));
     say_and_keep(&node, &system, &run, report, &reports);

@@ -113,17 +113,17 @@ impl Link {
     }
 
     /// The coordinator is lost: the slot running now is stopped as by an
-    /// exit signal and has `limit` to end.
-    pub(super) fn go_alone(&self, stop: &StopFlag, limit: Duration) {
+    /// exit signal and has the plugin's `exit_ms` to end.
+    pub(super) fn go_alone(&self) {
         if self.is_alone() {
             return;
         }
         *self.alone.borrow_mut() = Some(Alone {
-            bound: Instant::now() + limit,
+            bound: Instant::now() + self.exit_limit,
             lines: Vec::new(),
         });
         self.catch_up();
-        mirror_stop(stop, Some(StopReason::Exit as u8), None);
+        mirror_stop(&self.stop, Some(StopReason::Exit as u8), None);
     }
 
     /// Alone: the plugin's clock is brought to the wall clock's time, as
@@ -174,7 +174,7 @@ impl Link {
     /// coordinator waits for it and says when to go on (alone, the worker
     /// waits on the wall clock). `None`: the coordinator dropped the
     /// instance.
-    pub(super) fn drive<F: Future>(&self, future: F, stop: &StopFlag) -> Option<F::Output> {
+    pub(super) fn drive<F: Future>(&self, future: F) -> Option<F::Output> {
         let flag = Arc::new(Flag(AtomicBool::new(false)));
         let waker = Waker::from(flag.clone());
         let mut cx = Context::from_waker(&waker);
@@ -186,7 +186,7 @@ impl Link {
             }
             let yields = flag.0.load(Ordering::Acquire);
             if self.is_alone() {
-                self.wait_alone(yields, stop);
+                self.wait_alone(yields);
                 continue;
             }
             let deadline = if yields {
@@ -211,14 +211,13 @@ impl Link {
                         _,
                     )) => {
                         self.sync(now);
-                        mirror_stop(stop, code, fault);
+                        mirror_stop(&self.stop, code, fault);
                         self.base.fire_due(now);
                         break;
                     }
                     Ok((ToAgent::Drop { .. }, _)) => return None,
                     Err(_) => {
-                        let limit = self.exit_limit_now();
-                        self.go_alone(stop, limit);
+                        self.go_alone();
                         break;
                     }
                     Ok(_) => {}
@@ -227,25 +226,19 @@ impl Link {
         }
     }
 
-    /// How long the slot running when the link goes has: its plugin's
-    /// `exit_ms`.
-    fn exit_limit_now(&self) -> Duration {
-        self.exit_limit
-    }
-
     /// Alone, a call waits: until its timer, on the wall clock, or past
     /// its bound (then it faults at its next host call).
-    fn wait_alone(&self, yields: bool, stop: &StopFlag) {
+    fn wait_alone(&self, yields: bool) {
         let bound = self
             .alone
             .borrow()
             .as_ref()
             .map_or_else(Instant::now, |a| a.bound);
         if Instant::now() >= bound {
-            if stop.fault().is_none() {
-                stop.request_fault(format!(
+            if self.stop.fault().is_none() {
+                self.stop.request_fault(format!(
                     "it did not end within its exit_ms of the loss of the coordinator ({} ms)",
-                    self.exit_limit_now().as_millis()
+                    self.exit_limit.as_millis()
                 ));
             }
             return;
@@ -276,7 +269,7 @@ impl Link {
                 }
                 Err(_) => {
                     // Lost while it asked: alone from here (see `note`).
-                    self.go_alone(&self.stop, self.exit_limit);
+                    self.go_alone();
                     self.note("the link to the coordinator went while it asked it".into());
                     return Ok(None);
                 }

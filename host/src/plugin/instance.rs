@@ -91,7 +91,9 @@ pub(crate) struct LocalInstance {
     fuel_used: Arc<AtomicU64>,
     /// Real clock: how long one call may compute (`Limits::deadline`).
     deadline: Option<std::time::Duration>,
-    real_clock: bool,
+    /// Real clock: its stop flag, looked at while a call computes (see
+    /// `call`).
+    stop: Option<Arc<StopFlag>>,
     stderr: StderrTail,
     funcs: [Option<Func>; 6],
 }
@@ -230,7 +232,7 @@ impl PluginCode {
             fuel_per_call: setup.limits.fuel_per_call,
             fuel_used: setup.fuel_used,
             deadline: setup.limits.deadline.filter(|_| real_clock),
-            real_clock,
+            stop: real_clock.then(|| setup.stop.clone()),
             stderr,
             funcs,
         })
@@ -299,9 +301,7 @@ impl LocalInstance {
         // Under the real clock a fault the scheduler asks for (an exit past
         // its `exit_ms`) ends a call that computes at its next yield, not
         // only at its next host call or the engine's next tick.
-        let stop = self
-            .real_clock
-            .then(|| self.store.data().clock().stop.clone());
+        let stop = self.stop.as_deref();
         let mut computed = std::time::Duration::ZERO;
         let called = {
             let mut call = std::pin::pin!(func.call_async(&mut self.store, params, slots));
@@ -323,7 +323,7 @@ impl LocalInstance {
                         ))));
                     }
                 }
-                if let (Some(stop), Ok(std::task::Poll::Pending)) = (&stop, &polled) {
+                if let (Some(stop), Ok(std::task::Poll::Pending)) = (stop, &polled) {
                     if let Some(cause) = stop.fault() {
                         return std::task::Poll::Ready(Ok(Err(wasmtime::Error::msg(cause))));
                     }

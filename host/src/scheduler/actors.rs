@@ -91,10 +91,6 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
             e.reset_requested || e.swap.is_some() || e.lifecycle == Lifecycle::Active
         })
         .await;
-        if core.with(|st| st.winding.is_some()) {
-            // The run is stopping: no more checks.
-            park().await;
-        }
         // The safe point: between checks.
         if let Some(transition) = core.pending_transition(pid) {
             Box::pin(core.transition(pid, &mut instance, transition)).await;
@@ -113,7 +109,11 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
             instance = None;
             continue;
         }
-        let next = core.with(|st| st.plugins[pid].next_check);
+        let (next, winding) = core.with(|st| (st.plugins[pid].next_check, st.winding.is_some()));
+        if winding {
+            // The run is stopping: no more checks.
+            park().await;
+        }
         if core.base.now() < next {
             let mut sleep = core.base.sleep_until(next, Some(stop.clone()));
             if let Some(behind) = began_behind {
@@ -361,7 +361,7 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
                 let Some(fresh) = instance.as_mut() else {
                     // Instantiation failed: the plugin is in error, and
                     // its exit could not run.
-                    core.with(|st| st.exit_not_run_after_reset_failed(pid));
+                    core.with(|st| st.exit_not_run_without_instance(pid));
                     continue;
                 };
                 inst = fresh;
@@ -402,7 +402,7 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
                     ignored_stop(&core, pid, "interrupt", &fault);
                     instance = core.fresh_instance(pid).await;
                     let Some(fresh) = instance.as_mut() else {
-                        core.with(|st| st.exit_not_run_after_reset_failed(pid));
+                        core.with(|st| st.exit_not_run_without_instance(pid));
                         continue;
                     };
                     inst = fresh;

@@ -286,6 +286,8 @@ impl State {
             self.stop = true;
             return;
         }
+        // Lost with the agent it ran on (`docs/network.md`).
+        let lost = fault.cause.starts_with("node-lost");
         // A bound of the run's stop on the slot that faulted is over: the
         // exit after the fault has its own.
         self.unbind(pid);
@@ -324,6 +326,10 @@ impl State {
             plugin,
             state: "error".into(),
         });
+        if activation.is_some() && lost {
+            // Its agent may report the exit it ran alone.
+            self.plugins[pid].lost_exits += 1;
+        }
         let until = activation.and_then(|a| a.until);
         if owes_exit {
             self.plugins[pid].fault_exit = Some(FaultExit { until });
@@ -332,15 +338,10 @@ impl State {
         }
         // Starts it had accepted are dropped: with the fault, or with the
         // agent it ran on.
-        let reason = if fault.cause.starts_with("node-lost") {
-            "node-lost"
-        } else {
-            "fault"
-        };
+        let reason = if lost { "node-lost" } else { "fault" };
         for request in withdrawn {
             self.withdraw_start(pid, request, reason);
         }
-        let lost = fault.cause.starts_with("node-lost");
         let reset_after = fault.reset_after;
         self.emit(
             pid,

@@ -70,12 +70,6 @@ impl State {
             "its exit {why} ran past its exit_ms ({} ms) and was ended",
             limit.as_millis()
         );
-        self.bound_slot(pid, at, cause)
-    }
-
-    /// Has plugin `pid`'s running slot trap with `cause` if it still runs
-    /// at `at`; the bound's task, to cancel when the slot ends.
-    pub(super) fn bound_slot(&mut self, pid: usize, at: u64, cause: String) -> Option<TaskId> {
         let stop = self.plugins[pid].stop.clone();
         self.bound_task(at, move || stop.request_fault(cause))
     }
@@ -127,7 +121,7 @@ impl State {
     /// A `start` (or `interrupt`) that ignored a request to stop was ended,
     /// and no fresh instance could be made for the rest of its activation
     /// (the plugin faulted already, saying why): its exit did not run.
-    pub(super) fn exit_not_run_after_reset_failed(&mut self, pid: usize) {
+    pub(super) fn exit_not_run_without_instance(&mut self, pid: usize) {
         self.exit_not_run(
             pid,
             "its exit did not run: no fresh instance could be made after it ignored a \

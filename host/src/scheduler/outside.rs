@@ -117,9 +117,13 @@ impl State {
             let Some(pid) = self.by_name.get(&exit.plugin).copied() else {
                 continue;
             };
-            if self.plugins[pid].def.node.as_deref() != Some(node) {
-                continue; // not a plugin this agent holds
+            let entry = &mut self.plugins[pid];
+            if entry.def.node.as_deref() != Some(node) || entry.lost_exits == 0 {
+                // Not a plugin this agent holds, or no activation of it
+                // was lost with the agent: nothing it could end.
+                continue;
             }
+            entry.lost_exits -= 1;
             let plugin = self.plugins[pid].name.clone();
             self.record(Entry::SlotBegin {
                 plugin: plugin.clone(),

@@ -201,6 +201,7 @@ impl Scheduler {
                     swap: None,
                     fault_exit: None,
                     bound: None,
+                    lost_exits: 0,
                 }
             })
             .collect();

@@ -171,6 +171,9 @@ pub(super) struct PluginEntry {
     /// The task that bounds its running slot while the run stops (see
     /// `exits`), to cancel when the slot ends.
     pub(super) bound: Option<TaskId>,
+    /// Activations lost with its agent whose exits the agent has not
+    /// reported yet (see `outside::exits_reported`).
+    pub(super) lost_exits: u32,
 }
 
 impl PluginEntry {
