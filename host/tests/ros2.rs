@@ -653,3 +653,85 @@ fn a_killed_agent_faults_its_response_and_the_fail_safe_route_stops_the_base() {
         "the coordinator never runs a remote plugin's exit: {trace}"
     );
 }
+
+#[test]
+fn whole_twists_from_rust_python_and_javascript_plugins_reach_a_ros2_subscriber() {
+    use radar_fixtures::plugins::{BACK_OFF_RESPONSE, BACK_OFF_RESPONSE_JS, BACK_OFF_RESPONSE_PY};
+    let python = python();
+    let languages = [
+        ("Rs", BACK_OFF_RESPONSE, 0.1),
+        ("Py", BACK_OFF_RESPONSE_PY, 0.2),
+        ("Js", BACK_OFF_RESPONSE_JS, 0.3),
+    ];
+    let injects: Vec<String> = languages
+        .iter()
+        .enumerate()
+        .map(|(i, (name, _, speed))| format!("{}s:BackOff{name}.start={speed}", 3 + 2 * i))
+        .collect();
+    let mut args = vec!["--clock", "real", "--for", "10s"];
+    for inject in &injects {
+        args.extend(["--inject", inject]);
+    }
+    let run = Running::start(
+        |ep| {
+            let mut manifest = format!("[ros2]\nnode = \"radar_base\"\nlisten = [\"{ep}\"]\n\n");
+            for (name, wasm, _) in languages {
+                manifest += &format!(
+                    "[plugins.BackOff{name}]\nwasm = \"{wasm}\"\nboard = {{ write = [\"last-command\"] }}\n\n\
+                     [[ros2.publish]]\nsignal = \"BackOff{name}.cmd-vel\"\ntopic = \"/cmd_vel\"\n\
+                     type = \"geometry_msgs/msg/Twist\"\n\n"
+                );
+            }
+            manifest
+        },
+        &args,
+    );
+    let twists = twists_on_cmd_vel(&python, run.port, 6, 20);
+    let (ok, lines, stderr) = twists.finish();
+    assert!(ok, "{stderr}");
+    let messages: Vec<Json> = lines
+        .iter()
+        .filter(|l| l.starts_with('{'))
+        .map(|l| serde_json::from_str(l).expect("JSON"))
+        .collect();
+    let twist = |x: f64| serde_json::json!({"linear": {"x": x, "y": 0.0, "z": 0.0}, "angular": {"x": 0.0, "y": 0.0, "z": 0.0}});
+    // Each language backs away at its speed, then its exit stops the base.
+    let expected: Vec<Json> = languages
+        .iter()
+        .flat_map(|(_, _, speed)| [twist(-speed), twist(0.0)])
+        .collect();
+    assert_eq!(messages.len(), expected.len(), "{lines:?}");
+    for (got, want) in messages.iter().zip(&expected) {
+        let x = |m: &Json| m["linear"]["x"].as_f64().expect("a number");
+        assert!((x(got) - x(want)).abs() < 1e-9, "{got} against {want}");
+        assert_eq!(got["angular"], want["angular"], "{lines:?}");
+    }
+    let (out, _dir) = run.finish(Duration::from_secs(30));
+    assert!(out.status.success(), "{}", text(&out.stderr));
+}
+
+#[test]
+fn ros2_show_wit_prints_records_that_paste_into_a_world_as_they_are() {
+    let out = Command::new(env!("CARGO_BIN_EXE_radar"))
+        .args(["ros2", "show", "geometry_msgs/msg/Twist", "--wit"])
+        .output()
+        .expect("radar runs");
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let wit = text(&out.stdout);
+    assert!(wit.contains("record twist {"), "{wit}");
+    // BackOff's world (built in four languages by the tests) holds the
+    // text as printed, indented into its interface.
+    let world =
+        std::fs::read_to_string(root().join("plugins/wit/back-off/world.wit")).expect("the world");
+    let indented: String = wit
+        .lines()
+        .map(|l| {
+            if l.is_empty() {
+                "\n".to_string()
+            } else {
+                format!("    {l}\n")
+            }
+        })
+        .collect();
+    assert!(world.contains(&indented), "{indented}");
+}

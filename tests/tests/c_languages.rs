@@ -136,3 +136,11 @@ fn a_c_build_is_reproducible() {
         again.len()
     );
 }
+
+#[test]
+fn a_c_plugin_sends_the_same_whole_commands_as_rust() {
+    let rust = super::commands::back_off_records(Path::new(plugins::BACK_OFF_RESPONSE));
+    assert!(!rust.is_empty());
+    let c = super::commands::back_off_records(&built("back-off-response-c"));
+    assert_eq!(c, rust);
+}

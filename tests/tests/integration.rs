@@ -16,6 +16,7 @@ mod bad_input;
 mod board;
 mod board_in_languages;
 mod c_languages;
+mod commands;
 mod deliberative;
 mod determinism;
 mod exits;

@@ -80,8 +80,11 @@ pub(crate) fn declared(engine: &Engine, component: &Component) -> Result<Option<
     };
     let mut ports = Vec::new();
     for (name, item) in interface.exports(engine) {
-        let types::ComponentItem::ComponentFunc(f) = item.ty else {
-            return Err(shape(name));
+        let f = match item.ty {
+            types::ComponentItem::ComponentFunc(f) => f,
+            // The records, variants and enums its entries hold.
+            types::ComponentItem::Type(_) => continue,
+            _ => return Err(shape(name)),
         };
         let params: Vec<_> = f
             .params()

@@ -8,6 +8,7 @@
 //! - [`config`]: the plugin's configuration values;
 //! - [`signals`]: the named signals a plugin declares and emits;
 //! - [`board`]: the blackboard entries a plugin reads and writes;
+//! - [`shared_types`]: a plugin's own interfaces of types alone;
 //! - WASI (`wasmtime_wasi`), with its waits and file streams served by
 //!   Radar ([`wasi`]), virtual clocks and seeded randomness under the
 //!   virtual clock (see [`clock::VirtualWasiClock`] and
@@ -35,6 +36,7 @@ pub(crate) mod linking;
 pub(crate) mod logging;
 pub(crate) mod random;
 pub(crate) mod running;
+pub(crate) mod shared_types;
 pub(crate) mod signals;
 pub(crate) mod stderr;
 pub(crate) mod wasi;

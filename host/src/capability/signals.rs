@@ -47,10 +47,16 @@ pub(crate) fn declared(engine: &Engine, component: &Component) -> Result<Option<
     };
     let mut signals = Vec::new();
     for (name, item) in interface.exports(engine) {
-        let types::ComponentItem::ComponentFunc(f) = item.ty else {
-            return Err(format!(
-                "its signals interface `{import}` exports `{name}`, which is not a function"
-            ));
+        let f = match item.ty {
+            types::ComponentItem::ComponentFunc(f) => f,
+            // The records, variants and enums its signals carry.
+            types::ComponentItem::Type(_) => continue,
+            _ => {
+                return Err(format!(
+                    "its signals interface `{import}` exports `{name}`, which is neither a \
+                     function nor a type"
+                ))
+            }
         };
         if BUILT_IN.contains(&name) {
             return Err(format!(

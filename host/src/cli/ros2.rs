@@ -25,11 +25,14 @@ pub struct Ros2Args {
 enum Ros2Command {
     /// Lists the built-in message types.
     Types,
-    /// Shows a type: its RIHS01 hash, its key expression, its WIT type
-    /// and its fields.
+    /// Shows a type: its RIHS01 hash, its key expression, its fields, and
+    /// its WIT records, ready to paste into a plugin's interface.
     Show {
         /// `pkg/msg/Name`, e.g. `sensor_msgs/msg/Range`.
         type_name: String,
+        /// Prints only the WIT records, to paste into a plugin's interface.
+        #[arg(long)]
+        wit: bool,
     },
     /// Prints the CDR bytes (hex, little-endian) of a message given as
     /// JSON; fields left out are zero.
@@ -58,8 +61,12 @@ pub fn ros2(args: Ros2Args) -> Result<()> {
                 say(format_args!("{name}"));
             }
         }
-        Ros2Command::Show { type_name } => {
+        Ros2Command::Show { type_name, wit } => {
             let message = types.load(&type_name).map_err(anyhow::Error::msg)?;
+            if wit {
+                print!("{}", message.wit_definitions());
+                return Ok(());
+            }
             say(format_args!("{}", message.name));
             say(format_args!("  hash  {}", message.hash));
             say(format_args!(
@@ -67,10 +74,13 @@ pub fn ros2(args: Ros2Args) -> Result<()> {
                 radar::network::ros2::dds_type(&message.name),
                 message.hash
             ));
-            say(format_args!("  wit   {}", message.payload_type()));
             for field in &message.def().fields {
                 say(format_args!("  field {field} {}", field.name));
             }
+            say(format_args!(
+                "\n// As WIT, to paste into a plugin's interface (`--wit` prints this alone):"
+            ));
+            print!("{}", message.wit_definitions());
         }
         Ros2Command::Encode { type_name, json } => {
             let message = types.load(&type_name).map_err(anyhow::Error::msg)?;

@@ -17,7 +17,7 @@ use super::cache::{cache_budget, compiling, load_artifact, prune_cache, write_at
 use super::code::{export_index, is_slots_interface, PluginCode, EXPORTS};
 use super::store::PluginCtx;
 use super::world::validate;
-use crate::capability::{board, signals};
+use crate::capability::{board, shared_types, signals};
 use crate::error::RadarError;
 
 /// Compiles and validates plugin components.
@@ -287,7 +287,8 @@ impl Loader {
         )?;
         // A plugin's own signals and blackboard entries are typed by its
         // world: linked for it alone.
-        let pre = if declared.is_none() && board_ports.is_none() {
+        let types_only = shared_types::imports(engine, &component);
+        let pre = if declared.is_none() && board_ports.is_none() && types_only.is_empty() {
             self.flavour(bytes.len()).linker.instantiate_pre(&component)
         } else {
             let mut linker = self.flavour(bytes.len()).linker.clone();
@@ -301,7 +302,9 @@ impl Loader {
                         .as_ref()
                         .map_or(Ok(()), |b| board::link(&mut linker, b))
                 });
-            linked.and_then(|()| linker.instantiate_pre(&component))
+            linked
+                .and_then(|()| shared_types::link(&mut linker, &types_only))
+                .and_then(|()| linker.instantiate_pre(&component))
         }
         .map_err(|e| wrong(format!("{e:#}")))?;
         let slots = component

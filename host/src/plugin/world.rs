@@ -9,7 +9,7 @@ use std::sync::Arc;
 use wasmtime::component::{types, Component};
 
 use super::code::{is_slots_interface, Kind};
-use crate::capability::{board, signals};
+use crate::capability::{board, shared_types, signals};
 use crate::error::RadarError;
 use crate::payload::PayloadType;
 use crate::ports::SignalName;
@@ -27,8 +27,10 @@ pub(super) fn validate(
     };
     let ty = component.component_type();
     let engine = component.engine();
-    for (name, _) in ty.imports(engine) {
-        let typed_by_world = signals::is_signals_interface(name) || board::is_board_interface(name);
+    for (name, item) in ty.imports(engine) {
+        let typed_by_world = signals::is_signals_interface(name)
+            || board::is_board_interface(name)
+            || shared_types::is_types_only(engine, &item.ty);
         if !crate::capability::linking::provides(name) && !typed_by_world {
             return Err(wrong(format!(
                 "it imports `{name}`, which Radar does not provide \

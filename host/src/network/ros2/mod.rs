@@ -22,6 +22,7 @@ pub mod msg;
 mod outgoing;
 mod settings;
 mod types;
+mod wit_text;
 
 pub use bridge::Ros2;
 pub use error::{CdrError, Ros2Error, TypeError};

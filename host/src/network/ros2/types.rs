@@ -197,7 +197,7 @@ pub fn wit_name(field: &str) -> String {
     field.replace('_', "-")
 }
 
-fn primitive_type(p: Primitive) -> PayloadType {
+pub(super) fn primitive_type(p: Primitive) -> PayloadType {
     match p {
         Primitive::Bool => PayloadType::Bool,
         Primitive::Byte | Primitive::Char | Primitive::U8 => PayloadType::U8,
