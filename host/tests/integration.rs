@@ -12,6 +12,7 @@ mod agents;
 mod architecture;
 mod cli;
 mod graph;
+mod large_values;
 mod lost_link;
 mod mcap;
 mod network;

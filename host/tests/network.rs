@@ -747,3 +747,28 @@ fn ctl_stop_runs_the_exits_of_running_responses_and_a_replay_stops_there_too() {
         "{replay}"
     );
 }
+
+#[test]
+fn ctl_read_prints_a_large_value_brief_and_whole_with_full() {
+    let scan = format!(
+        "[plugins.Obstacle]\nwasm = \"{}\"\nboard = {{ read = [\"scan\"] }}\n",
+        radar_fixtures::plugins::SCAN_EVENT
+    );
+    let run = Running::start("scanned", &scan, "", &["--clock", "real", "--for", "60s"]);
+    let ranges: Vec<String> = (0..360).map(|i| format!("{}.5", i % 7 + 1)).collect();
+    let value = format!(
+        r#"{{"header":{{"stamp":{{"sec":1,"nanosec":0}},"frame-id":"laser"}},"angle-min":0.0,"angle-max":6.28,"angle-increment":0.0175,"time-increment":0.0,"scan-time":0.1,"range-min":0.1,"range-max":12.0,"ranges":[{}],"intensities":[]}}"#,
+        ranges.join(",")
+    );
+    assert_eq!(run.ok(&["write", "scan", &value]), "wrote scan\n");
+    let brief = run.ok(&["read", "scan"]);
+    assert!(
+        brief.contains(r#""ranges":[360 numbers: min 1.5, max 7.5, mean "#),
+        "{brief}"
+    );
+    assert!(brief.len() < 250, "{brief}");
+    let whole: serde_json::Value =
+        serde_json::from_str(&run.ok(&["read", "scan", "--full"])).expect("JSON");
+    assert_eq!(whole["ranges"].as_array().map(Vec::len), Some(360));
+    assert_eq!(run.ok(&["stop"]), "stopping\n");
+}

@@ -15,6 +15,7 @@ use zenoh::sample::SampleKind;
 use zenoh::Wait;
 
 use super::say;
+use super::shown::TimelineArgs;
 
 #[derive(clap::Args)]
 pub struct CtlArgs {
@@ -70,8 +71,14 @@ enum Verb {
     },
     /// Writes a blackboard entry: `write range 0.4`.
     Write { entry: String, value: String },
-    /// Prints a blackboard entry's value as JSON.
-    Read { entry: String },
+    /// Prints a blackboard entry's value: as JSON, a large value
+    /// summarised (a list by its length, min, max, mean and first items).
+    Read {
+        entry: String,
+        /// Print the value whole, as JSON.
+        #[arg(long)]
+        full: bool,
+    },
     /// Swaps a plugin for the component (or script) at PATH, read here
     /// and sent to the system.
     Swap {
@@ -90,7 +97,10 @@ enum Verb {
     /// Instantiates a faulted plugin again.
     Reset { plugin: String },
     /// Prints the system's timeline as it runs, until it ends (or Ctrl-C).
-    Watch,
+    Watch {
+        #[command(flatten)]
+        timeline: TimelineArgs,
+    },
     /// Ends the run.
     Stop,
 }
@@ -107,6 +117,8 @@ pub fn ctl(args: CtlArgs) -> Result<()> {
     };
     let client = Client::connect(&args.connect, credentials)?;
     let named = args.system.as_deref();
+    // A value read is printed brief unless asked whole.
+    let mut summarise = false;
     let (command, component) = match args.verb {
         Verb::Ls => {
             let systems = match named {
@@ -127,9 +139,9 @@ pub fn ctl(args: CtlArgs) -> Result<()> {
             }
             return Ok(());
         }
-        Verb::Watch => {
+        Verb::Watch { timeline } => {
             let system = client.pick(named).map_err(anyhow::Error::msg)?;
-            return watch(&client, &system);
+            return watch(&client, &system, &timeline);
         }
         Verb::Connect {
             from,
@@ -163,7 +175,10 @@ pub fn ctl(args: CtlArgs) -> Result<()> {
             },
             Vec::new(),
         ),
-        Verb::Read { entry } => (Command::Read { entry }, Vec::new()),
+        Verb::Read { entry, full } => {
+            summarise = !full;
+            (Command::Read { entry }, Vec::new())
+        }
         Verb::Swap {
             plugin,
             path,
@@ -190,7 +205,20 @@ pub fn ctl(args: CtlArgs) -> Result<()> {
         Verb::Stop => (Command::Stop, Vec::new()),
     };
     let system = client.pick(named).map_err(anyhow::Error::msg)?;
-    print_reply(client.request(&system, command, &component))
+    let reply = client.request(&system, command, &component);
+    print_reply(reply.map(|reply| match reply {
+        Reply::Ok(lines) if summarise => Reply::Ok(lines.iter().map(|l| brief_line(l)).collect()),
+        other => other,
+    }))
+}
+
+/// A line of JSON as a person reads it ([`radar::view::brief`]); another
+/// line as it is.
+fn brief_line(line: &str) -> String {
+    match serde_json::from_str::<serde_json::Value>(line) {
+        Ok(value) => radar::view::brief(&value),
+        Err(_) => line.to_string(),
+    }
 }
 
 fn print_reply(reply: Result<Reply, String>) -> Result<()> {
@@ -208,7 +236,7 @@ fn print_reply(reply: Result<Reply, String>) -> Result<()> {
 
 /// Follows `radar/<system>/trace` and prints it as `radar run` would,
 /// until the system's liveliness token goes.
-fn watch(client: &Client, system: &str) -> Result<()> {
+fn watch(client: &Client, system: &str, shown: &TimelineArgs) -> Result<()> {
     let session = client.session();
     let (tx, rx) = crossbeam_channel::unbounded::<Option<Record>>();
     let records = {
@@ -235,7 +263,7 @@ fn watch(client: &Client, system: &str) -> Result<()> {
         .wait()
         .map_err(|e| anyhow::anyhow!("cannot follow the system's liveliness: {e}"))?;
     say(format_args!("watching system {system} (Ctrl-C to stop)"));
-    let mut timeline = Timeline::new(std::io::stdout());
+    let mut timeline = Timeline::with_options(std::io::stdout(), shown.options());
     loop {
         match rx.recv_timeout(Duration::from_millis(100)) {
             Ok(Some(record)) => timeline.record(&record),

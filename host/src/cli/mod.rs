@@ -9,6 +9,7 @@ pub mod graph;
 pub mod ros2;
 pub mod run;
 pub mod shadow;
+pub mod shown;
 pub mod simulate;
 pub mod test;
 pub mod tool;

@@ -18,6 +18,7 @@ use radar::workspace::{self, WatchEvent};
 use radar::{example, ClockKind, SwapPolicy, System};
 
 use super::say;
+use super::shown::TimelineArgs;
 
 /// How long a run waits for the agents its plugins are placed on.
 const AGENT_WAIT: Duration = Duration::from_secs(10);
@@ -41,6 +42,8 @@ pub struct RunArgs {
     /// Do not print the timeline.
     #[arg(long, short)]
     quiet: bool,
+    #[command(flatten)]
+    timeline: TimelineArgs,
     /// Serve the run, live, to a browser (docs/view.md): a small HTTP
     /// server on ADDR (default 127.0.0.1:7878, loopback; port 0 picks a
     /// free one). The address is printed when the run starts.
@@ -267,7 +270,10 @@ pub fn run(args: RunArgs) -> Result<()> {
         builder = builder.threads(usize::from(threads));
     }
     if !args.quiet {
-        builder = builder.trace_to(Timeline::new(std::io::stdout()));
+        builder = builder.trace_to(Timeline::with_options(
+            std::io::stdout(),
+            args.timeline.options(),
+        ));
     }
     if let Some(path) = &args.trace {
         let file = File::create(path)

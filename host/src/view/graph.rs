@@ -9,6 +9,10 @@ use std::fmt::Write;
 
 use crate::trace::{Entry, Record, WITHDRAWN};
 
+/// The widest a blackboard value gets in the graph's note, in characters:
+/// a LaserScan's ranges must not make the graph thousands of pixels wide.
+const BOARD_LABEL: usize = 48;
+
 /// A plugin at the instant.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct PluginAt {
@@ -239,7 +243,10 @@ impl Graph {
             let lines: Vec<String> = self
                 .board
                 .iter()
-                .map(|(entry, e)| format!("{entry} = {} (by {})", e.value, e.by))
+                .map(|(entry, e)| {
+                    let value = super::brief::brief_within(&e.value, BOARD_LABEL);
+                    format!("{entry} = {value} (by {})", e.by)
+                })
                 .collect();
             let _ = writeln!(
                 dot,

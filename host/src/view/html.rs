@@ -1,6 +1,6 @@
 //! `radar view`: a run as one self-contained HTML page (`docs/view.md`).
 //!
-//! The page (`page/view.html`, `view.css`, `fold.js`, `view.js`) is built into
+//! The page (`page/view.html`, `view.css`, `brief.js`, `fold.js`, `view.js`) is built into
 //! `radar`; writing a view inlines its style, its script and the trace's
 //! records, so the file needs no network and no other file. The live
 //! monitor serves the same page with no records, and streams them.
@@ -11,6 +11,7 @@ use crate::trace::Record;
 
 const HTML: &str = include_str!("page/view.html");
 const CSS: &str = include_str!("page/view.css");
+const BRIEF: &str = include_str!("page/brief.js");
 const FOLD: &str = include_str!("page/fold.js");
 const JS: &str = include_str!("page/view.js");
 
@@ -23,7 +24,7 @@ fn halves(title: &str, live: bool) -> (String, String) {
     let page = HTML
         .replace("/*CSS*/", CSS)
         .replace("/*LIVE*/", if live { "true" } else { "false" })
-        .replace("/*JS*/", &format!("{FOLD}\n{JS}"));
+        .replace("/*JS*/", &format!("{BRIEF}\n{FOLD}\n{JS}"));
     // The title goes in last, and only before the records: whatever it
     // holds cannot stand for a place in the page.
     let (before, after) = page.split_once("/*TRACE*/").unwrap_or((&page, ""));

@@ -5,12 +5,14 @@
 //!
 //! An edge: it sees a run only through its trace records.
 
+pub mod brief;
 pub mod graph;
 mod html;
 pub mod mcap;
 mod monitor;
 mod read;
 
+pub use self::brief::brief;
 pub use self::graph::{graph_at, Graph};
 pub use self::html::{live_page, write_view};
 pub use self::mcap::{jsonl_to_mcap, mcap_to_jsonl, McapTrace, ViewError};

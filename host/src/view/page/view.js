@@ -459,11 +459,14 @@
       for (const [entry, e] of g.board) {
         const tr = document.createElement("tr");
         tr.dataset.entry = entry;
-        for (const v of [entry, JSON.stringify(e.value), e.by]) {
+        // A large value brief; the whole of it in the details, on a click.
+        for (const v of [entry, radarBrief.brief(e.value, 80), e.by]) {
           const td = document.createElement("td");
           td.textContent = v;
           tr.appendChild(td);
         }
+        tr.title = "click: the whole value";
+        tr.addEventListener("click", () => show({ entry, at: (cursor / 1e9).toFixed(3) + " s", value: e.value, by: e.by }));
         table.appendChild(tr);
       }
       board.appendChild(table);

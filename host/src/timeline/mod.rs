@@ -8,12 +8,33 @@
 //! the blackboard's entries with who wrote them. The state is the same fold
 //! of the records that `radar graph` and `radar view` draw
 //! ([`crate::view::Graph`]).
+//!
+//! A robot's values are large and its sensors fast, so by default every
+//! value is printed [`brief`](crate::view::brief) and an entry written
+//! faster than once a second is folded ([`streams`]); `--full` prints
+//! everything whole. What is printed can be chosen by plugin, signal and
+//! entry ([`Filter`]).
+
+mod filter;
+mod streams;
 
 use std::io::Write;
 
+pub use self::filter::Filter;
+use self::streams::Streams;
 use crate::trace::{Entry, Record, TraceSink};
+use crate::view::brief::shown;
 use crate::view::graph::busy_policy;
 use crate::view::Graph;
+
+/// How a timeline prints: values whole or brief, and what it shows.
+#[derive(Clone, Debug, Default)]
+pub struct TimelineOptions {
+    /// Print every value whole and every write of a stream.
+    pub full: bool,
+    /// What is printed.
+    pub filter: Filter,
+}
 
 /// The timeline's resolution: records within one millisecond are shown as
 /// one instant (under the real clock, steps of one instant differ by
@@ -30,17 +51,49 @@ pub struct Timeline<W: Write + Send> {
     /// The system as the records so far leave it.
     graph: Graph,
     last_summary: String,
+    options: TimelineOptions,
+    streams: Streams,
 }
 
 impl<W: Write + Send> Timeline<W> {
-    /// A timeline written to `out`.
+    /// A timeline written to `out`, values brief, everything shown.
     pub fn new(out: W) -> Self {
+        Self::with_options(out, TimelineOptions::default())
+    }
+
+    /// A timeline written to `out` as `options` say.
+    pub fn with_options(out: W, options: TimelineOptions) -> Self {
         Self {
             out,
             instant: None,
             stamped: false,
             graph: Graph::default(),
             last_summary: String::new(),
+            options,
+            streams: Streams::default(),
+        }
+    }
+
+    /// A value as this timeline prints it.
+    fn value(&self, value: &serde_json::Value) -> String {
+        shown(value, self.options.full)
+    }
+
+    /// Says the streams that went quiet (all of them at the run's end).
+    fn say_quieted(&mut self, now: Option<u64>) {
+        for q in self.streams.quieted(now) {
+            if !self.options.filter.shows(&[&q.entry, &q.by]) {
+                continue;
+            }
+            let line = format!(
+                "board {}: {} more writes not shown, the last at {:.3}s = {} (by {})",
+                q.entry,
+                q.held,
+                q.t as f64 / 1e9,
+                self.value(&q.value),
+                q.by
+            );
+            self.print(&line);
         }
     }
 
@@ -59,9 +112,10 @@ impl<W: Write + Send> Timeline<W> {
 
     /// Ends the current instant: prints the system's state if it changed.
     fn end_instant(&mut self) {
-        if self.instant.is_none() {
+        let Some(instant) = self.instant else {
             return;
-        }
+        };
+        self.say_quieted(Some(instant * INSTANT));
         let summary = self.summary();
         if summary == self.last_summary {
             return;
@@ -88,9 +142,13 @@ impl<W: Write + Send> Timeline<W> {
             }
         }
         let g = &self.graph;
+        let filter = &self.options.filter;
         let conns = list(
             g.connections
                 .iter()
+                .filter(|(_, c)| {
+                    filter.shows(&[plugin_of(&c.from), plugin_of(&c.to), &c.from, &c.to])
+                })
                 .map(|(id, c)| {
                     let how = match (c.until_of, c.busy.as_str()) {
                         (Some(of), _) => format!("until of #{of}"),
@@ -104,7 +162,7 @@ impl<W: Write + Send> Timeline<W> {
         let events = |state: &str| -> Vec<String> {
             g.plugins
                 .iter()
-                .filter(|(_, p)| p.event && p.state == state)
+                .filter(|(n, p)| p.event && p.state == state && filter.shows(&[n]))
                 .map(|(n, _)| n.clone())
                 .collect()
         };
@@ -112,7 +170,7 @@ impl<W: Write + Send> Timeline<W> {
         let responses: Vec<String> = g
             .plugins
             .iter()
-            .filter(|(_, p)| !p.event)
+            .filter(|(n, p)| !p.event && filter.shows(&[n]))
             .map(|(n, p)| match p.queued {
                 0 => format!("{n} {}", p.state),
                 q => format!("{n} {}, {q} queued", p.state),
@@ -138,12 +196,19 @@ impl<W: Write + Send> Timeline<W> {
                 responses.join(", ")
             ));
         }
-        if !g.board.is_empty() {
-            let entries: Vec<String> = g
-                .board
-                .iter()
-                .map(|(name, e)| format!("{name} = {} (by {})", e.value, e.by))
-                .collect();
+        let entries: Vec<String> = g
+            .board
+            .iter()
+            .filter(|(name, e)| filter.shows(&[name, &e.by]))
+            .map(|(name, e)| {
+                if !self.options.full && self.streams.is_streaming(name) {
+                    format!("{name} (streaming, by {})", e.by)
+                } else {
+                    format!("{name} = {} (by {})", self.value(&e.value), e.by)
+                }
+            })
+            .collect();
+        if !entries.is_empty() {
             s.push_str(&format!("{:>10}  ┆ board: {}\n", "", entries.join(", ")));
         }
         s
@@ -183,12 +248,15 @@ impl<W: Write + Send> Timeline<W> {
                 if payload.is_null() {
                     format!("{plugin}.{signal}")
                 } else {
-                    format!("{plugin}.{signal}({payload})")
+                    format!("{plugin}.{signal}({})", self.value(payload))
                 }
             }
             Entry::Dropped { id, to, reason } => format!("  dropped at {to} (#{id}): {reason}"),
             Entry::Discarded { plugin, payload } => {
-                format!("{plugin} returned {payload} after deactivation: discarded")
+                format!(
+                    "{plugin} returned {} after deactivation: discarded",
+                    self.value(payload)
+                )
             }
             Entry::Deliver {
                 id,
@@ -224,8 +292,10 @@ impl<W: Write + Send> Timeline<W> {
                 level,
                 message,
             } => format!("  {plugin} [{level}] {message}"),
-            Entry::Inject { to, payload } => format!("inject {payload} → {to}"),
-            Entry::BoardWrite { entry, by, value } => format!("board {entry} = {value} (by {by})"),
+            Entry::Inject { to, payload } => format!("inject {} → {to}", self.value(payload)),
+            Entry::BoardWrite { entry, by, value } => {
+                format!("board {entry} = {} (by {by})", self.value(value))
+            }
             Entry::SwapRequest {
                 plugin,
                 version,
@@ -267,6 +337,11 @@ impl<W: Write + Send> Timeline<W> {
     }
 }
 
+/// `P` of `P.signal`.
+fn plugin_of(port: &str) -> &str {
+    port.split_once('.').map_or(port, |(plugin, _)| plugin)
+}
+
 impl<W: Write + Send> TraceSink for Timeline<W> {
     fn record(&mut self, record: &Record) {
         let instant = record.t / INSTANT;
@@ -275,7 +350,25 @@ impl<W: Write + Send> TraceSink for Timeline<W> {
             self.instant = Some(instant);
             self.stamped = false;
         }
-        let line = self.line(&record.entry);
+        let mut line = if self.options.filter.shows_entry(&record.entry, &self.graph) {
+            self.line(&record.entry)
+        } else {
+            None
+        };
+        if let Entry::BoardWrite { entry, by, value } = &record.entry {
+            if !self.options.full {
+                match self.streams.write(entry, record.t, value, by) {
+                    None => line = None,
+                    Some(0) => {}
+                    Some(held) => {
+                        if let Some(line) = &mut line {
+                            line.pop(); // its `)`
+                            line.push_str(&format!("; {held} writes since the last shown)"));
+                        }
+                    }
+                }
+            }
+        }
         self.graph.apply(record);
         if let Some(line) = line {
             self.print(&line);
@@ -284,6 +377,7 @@ impl<W: Write + Send> TraceSink for Timeline<W> {
 
     fn finish(&mut self) -> std::io::Result<()> {
         // A closed stdout (`radar run | head`) is not the run's failure.
+        self.say_quieted(None);
         self.end_instant();
         Ok(())
     }
