@@ -521,3 +521,101 @@ fn radar_run_writes_the_same_trace_file_on_one_two_and_three_threads() {
         );
     }
 }
+
+/// A system folder whose BackOff is `backoff.wasm` (the motor fixture: it
+/// drives back for 1 s, then its exit stops it), a run of it recorded
+/// (`rec.jsonl` and its copies), and a scenario made from the recording in
+/// `scenarios/backing-off`, naming the system's own manifest: the folder.
+fn system_with_a_scenario_from_a_recording() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let root = dir.path();
+    std::fs::copy(
+        radar_fixtures::plugins::MOTOR_RESPONSE,
+        root.join("backoff.wasm"),
+    )
+    .expect("copied");
+    std::fs::write(
+        root.join("radar.toml"),
+        "[plugins.BackOff]\nwasm = \"backoff.wasm\"\nconfig = { drive_s = 1 }\n",
+    )
+    .expect("manifest");
+    let rec = root.join("rec.jsonl");
+    let out = radar(&[
+        "run",
+        arg(&root.join("radar.toml")),
+        "--for",
+        "3s",
+        "-q",
+        "--inject",
+        "1s:BackOff.start",
+        "--record",
+        arg(&rec),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let scenario = root.join("scenarios/backing-off");
+    std::fs::create_dir_all(&scenario).expect("scenario folder");
+    // The recording and its copies, moved in as they are.
+    std::fs::rename(&rec, scenario.join("inputs.jsonl")).expect("moved");
+    let copies = root.join("rec.jsonl.components");
+    let text_in = std::fs::read_to_string(scenario.join("inputs.jsonl")).expect("inputs");
+    std::fs::write(
+        scenario.join("inputs.jsonl"),
+        text_in.replace("rec.jsonl.components/", "components/"),
+    )
+    .expect("inputs");
+    std::fs::rename(&copies, scenario.join("components")).expect("moved");
+    std::fs::write(
+        scenario.join("scenario.toml"),
+        "manifest = \"../../radar.toml\"\n",
+    )
+    .expect("settings");
+    let out = radar(&["test", arg(&root.join("scenarios")), "--bless"]);
+    assert!(out.status.success(), "{}", text(&out.stdout));
+    dir
+}
+
+#[test]
+fn a_scenario_from_a_recording_runs_the_current_components_and_says_so() {
+    let dir = system_with_a_scenario_from_a_recording();
+    let scenarios = dir.path().join("scenarios");
+    let out = radar(&["test", arg(&scenarios)]);
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{stdout}");
+    assert!(
+        stdout.contains("runs the current components (none changed since the recording)"),
+        "{stdout}"
+    );
+    // A panicking BackOff in the system's folder: the scenario fails, and
+    // says what changed.
+    std::fs::copy(
+        radar_fixtures::plugins::TRAP_RESPONSE,
+        dir.path().join("backoff.wasm"),
+    )
+    .expect("copied");
+    let out = radar(&["test", arg(&scenarios)]);
+    let stdout = text(&out.stdout);
+    assert_eq!(out.status.code(), Some(1), "{stdout}");
+    assert!(
+        stdout.contains("scenario backing-off ... FAILED"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("runs the current components; changed since the recording: BackOff"),
+        "{stdout}"
+    );
+    // Asked for, the recorded components run, as --replay runs them.
+    std::fs::write(
+        scenarios.join("backing-off/scenario.toml"),
+        "manifest = \"../../radar.toml\"\ncomponents = \"recorded\"\n",
+    )
+    .expect("settings");
+    let out = radar(&["test", arg(&scenarios)]);
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{stdout}");
+    assert!(
+        stdout.contains(
+            "runs the recorded components; changed since the recording, run as recorded: BackOff"
+        ),
+        "{stdout}"
+    );
+}

@@ -122,6 +122,9 @@ pub fn test(args: TestArgs) -> Result<()> {
             outcome.name,
             outcome.took.as_secs_f64()
         ));
+        if let Some(note) = &outcome.note {
+            say(format_args!("    {note}"));
+        }
     });
     let failures: Vec<_> = outcomes
         .iter()

@@ -31,7 +31,7 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use super::expect::Expectations;
-use super::settings::{run_length, CompareSettings, Settings};
+use super::settings::{run_length, CompareSettings, Components, Settings};
 use crate::clock::ClockKind;
 use crate::manifest::Manifest;
 use crate::plugin::{Agents, InjectedFault, Limits};
@@ -71,6 +71,9 @@ pub struct Scenario {
     /// The run as written: its inputs, faults and compute.
     spec: RunSpec,
     agents: Option<Agents>,
+    /// What its last run said of its components, when it is made from a
+    /// recording: which ran, and which changed since.
+    note: std::sync::Mutex<Option<String>>,
 }
 
 /// One run of a scenario: its timed inputs, the faults injected, how
@@ -131,6 +134,8 @@ pub struct Outcome {
     pub verdict: Verdict,
     /// Wall time it took.
     pub took: Duration,
+    /// What it said of its components, when it is made from a recording.
+    pub note: Option<String>,
 }
 
 impl Scenario {
@@ -141,11 +146,6 @@ impl Scenario {
             name: name.clone(),
             cause,
         };
-        let mut manifest = Manifest::load(&dir.join(MANIFEST)).map_err(|e| fail(e.to_string()))?;
-        // A scenario runs its plugins here, whatever agents they are placed
-        // on (their trace is the one of the distributed run): the agents'
-        // names stay, so that a lost agent can be simulated.
-        manifest.run_everything_here();
         let settings: Settings = match std::fs::read_to_string(dir.join(SETTINGS)) {
             Ok(text) => {
                 toml::from_str(&text).map_err(|e| fail(format!("{SETTINGS}: {}", e.message())))?
@@ -153,12 +153,31 @@ impl Scenario {
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => Settings::default(),
             Err(e) => return Err(fail(format!("cannot read {SETTINGS}: {e}"))),
         };
+        // The system's own manifest when the folder names it, so that a
+        // scenario needs no copy with its paths rewritten.
+        let manifest_path = match &settings.manifest {
+            Some(path) => dir.join(path),
+            None => dir.join(MANIFEST),
+        };
+        let mut manifest = Manifest::load(&manifest_path).map_err(|e| fail(e.to_string()))?;
+        // A scenario runs its plugins here, whatever agents they are placed
+        // on (their trace is the one of the distributed run): the agents'
+        // names stay, so that a lost agent can be simulated.
+        manifest.run_everything_here();
         let inputs_path = dir.join(INPUTS);
-        let inputs = if inputs_path.exists() {
+        let mut inputs = if inputs_path.exists() {
             inputs::load(&inputs_path).map_err(fail)?
         } else {
             Vec::new()
         };
+        if settings.components == Components::Current {
+            // The recorded copies stay beside the recording, unused.
+            for input in &mut inputs {
+                if let Input::Plugin { wasm, .. } = &mut input.input {
+                    *wasm = None;
+                }
+            }
+        }
         let end = inputs.iter().find_map(|i| match i.input {
             Input::End { .. } => Some(Duration::from_nanos(i.t)),
             _ => None,
@@ -206,6 +225,7 @@ impl Scenario {
             expectations,
             spec,
             agents: None,
+            note: std::sync::Mutex::new(None),
         })
     }
 
@@ -276,7 +296,63 @@ impl Scenario {
         let builder = self.manifest.add_to(builder).inputs(&spec.inputs);
         let system = builder.build().map_err(|e| e.to_string())?;
         self.expectations.check_names(&system)?;
+        if let Ok(mut note) = self.note.lock() {
+            *note = self.components_note(&system, &spec.inputs);
+        }
         system.run(Some(spec.run_for)).map_err(|e| e.to_string())
+    }
+
+    /// What the last run said of its components (a scenario made from a
+    /// recording): `runs the current components; changed since the
+    /// recording: BackOff`, or `runs the recorded components: ...`.
+    pub fn note(&self) -> Option<String> {
+        self.note.lock().ok().and_then(|note| note.clone())
+    }
+
+    fn components_note(&self, system: &System, inputs: &[TimedInput]) -> Option<String> {
+        let recorded: BTreeMap<&str, &str> = inputs
+            .iter()
+            .filter_map(|i| match &i.input {
+                Input::Plugin {
+                    plugin, version, ..
+                } => Some((plugin.as_str(), version.as_str())),
+                _ => None,
+            })
+            .collect();
+        if recorded.is_empty() {
+            return None;
+        }
+        if self.settings.components == Components::Recorded {
+            let from: Vec<&str> = system
+                .from_recording()
+                .iter()
+                .map(|(p, _)| p.as_str())
+                .collect();
+            return Some(if from.is_empty() {
+                "runs the recorded components (none changed since the recording)".into()
+            } else {
+                format!(
+                    "runs the recorded components; changed since the recording, run as \
+                     recorded: {}",
+                    from.join(", ")
+                )
+            });
+        }
+        let versions = system.versions();
+        let changed: Vec<&str> = recorded
+            .iter()
+            .filter(|(plugin, version)| versions.get(**plugin).is_some_and(|v| v != *version))
+            .map(|(plugin, _)| *plugin)
+            .collect();
+        Some(if changed.is_empty() {
+            "runs the current components (none changed since the recording)".into()
+        } else {
+            format!(
+                "runs the current components; changed since the recording: {} \
+                 (`components = \"recorded\"` in {SETTINGS} runs the recorded ones)",
+                changed.join(", ")
+            )
+        })
     }
 
     /// Judges a run without an expected trace: the livelock guard, the
@@ -420,7 +496,7 @@ pub fn discover(roots: &[PathBuf]) -> Result<Vec<(String, PathBuf)>, String> {
         if !root.is_dir() {
             return Err(format!("{}: no such folder", root.display()));
         }
-        if root.join(MANIFEST).is_file() {
+        if is_scenario(root) {
             let name = root.file_name().map_or_else(
                 || root.display().to_string(),
                 |n| n.to_string_lossy().into(),
@@ -432,12 +508,25 @@ pub fn discover(roots: &[PathBuf]) -> Result<Vec<(String, PathBuf)>, String> {
         walk(root, root, &mut found).map_err(|e| format!("{}: {e}", root.display()))?;
         if found.len() == before {
             return Err(format!(
-                "{}: no scenario folders (folders with a {MANIFEST}) in it",
+                "{}: no scenario folders (folders with a {MANIFEST}, or a {SETTINGS} that \
+                 names the system's `manifest`) in it",
                 root.display()
             ));
         }
     }
     Ok(found)
+}
+
+/// Whether `folder` is a scenario: it holds a `radar.toml`, or a
+/// `scenario.toml` that names the system's `manifest`.
+fn is_scenario(folder: &Path) -> bool {
+    if folder.join(MANIFEST).is_file() {
+        return true;
+    }
+    std::fs::read_to_string(folder.join(SETTINGS))
+        .ok()
+        .and_then(|text| text.parse::<toml::Table>().ok())
+        .is_some_and(|table| table.contains_key("manifest"))
 }
 
 fn walk(root: &Path, dir: &Path, found: &mut Vec<(String, PathBuf)>) -> std::io::Result<()> {
@@ -448,7 +537,7 @@ fn walk(root: &Path, dir: &Path, found: &mut Vec<(String, PathBuf)>) -> std::io:
         .collect();
     folders.sort();
     for folder in folders {
-        if folder.join(MANIFEST).is_file() {
+        if is_scenario(&folder) {
             let name = folder.strip_prefix(root).unwrap_or(&folder);
             found.push((name.display().to_string(), folder.clone()));
         } else {
@@ -482,14 +571,15 @@ pub fn run_all(
                     return;
                 };
                 let began = Instant::now();
-                let verdict = match Scenario::load(dir, name.clone()) {
-                    Ok(scenario) => scenario.check(bless, allow_faults),
-                    Err(e) => Verdict::Failed(e.cause),
+                let (verdict, note) = match Scenario::load(dir, name.clone()) {
+                    Ok(scenario) => (scenario.check(bless, allow_faults), scenario.note()),
+                    Err(e) => (Verdict::Failed(e.cause), None),
                 };
                 let outcome = Outcome {
                     name: name.clone(),
                     verdict,
                     took: began.elapsed(),
+                    note,
                 };
                 if tx.send((i, outcome)).is_err() {
                     return;

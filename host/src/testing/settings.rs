@@ -42,6 +42,27 @@ pub struct Settings {
     /// of `radar run`): the scenario shows a fault on purpose.
     #[serde(default)]
     pub allow_faults: bool,
+    /// The system's manifest, relative to the scenario folder, when the
+    /// folder holds no `radar.toml` of its own (`"../../radar.toml"`).
+    pub manifest: Option<String>,
+    /// Which components a scenario made from a recording runs: the
+    /// manifest's, as they are now (`current`, the default), or the ones
+    /// the recording began with (`recorded`).
+    #[serde(default)]
+    pub components: Components,
+}
+
+/// `components` of `scenario.toml`.
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Components {
+    /// The manifest's components as they are now: a scenario tests the
+    /// code it sits beside.
+    #[default]
+    Current,
+    /// The components its recording began with (kept beside it), as
+    /// `radar run --replay` runs them.
+    Recorded,
 }
 
 /// `[fuel]` of `scenario.toml`.

@@ -18,7 +18,7 @@
 //! assert!(d.to_string().contains(r#""payload":2"#));
 //! ```
 
-use std::collections::{BTreeSet, HashMap};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::fmt;
 
 use serde_json::{Map, Value as Json};
@@ -130,6 +130,52 @@ impl Comparison {
                 .collect()
         };
         times_agree && fields(e) == fields(a)
+    }
+}
+
+/// Whether two traces that part hold the same records, only interleaved
+/// differently: each plugin's records (and each connection's, and the
+/// rest's) are the same, in the same order, and the traces are as long.
+/// A real-clock run replayed may order records of unrelated plugins at
+/// nearly the same time otherwise than the recording did.
+pub fn only_interleaving_differs(expected: &[Json], actual: &[Json], how: &Comparison) -> bool {
+    let expected = how.normalize(expected);
+    let actual = how.normalize(actual);
+    if expected.len() != actual.len() {
+        return false;
+    }
+    let threads = |trace: &[Json]| -> BTreeMap<String, Vec<Json>> {
+        let mut threads: BTreeMap<String, Vec<Json>> = BTreeMap::new();
+        for record in trace {
+            threads
+                .entry(thread_of(record))
+                .or_default()
+                .push(record.clone());
+        }
+        threads
+    };
+    let (expected, actual) = (threads(&expected), threads(&actual));
+    expected.len() == actual.len()
+        && expected.iter().all(|(key, records)| {
+            actual.get(key).is_some_and(|other| {
+                records.len() == other.len()
+                    && records.iter().zip(other).all(|(e, a)| how.same(e, a))
+            })
+        })
+}
+
+/// What a record belongs to, for [`only_interleaving_differs`]: its
+/// plugin, else the plugin of the slot it reaches, else its connection.
+fn thread_of(record: &Json) -> String {
+    if let Some(plugin) = record["plugin"].as_str() {
+        return format!("plugin {plugin}");
+    }
+    if let Some(to) = record["to"].as_str() {
+        return format!("plugin {}", to.split('.').next().unwrap_or(to));
+    }
+    match record["id"].as_u64() {
+        Some(id) => format!("connection {id}"),
+        None => "system".to_string(),
     }
 }
 
@@ -366,5 +412,30 @@ mod tests {
             text.contains("+      5  ") && text.contains("\"F\""),
             "{text}"
         );
+    }
+
+    #[test]
+    fn records_of_unrelated_plugins_in_another_order_are_only_interleaved() {
+        let a = serde_json::json!({"t": 10, "kind": "signal", "plugin": "A", "signal": "triggered", "payload": 1});
+        let b = serde_json::json!({"t": 11, "kind": "signal", "plugin": "B", "signal": "triggered", "payload": 2});
+        let a2 = serde_json::json!({"t": 12, "kind": "signal", "plugin": "A", "signal": "exited", "payload": null});
+        let how = Comparison {
+            time_tolerance: 5,
+            ..Comparison::default()
+        };
+        let expected = [a.clone(), b.clone(), a2.clone()];
+        assert!(compare(&expected, &[b.clone(), a.clone(), a2.clone()], &how).is_some());
+        assert!(only_interleaving_differs(
+            &expected,
+            &[b.clone(), a.clone(), a2.clone()],
+            &how
+        ));
+        // One plugin's own order is not interleaving, nor is a lost record.
+        assert!(!only_interleaving_differs(
+            &expected,
+            &[a2.clone(), b.clone(), a.clone()],
+            &how
+        ));
+        assert!(!only_interleaving_differs(&expected, &[a, b], &how));
     }
 }
