@@ -582,3 +582,32 @@ fn the_built_in_example_runs_from_any_directory() {
     let out = ok(&radar(dir.path(), &["run", "--for", "6s"]));
     assert!(out.contains("TestResponse.started(5)"), "{out}");
 }
+
+#[test]
+fn radar_new_takes_a_plugin_name_as_the_docs_write_it_and_makes_its_folder_in_kebab_case() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    ok(&radar(dir.path(), &["new", "system", "Rover"]));
+    let system = dir.path().join("rover");
+    ok(&radar(
+        &system,
+        &["new", "event", "Obstacle", "--lang", "python"],
+    ));
+    ok(&radar(
+        &system,
+        &["new", "response", "BackOff", "--lang", "rust"],
+    ));
+    let manifest = std::fs::read_to_string(system.join("radar.toml")).expect("manifest");
+    for expected in [
+        "[plugins.Obstacle]",
+        "workdir = \"obstacle\"",
+        "[plugins.BackOff]",
+        "workdir = \"back-off\"",
+    ] {
+        assert!(manifest.contains(expected), "{expected} in:\n{manifest}");
+    }
+    let world = std::fs::read_to_string(system.join("back-off/wit/world.wit")).expect("world");
+    assert!(world.contains("package local:back-off;"), "{world}");
+    let refused = radar(&system, &["new", "event", "2fast"]);
+    assert_eq!(refused.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("cannot name a plugin"));
+}

@@ -6,10 +6,11 @@ use std::path::PathBuf;
 /// Why `radar new` made nothing.
 #[derive(Debug, thiserror::Error)]
 pub enum ScaffoldError {
-    /// The name cannot name a plugin, a WIT world and a package.
+    /// The name cannot name a plugin (and, in kebab case, its folder and
+    /// WIT world).
     #[error(
-        "`{0}` cannot name a plugin: use lowercase words of letters and digits joined by `-`, \
-         starting with a letter (e.g. `hello-event`)"
+        "`{0}` cannot name a plugin: use letters, digits, `-` and `_`, starting with a letter \
+         (e.g. `Obstacle`, `BackOff`, `hello-event`)"
     )]
     BadName(String),
     /// The folder is there already.

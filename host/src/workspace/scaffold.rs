@@ -162,8 +162,21 @@ const JS_EVENT: &Template = template!("js/event.js");
 const JS_RESPONSE: &Template = template!("js/response.js");
 const PACKAGE_JSON: &Template = template!("js/package.json");
 
-/// Whether `name` can name a plugin, a WIT world and package, and a crate.
-fn valid_name(name: &str) -> bool {
+/// Whether `name` can name a plugin: letters, digits, `-` and `_`,
+/// starting with a letter (`Obstacle`, `BackOff`, `hello-event`). The
+/// manifest takes the name as it is; its folder, crate, package and WIT
+/// world take [`kebab`] of it.
+pub fn valid_name(name: &str) -> bool {
+    name.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+        && valid_kebab(&kebab(name))
+}
+
+/// Whether `name` can name a WIT world and package and a crate: lowercase
+/// words of letters and digits joined by `-`, each starting with a letter.
+fn valid_kebab(name: &str) -> bool {
     !name.is_empty()
         && name.split('-').all(|word| {
             word.chars().next().is_some_and(|c| c.is_ascii_lowercase())
@@ -171,6 +184,32 @@ fn valid_name(name: &str) -> bool {
                     .chars()
                     .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit())
         })
+}
+
+/// A plugin's name as its folder, crate, package and WIT world spell it:
+/// `BackOff` is `back-off`, `Obstacle` is `obstacle`, `my_event` is
+/// `my-event`, `hello-event` stays.
+pub fn kebab(name: &str) -> String {
+    let chars: Vec<char> = name.chars().collect();
+    let mut out = String::new();
+    for (i, &c) in chars.iter().enumerate() {
+        if c.is_ascii_uppercase() && i > 0 {
+            let before = chars[i - 1];
+            let next_lower = chars.get(i + 1).is_some_and(char::is_ascii_lowercase);
+            if before.is_ascii_lowercase()
+                || before.is_ascii_digit()
+                || (before.is_ascii_uppercase() && next_lower)
+            {
+                out.push('-');
+            }
+        }
+        out.push(if c == '_' {
+            '-'
+        } else {
+            c.to_ascii_lowercase()
+        });
+    }
+    out
 }
 
 /// What `radar new` made.
@@ -194,11 +233,12 @@ pub fn create(
     if !valid_name(name) {
         return Err(ScaffoldError::BadName(name.to_string()));
     }
+    let folder = kebab(name);
     if kind == Kind::System {
-        let dir = super::system::create_system(parent, name)?;
+        let dir = super::system::create_system(parent, &folder, name)?;
         return Ok(Made { dir, system: None });
     }
-    let dir = parent.join(name);
+    let dir = parent.join(&folder);
     if dir.exists() {
         return Err(ScaffoldError::Exists(dir));
     }
@@ -206,7 +246,9 @@ pub fn create(
     // Checked before anything is written: a system that cannot take the
     // plugin leaves no folder behind.
     let system = super::system::system_manifest(parent)
-        .map(|path| super::system::with_plugin(&path, name, &tables).map(|text| (path, text)))
+        .map(|path| {
+            super::system::with_plugin(&path, name, &folder, &tables).map(|text| (path, text))
+        })
         .transpose()?;
     for (path, text, executable) in &files {
         write(&dir.join(path), text, *executable)?;
@@ -245,11 +287,18 @@ type NewFile = (String, String, bool);
 /// Every file of the folder, and the plugin's tables.
 fn files(
     kind: Kind,
-    name: &str,
+    plugin: &str,
     language: Language,
 ) -> Result<(Vec<NewFile>, Tables), ScaffoldError> {
+    // `{{plugin}}` is the name as given, `{{name}}` its folder's.
+    let kebab = kebab(plugin);
+    let name = kebab.as_str();
     let snake = name.replace('-', "_");
-    let names = [("name", name), ("snake", snake.as_str())];
+    let names = [
+        ("name", name),
+        ("snake", snake.as_str()),
+        ("plugin", plugin),
+    ];
     let (world, partner) = match kind {
         Kind::Event => (EVENT_WIT, PARTNER_OF_EVENT),
         Kind::Program => (PROGRAM_WIT, PARTNER_OF_PROGRAM),
@@ -348,10 +397,11 @@ fn files(
             (template, tables, values)
         }
     };
-    let rendered = tables.render(name, None);
+    let rendered = tables.render(plugin, None);
     let mut values = values;
     values.extend([
         ("name", name),
+        ("plugin", plugin),
         ("language", language_name.as_str()),
         ("tables", rendered.as_str()),
         ("partner", partner.as_str()),
@@ -544,17 +594,27 @@ mod tests {
     ];
 
     #[test]
-    fn names_are_lowercase_words_joined_by_dashes() {
-        assert!(valid_name("hello"));
-        assert!(valid_name("hello-event2"));
+    fn a_plugin_is_named_as_the_manifest_names_it_and_its_folder_in_kebab_case() {
+        for (good, folder) in [
+            ("hello", "hello"),
+            ("hello-event2", "hello-event2"),
+            ("Obstacle", "obstacle"),
+            ("BackOff", "back-off"),
+            ("TestEvent2", "test-event2"),
+            ("hello_event", "hello-event"),
+            ("HTTPServer", "http-server"),
+        ] {
+            assert!(valid_name(good), "{good}");
+            assert_eq!(kebab(good), folder);
+        }
         for bad in [
             "",
-            "Hello",
-            "hello_event",
             "2go",
             "hello--x",
             "-x",
             "hello world",
+            "a.b",
+            "Back_-Off",
         ] {
             assert!(!valid_name(bad), "{bad}");
         }

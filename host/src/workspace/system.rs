@@ -19,10 +19,11 @@ use crate::manifest::Manifest;
 /// The template of a system's `radar.toml`.
 const SYSTEM_MANIFEST: &str = include_str!("../../templates/system.toml");
 
-/// Makes `parent/NAME` with a system's `radar.toml` (no plugins yet:
-/// `radar new event|response` in it adds them); returns the folder.
-pub fn create_system(parent: &Path, name: &str) -> Result<PathBuf, ScaffoldError> {
-    let dir = parent.join(name);
+/// Makes `parent/FOLDER` with the `radar.toml` of the system `name` (no
+/// plugins yet: `radar new event|response` in it adds them); returns the
+/// folder.
+pub fn create_system(parent: &Path, folder: &str, name: &str) -> Result<PathBuf, ScaffoldError> {
+    let dir = parent.join(folder);
     if dir.exists() {
         return Err(ScaffoldError::Exists(dir));
     }
@@ -45,12 +46,13 @@ pub(super) fn system_manifest(parent: &Path) -> Option<PathBuf> {
     path.is_file().then_some(path)
 }
 
-/// The system manifest at `path` with `name`'s tables added (paths into
-/// the plugin's folder `name`), checked; the caller writes it once the
-/// plugin's folder is made.
+/// The system manifest at `path` with the tables of the plugin `name`
+/// added (paths into its folder `folder`), checked; the caller writes it
+/// once the plugin's folder is made.
 pub(super) fn with_plugin(
     path: &Path,
     name: &str,
+    folder: &str,
     tables: &Tables,
 ) -> Result<String, ScaffoldError> {
     let refused = |cause: String| ScaffoldError::System {
@@ -81,7 +83,7 @@ pub(super) fn with_plugin(
         combined.push('\n');
     }
     combined.push('\n');
-    combined.push_str(&tables.render(name, Some(name)));
+    combined.push_str(&tables.render(name, Some(folder)));
     let dir = path.parent().unwrap_or(Path::new("."));
     // A program may come first, into a system with no plugins yet (which
     // does not run until one is added).
@@ -121,9 +123,9 @@ mod tests {
         assert!(own.contains("wasm = \"target/dev.wasm\"\nsource = \"app.py\""));
         assert!(!own.contains("workdir"));
         let dir = tempfile::tempdir().expect("temp dir");
-        let system = create_system(dir.path(), "robot").expect("made");
+        let system = create_system(dir.path(), "robot", "robot").expect("made");
         let manifest = system.join("radar.toml");
-        let text = with_plugin(&manifest, "eye", &script_tables()).expect("added");
+        let text = with_plugin(&manifest, "eye", "eye", &script_tables()).expect("added");
         assert!(
             text.starts_with("# The system `robot`"),
             "comments kept: {text}"
@@ -134,7 +136,7 @@ mod tests {
         assert_eq!(builds[0].wasm, system.join("eye/target/dev.wasm"));
         assert_eq!(builds[0].script, Some(system.join("eye/app.py")));
         std::fs::write(&manifest, &text).expect("write");
-        let again = with_plugin(&manifest, "eye", &script_tables()).expect_err("twice");
+        let again = with_plugin(&manifest, "eye", "eye", &script_tables()).expect_err("twice");
         assert!(
             again.to_string().contains("has a plugin `eye` already"),
             "{again}"
@@ -144,19 +146,19 @@ mod tests {
     #[test]
     fn a_program_may_come_first_into_an_empty_system_and_only_once() {
         let dir = tempfile::tempdir().expect("temp dir");
-        let system = create_system(dir.path(), "robot").expect("made");
+        let system = create_system(dir.path(), "robot", "robot").expect("made");
         let manifest = system.join("radar.toml");
         let program = Tables {
             program: true,
             ..script_tables()
         };
-        let text = with_plugin(&manifest, "wiring", &program).expect("added");
+        let text = with_plugin(&manifest, "wiring", "wiring", &program).expect("added");
         assert!(
             text.contains("[deliberative]\nwasm = \"wiring/target/dev.wasm\""),
             "{text}"
         );
         std::fs::write(&manifest, &text).expect("write");
-        let again = with_plugin(&manifest, "other", &program).expect_err("a second");
+        let again = with_plugin(&manifest, "other", "other", &program).expect_err("a second");
         assert!(again.to_string().contains("program already"), "{again}");
     }
 }

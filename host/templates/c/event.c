@@ -1,4 +1,4 @@
-// `{{name}}`: an event. `check` runs again and again while the event is
+// `{{plugin}}`: an event. `check` runs again and again while the event is
 // connected; returning true (with *ret set) triggers it with that payload.
 // Every `every`-th check (default 3) triggers, one check a second.
 #include "radar_guest.h"

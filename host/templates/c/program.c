@@ -1,4 +1,4 @@
-// `{{name}}`: a deliberative program. It wires the system at run time, as
+// `{{plugin}}`: a deliberative program. It wires the system at run time, as
 // the paper's Listing 2 does: whenever Trigger triggers, Responder starts;
 // and it waits for Responder's first run to end and logs its result.
 #include "radar_program.h"

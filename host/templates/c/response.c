@@ -1,4 +1,4 @@
-// `{{name}}`: a response. `start` runs when it is started, one step a
+// `{{plugin}}`: a response. `start` runs when it is started, one step a
 // second for `steps` steps (default 3); an interruption ends it at its next
 // sleep, then `interrupt` and `exit` run.
 #include "radar_guest.h"
