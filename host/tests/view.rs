@@ -418,3 +418,43 @@ fn a_run_that_faults_or_is_stopped_still_ends_the_pages_stream_with_its_last_rec
         );
     }
 }
+
+#[test]
+fn a_headless_screenshot_of_the_monitors_snapshot_finishes() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let trace = dir.path().join("t.jsonl");
+    let (mut child, url) = run_monitored(&["--clock", "real", "--for", "60s"], &trace);
+    let shot = dir.path().join("shot.png");
+    // A budget of virtual time waits for the network to go quiet: on the
+    // live page (its event stream stays open) it never would.
+    let mut chromium = std::process::Command::new("chromium")
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--virtual-time-budget=2000",
+            "--window-size=1000,700",
+        ])
+        .arg(format!("--screenshot={}", shot.display()))
+        .arg(format!("{url}snapshot"))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("chromium runs");
+    let began = std::time::Instant::now();
+    let finished = loop {
+        if let Ok(Some(status)) = chromium.try_wait() {
+            break Some(status);
+        }
+        if began.elapsed() > std::time::Duration::from_secs(60) {
+            let _ = chromium.kill();
+            break None;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    };
+    let _ = child.kill();
+    let _ = child.wait();
+    assert!(finished.is_some(), "the screenshot never finished");
+    let png = std::fs::read(&shot).expect("a screenshot");
+    assert!(png.starts_with(b"\x89PNG"), "a PNG");
+}

@@ -15,7 +15,7 @@ pub struct AgentArgs {
     #[arg(long)]
     listen: Vec<String>,
     /// A Zenoh endpoint to connect to (repeatable): the coordinator's, or
-    /// a peer's, e.g. tcp/192.168.1.10:7447.
+    /// a peer's, e.g. tcp/192.168.1.10:7450.
     #[arg(long)]
     connect: Vec<String>,
     /// The user to present to a coordinator with control = "authenticated".

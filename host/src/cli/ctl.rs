@@ -25,7 +25,7 @@ pub struct CtlArgs {
     system: Option<String>,
     /// A Zenoh endpoint where the system (or a peer of it) listens
     /// (repeatable).
-    #[arg(long = "connect", default_value = "tcp/127.0.0.1:7447")]
+    #[arg(long = "connect", default_value = "tcp/127.0.0.1:7450")]
     connect: Vec<String>,
     /// The user to authenticate as, for a system with
     /// control = "authenticated".

@@ -41,7 +41,7 @@ pub struct NetworkSettings {
     /// Key expressions start with `radar/<system>/` (default `radar`).
     #[serde(default = "default_system")]
     pub system: String,
-    /// Zenoh endpoints to listen on (e.g. `tcp/127.0.0.1:7447`); none
+    /// Zenoh endpoints to listen on (e.g. `tcp/127.0.0.1:7450`); none
     /// without this key.
     #[serde(default)]
     pub listen: Vec<String>,

@@ -40,15 +40,26 @@ pub fn live_page(title: &str) -> String {
 
 /// Writes the view of `records` as one HTML page titled `title` (the
 /// trace's file name) to `out`.
-pub fn write_view(records: &[Record], title: &str, mut out: impl Write) -> std::io::Result<()> {
+pub fn write_view(records: &[Record], title: &str, out: impl Write) -> std::io::Result<()> {
+    let lines: Vec<String> = records.iter().map(Record::to_json_line).collect();
+    write_view_of_lines(lines.iter().map(String::as_str), title, out)
+}
+
+/// [`write_view`] of records already rendered as JSON lines (the live
+/// monitor's history, for its `/snapshot`).
+pub fn write_view_of_lines<'a>(
+    lines: impl Iterator<Item = &'a str>,
+    title: &str,
+    mut out: impl Write,
+) -> std::io::Result<()> {
     let (before, after) = halves(title, false);
     out.write_all(before.as_bytes())?;
     out.write_all(b"[")?;
-    for (i, record) in records.iter().enumerate() {
+    for (i, line) in lines.enumerate() {
         if i > 0 {
             out.write_all(b",\n")?;
         }
-        out.write_all(inline(&record.to_json_line()).as_bytes())?;
+        out.write_all(inline(line).as_bytes())?;
     }
     out.write_all(b"]")?;
     out.write_all(after.as_bytes())?;

@@ -2,7 +2,10 @@
 //!
 //! A small HTTP server on its own threads: `GET /` is the page, `GET
 //! /events` streams the trace as server-sent events (every record so far,
-//! then each as it happens), `GET /trace.jsonl` is the trace so far. The
+//! then each as it happens), `GET /trace.jsonl` is the trace so far, `GET
+//! /snapshot` the page with the records so far and no stream (for a
+//! headless browser's screenshot, which waits for the network to go
+//! quiet and so never ends on the live page). The
 //! run only keeps each record, and hands what it kept to a channel when it
 //! has nothing due ([`MonitorSink`], as the trace file's sink does): no
 //! wake-up on the run's path, and serving, serializing and slow browsers
@@ -18,7 +21,7 @@ use std::time::{Duration, Instant};
 
 use crossbeam_channel::{Receiver, Sender};
 
-use super::html::live_page;
+use super::html::{live_page, write_view_of_lines};
 use crate::trace::{Record, TraceSink};
 
 /// Records kept for a browser that opens the page late: a longer run
@@ -176,7 +179,10 @@ impl Monitor {
         });
         let (tx, rx) = crossbeam_channel::unbounded();
         let writers = Arc::new(Mutex::new(Vec::new()));
-        let page = Arc::new(live_page(title));
+        let page = Arc::new(Page {
+            live: live_page(title),
+            title: title.to_string(),
+        });
         let fan_out = {
             let hub = hub.clone();
             std::thread::Builder::new()
@@ -340,8 +346,15 @@ fn event(lines: &[Arc<str>], total: usize) -> String {
     text
 }
 
+/// What the monitor serves of its page: the live page, and the title a
+/// snapshot takes.
+struct Page {
+    live: String,
+    title: String,
+}
+
 /// Answers one HTTP request (one connection).
-fn serve(mut stream: TcpStream, hub: &Hub, page: &str) {
+fn serve(mut stream: TcpStream, hub: &Hub, page: &Page) {
     let _ = stream.set_read_timeout(Some(Duration::from_secs(5)));
     let _ = stream.set_write_timeout(Some(Duration::from_secs(10)));
     let mut request = Vec::new();
@@ -371,8 +384,17 @@ fn serve(mut stream: TcpStream, hub: &Hub, page: &str) {
                 &mut stream,
                 "200 OK",
                 "text/html; charset=utf-8",
-                page.as_bytes(),
+                page.live.as_bytes(),
             );
+        }
+        // The run so far as `radar view` writes it: a page that holds its
+        // records and opens no stream, so a headless browser's screenshot
+        // (which waits for the network to go quiet) finishes.
+        "/snapshot" | "/snapshot.html" => {
+            let history: Vec<Arc<str>> = hub.lock().history.iter().cloned().collect();
+            let mut body = Vec::new();
+            let _ = write_view_of_lines(history.iter().map(|l| &**l), &page.title, &mut body);
+            let _ = respond(&mut stream, "200 OK", "text/html; charset=utf-8", &body);
         }
         "/trace.jsonl" => {
             let history: Vec<Arc<str>> = hub.lock().history.iter().cloned().collect();
