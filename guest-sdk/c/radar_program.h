@@ -221,6 +221,13 @@ static inline bool radar_inject(const char *slot, const char *json) {
     return radar_reactive_system_inject(&s, &p, &err) || radar_failed_(&err);
 }
 
+/// Ends the program at once (it does not return) and the run with it, with
+/// `status` for `radar run` to exit with (0: success): every running
+/// response runs its exit, nothing new begins. Returning from the program
+/// (`RADAR_PROGRAM`'s function) ends the run too (status 0, or 1 with its
+/// error), unless it kept connections.
+static inline void radar_stop(uint8_t status) { radar_reactive_system_stop(status); }
+
 /// Writes a blackboard entry (JSON, checked against its type).
 static inline bool radar_board_write(const char *entry, const char *json) {
     RADAR_STRING e, v, err;

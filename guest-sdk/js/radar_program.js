@@ -31,6 +31,7 @@ import {
     pluginState,
     boardRead as hostBoardRead,
     boardWrite as hostBoardWrite,
+    stop as hostStop,
 } from 'radar:reactive/system@0.1.0';
 
 export * from './radar_base.js';
@@ -222,6 +223,16 @@ export function boardRead(entry) {
 /** Writes a blackboard entry (checked against its type). */
 export function boardWrite(entry, value) {
     hostBoardWrite(entry, JSON.stringify(value));
+}
+
+/**
+ * Ends the program at once (it does not return) and the run with it, with
+ * `status` for `radar run` to exit with (0: success): every running
+ * response runs its exit, nothing new begins. Returning from `main` ends
+ * the run too (status 0, or 1 with its error), unless it kept connections.
+ */
+export function stop(status = 0) {
+    hostStop(status);
 }
 
 /**

@@ -31,8 +31,8 @@ from wit_world.imports import system
 __all__ = [
     "Busy", "Connection", "Err", "Level", "Listener", "board_read", "board_write",
     "config", "config_keys", "debug", "error", "info", "inject", "log", "now", "on",
-    "on_once", "once", "plugin_state", "program", "sleep", "wait_until", "waitfor", "warn",
-    "whenever",
+    "on_once", "once", "plugin_state", "program", "sleep", "stop", "wait_until", "waitfor",
+    "warn", "whenever",
 ]
 
 Busy = system.Busy
@@ -216,6 +216,15 @@ def board_read(entry):
 def board_write(entry, value) -> None:
     """Writes a blackboard entry (checked against its type)."""
     system.board_write(entry, json.dumps(value))
+
+
+def stop(status=0) -> None:
+    """Ends the program at once (it does not return) and the run with it,
+    with `status` for `radar run` to exit with (0: success): every running
+    response runs its exit, nothing new begins. Returning from `main` ends
+    the run too (status 0, or 1 with its error), unless it kept
+    connections."""
+    system.stop(status)
 
 
 def program(main):

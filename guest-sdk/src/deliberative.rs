@@ -329,6 +329,16 @@ pub fn board_write<T: serde::Serialize>(entry: &str, value: &T) -> Result<(), Er
     Ok(system::board_write(entry, &json)?)
 }
 
+/// Ends the program at once (it does not return) and the run with it,
+/// with `status` for `radar run` to exit with (0: success): every running
+/// response runs its exit, nothing new begins. Returning from the program
+/// ends the run too (status 0, or 1 with its error), unless it kept
+/// connections.
+pub fn stop(status: u8) -> ! {
+    system::stop(status);
+    unreachable!("the host ends the program at `stop`")
+}
+
 /// Makes `main` (a `fn() -> Result<(), E>`, `E: Display`) the component's
 /// deliberative program: `radar_guest::program!(main);`.
 #[macro_export]

@@ -545,8 +545,14 @@ pub fn run(args: RunArgs) -> Result<()> {
     if let Some(divergence) = &report.replay_divergence {
         anyhow::bail!("{divergence}");
     }
-    if let Some(Err(e)) = &report.program {
-        anyhow::bail!("deliberative program: {e}");
+    match &report.program {
+        // The program said how the run ended: its status is the command's.
+        Some(Err(radar::ProgramFailure::Stopped(status))) => {
+            eprintln!("radar: the deliberative program stopped the run with status {status}");
+            std::process::exit(i32::from(*status));
+        }
+        Some(Err(e)) => anyhow::bail!("deliberative program: {e}"),
+        _ => {}
     }
     if !args.quiet {
         say(format_args!(

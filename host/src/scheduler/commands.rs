@@ -117,6 +117,9 @@ pub(crate) enum Command {
     },
     ProgramDone {
         outcome: Result<(), ProgramFailure>,
+        /// Whether its end ends the run (a deliberative component that
+        /// kept nothing, or that stopped it).
+        stops_run: bool,
     },
     AnonymousDone {
         slot: u64,
@@ -187,6 +190,16 @@ pub enum ProgramFailure {
     Error(String),
     /// It panicked (the panic's message).
     Panicked(String),
+    /// It stopped the run with this status, not 0 (`stop` of a
+    /// deliberative component): what `radar run` exits with.
+    Stopped(u8),
+}
+
+/// An error's text is a program's error.
+impl From<String> for ProgramFailure {
+    fn from(error: String) -> Self {
+        Self::Error(error)
+    }
 }
 
 impl std::fmt::Display for ProgramFailure {
@@ -194,6 +207,7 @@ impl std::fmt::Display for ProgramFailure {
         match self {
             Self::Error(e) => f.write_str(e),
             Self::Panicked(m) => write!(f, "panicked: {m}"),
+            Self::Stopped(status) => write!(f, "it stopped the run with status {status}"),
         }
     }
 }

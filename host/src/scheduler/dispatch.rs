@@ -148,18 +148,24 @@ impl Scheduler {
             Command::Now { reply } => {
                 let _ = reply.send(Duration::from_nanos(core.base.now()));
             }
-            Command::ProgramDone { outcome } => core.with(|st| {
+            Command::ProgramDone { outcome, stops_run } => core.with(|st| {
                 st.turns.block();
                 let (outcome_name, error) = match &outcome {
                     Ok(()) => ("ok", None),
                     Err(ProgramFailure::Error(e)) => ("error", Some(e.clone())),
                     Err(ProgramFailure::Panicked(m)) => ("panicked", Some(m.clone())),
+                    Err(ProgramFailure::Stopped(status)) => {
+                        ("stopped", Some(format!("status {status}")))
+                    }
                 };
                 st.record(Entry::ProgramEnd {
                     outcome: outcome_name.into(),
                     error,
                 });
                 st.program_outcome = Some(outcome);
+                if stops_run {
+                    st.begin_stop("the deliberative program ended");
+                }
             }),
             Command::AnonymousDone {
                 slot,

@@ -28,6 +28,7 @@ use crate::executor::block_on;
 use crate::limiter::{MemoryBudget, StoreLimiter};
 use crate::plugin::Limits;
 use crate::ports::Busy;
+use crate::scheduler::ProgramFailure;
 use crate::watchdog::{CallWatch, RunWatch};
 
 mod bindings {
@@ -35,6 +36,8 @@ mod bindings {
         world: "deliberative",
         path: "../wit",
         exports: { default: async },
+        // `stop` ends the program at once: a trap that unwinds it.
+        imports: { "radar:reactive/system.stop": trappable },
         with: {
             "radar:reactive/system.connection": crate::system::link::Connection,
             "radar:reactive/types": crate::capability::bindings::radar::reactive::types,
@@ -101,6 +104,10 @@ pub(crate) struct ProgramCtx {
     /// Its anonymous slots (resource reps): they end with the program,
     /// `keep` or not.
     listeners: std::collections::HashSet<u32>,
+    /// Whether it kept a connection: then the run goes on after it returns.
+    kept: bool,
+    /// The status it stopped the run with (`stop`).
+    stopped: Option<u8>,
     log: LogState,
     config: ConfigState,
     table: ResourceTable,
@@ -170,6 +177,7 @@ impl system::HostConnection for ProgramCtx {
         }
         if let Ok(c) = self.table.get_mut(&connection) {
             c.disarm();
+            self.kept = true;
         }
     }
 
@@ -275,6 +283,15 @@ impl Host for ProgramCtx {
             .board_write_by(&entry, value, "(program)")
             .map_err(text)
     }
+
+    fn stop(&mut self, status: u8) -> wasmtime::Result<()> {
+        // The program ends here, as a process ends at `exit`; the run ends
+        // once the scheduler has recorded the program's end.
+        self.stopped = Some(status);
+        Err(wasmtime::Error::msg(format!(
+            "the program stopped the run with status {status}"
+        )))
+    }
 }
 
 /// Compiles (or fetches from the cache) and checks a deliberative
@@ -299,6 +316,9 @@ pub(crate) struct ProgramRun {
     pub seed: u64,
     pub budget: Arc<MemoryBudget>,
     pub watch: Arc<RunWatch>,
+    /// Set when the program's end is to end the run: it kept no
+    /// connection, or it stopped the run.
+    pub stops_run: Arc<std::sync::atomic::AtomicBool>,
 }
 
 /// Runs a deliberative component's `run` on the calling thread (a native
@@ -308,12 +328,13 @@ pub(crate) fn run(
     code: ProgramCode,
     name: Arc<str>,
     setup: ProgramRun,
-) -> Result<(), String> {
+) -> Result<(), ProgramFailure> {
     let ProgramRun {
         base,
         seed,
         budget,
         watch,
+        stops_run,
     } = setup;
     let engine = code.component.engine().clone();
     let mut linker: Linker<ProgramCtx> = Linker::new(&engine);
@@ -349,6 +370,8 @@ pub(crate) fn run(
         radar,
         mailbox: MAILBOXES.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         listeners: std::collections::HashSet::new(),
+        kept: false,
+        stopped: None,
         log: LogState::new(name, base, usize::MAX),
         config: ConfigState {
             values: code.config.clone(),
@@ -373,13 +396,28 @@ pub(crate) fn run(
     ))
     .map_err(|e| format!("cannot start: {e:#}"))?;
     let outcome = block_on(program.call_run(&mut store));
+    let (kept, stopped) = (store.data().kept, store.data().stopped);
     // Connections the program still holds end with it, as scopes do.
     drop(store);
+    // The program's end is the run's (as a Python program's end is its
+    // process's), unless it kept connections to outlive it: the scheduler
+    // stops the run once it has recorded the end.
+    stops_run.store(
+        stopped.is_some() || !kept,
+        std::sync::atomic::Ordering::Relaxed,
+    );
+    if let Some(status) = stopped {
+        // The trap `stop` made is how it ended, not a fault.
+        return match status {
+            0 => Ok(()),
+            status => Err(ProgramFailure::Stopped(status)),
+        };
+    }
     match outcome {
-        Ok(result) => result,
-        Err(e) => Err(match stderr.last_line() {
+        Ok(result) => result.map_err(ProgramFailure::Error),
+        Err(e) => Err(ProgramFailure::Error(match stderr.last_line() {
             Some(line) => format!("{line} ({})", crate::plugin::describe_fault(&e)),
             None => crate::plugin::describe_fault(&e),
-        }),
+        })),
     }
 }

@@ -324,7 +324,7 @@ impl Radar {
             "radar-task",
             self.clone(),
             Some(go_rx),
-            task,
+            move |radar| task(radar).map_err(failed),
             move |outcome| Command::TaskDone { task: id, outcome },
         )
         .map_err(|e| RadarError::Program(format!("cannot start a task's thread: {e}")))?;
@@ -526,8 +526,9 @@ impl Task {
 
 /// Runs `body` on a new thread that is a native context of `handle`'s
 /// system; it waits for `go` (its first turn) if given, and reports how it
-/// ended with the command `done` makes.
-pub(super) fn native_thread<F, E>(
+/// ended with the command `done` makes (native code's error is its text:
+/// [`failed`]).
+pub(super) fn native_thread<F>(
     name: &str,
     handle: Radar,
     go: Option<Receiver<()>>,
@@ -535,8 +536,7 @@ pub(super) fn native_thread<F, E>(
     done: impl FnOnce(Result<(), ProgramFailure>) -> Command + Send + 'static,
 ) -> std::io::Result<()>
 where
-    F: FnOnce(Radar) -> Result<(), E> + Send + 'static,
-    E: Display,
+    F: FnOnce(Radar) -> Result<(), ProgramFailure> + Send + 'static,
 {
     std::thread::Builder::new()
         .name(name.into())
@@ -551,12 +551,17 @@ where
             let outcome =
                 match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| body(handle))) {
                     Ok(Ok(())) => Ok(()),
-                    Ok(Err(e)) => Err(ProgramFailure::Error(e.to_string())),
+                    Ok(Err(e)) => Err(e),
                     Err(panic) => Err(ProgramFailure::Panicked(crate::panics::message(&*panic))),
                 };
             let _ = tx.send(done(outcome));
         })
         .map(drop)
+}
+
+/// A native program's or task's error as its failure: its text.
+pub(super) fn failed<E: Display>(error: E) -> ProgramFailure {
+    ProgramFailure::Error(error.to_string())
 }
 
 /// A new version of a plugin, or its version and why it cannot be loaded.

@@ -11,7 +11,7 @@ use crossbeam_channel::{unbounded, Receiver, Sender};
 
 use super::context::{SharedSetups, NATIVE_CONTEXT, PROGRAM_NAME};
 use super::deliberative::{self, ProgramCode};
-use super::handle::{native_thread, Interrupter, Radar};
+use super::handle::{failed, native_thread, Interrupter, Radar};
 use crate::clock::{ClockKind, TimeBase};
 use crate::error::RadarError;
 use crate::limiter::MemoryBudget;
@@ -225,8 +225,11 @@ impl System {
             "radar-deliberative",
             self.handle(),
             None,
-            program,
-            |outcome| Command::ProgramDone { outcome },
+            move |radar| program(radar).map_err(failed),
+            |outcome| Command::ProgramDone {
+                outcome,
+                stops_run: false,
+            },
         )
         .map_err(|e| RadarError::Program(format!("cannot start its thread: {e}")))?;
         self.run_inner(limit, 1)
@@ -239,18 +242,23 @@ impl System {
     ) -> Result<RunReport, RadarError> {
         let base = TimeBase::with_fuel_time(self.clock, self.fuel_per_second);
         if let Some(code) = self.program.take() {
+            let stops_run = Arc::new(std::sync::atomic::AtomicBool::new(false));
             let setup = deliberative::ProgramRun {
                 base: base.clone(),
                 seed: self.seed,
                 budget: self.budget.clone(),
                 watch: self.watch.clone(),
+                stops_run: stops_run.clone(),
             };
             native_thread(
                 "radar-deliberative-component",
                 self.handle(),
                 None,
                 move |radar| deliberative::run(radar, code, Arc::from(PROGRAM_NAME), setup),
-                |outcome| Command::ProgramDone { outcome },
+                move |outcome| Command::ProgramDone {
+                    outcome,
+                    stops_run: stops_run.load(std::sync::atomic::Ordering::Relaxed),
+                },
             )
             .map_err(|e| RadarError::Program(format!("cannot start its thread: {e}")))?;
             programs += 1;
