@@ -48,7 +48,37 @@ pub fn build_all(manifest: Option<PathBuf>, release: bool, force: bool) -> Resul
     if failed > 0 {
         anyhow::bail!("{failed} build(s) failed");
     }
+    precompile(&path, release);
     Ok(())
+}
+
+/// Compiles what `radar run` would compile first (a Python or JavaScript
+/// component carries its interpreter: seconds each), so that the first run
+/// loads every component from the cache. A system that does not build yet
+/// (a program added before its plugins) is said, not failed: the builds
+/// did their work.
+fn precompile(path: &std::path::Path, release: bool) {
+    let Ok(mut manifest) = Manifest::load(path) else {
+        return;
+    };
+    if release {
+        manifest.use_release();
+    }
+    manifest.run_everything_here();
+    let began = std::time::Instant::now();
+    match manifest.add_to(radar::System::builder()).build() {
+        Ok(_) => {
+            let took = began.elapsed();
+            if took >= std::time::Duration::from_millis(500) {
+                say(format_args!(
+                    "compiled for the first run in {:.1} s: `radar run` loads every component \
+                     from the cache",
+                    took.as_secs_f64()
+                ));
+            }
+        }
+        Err(e) => eprintln!("radar: built, but the system does not build yet: {e}"),
+    }
 }
 
 /// `radar new`: the folder, then what to do next.
