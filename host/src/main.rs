@@ -70,7 +70,9 @@ enum Cmd {
     New {
         /// `event`, `response`, `program` (deliberative) or `system`.
         kind: scaffold::Kind,
-        /// The plugin's name: lowercase words joined by `-`.
+        /// The plugin's name as the manifest writes it: letters, digits,
+        /// `-` and `_`, starting with a letter (`Obstacle`, `BackOff`); its
+        /// folder takes it in kebab case (`back-off`).
         name: String,
         /// `rust`, `python`, `js`, `c` or `cpp`.
         #[arg(long, default_value = "rust")]

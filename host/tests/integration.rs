@@ -16,6 +16,7 @@ mod large_values;
 mod lost_link;
 mod mcap;
 mod network;
+mod program_end;
 mod ros2;
 mod scaffold;
 mod scenarios;

@@ -1,4 +1,4 @@
-//! A robot's large values in the human views (`docs/view.md#large-values`):
+//! A robot's large values in the human views (`docs/cli.md#what-the-timeline-shows`):
 //! the LaserScan system (a whole `sensor_msgs/msg/LaserScan` of 360 ranges
 //! written to the blackboard at 10 Hz for 30 s, a battery at 1 Hz, an
 //! obstacle event on the scan starting BackOff, which sends whole Twists)

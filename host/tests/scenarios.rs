@@ -619,3 +619,16 @@ fn a_scenario_from_a_recording_runs_the_current_components_and_says_so() {
         "{stdout}"
     );
 }
+
+#[test]
+fn a_scenario_folder_whose_settings_do_not_parse_fails_rather_than_vanishing() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let scenario = dir.path().join("broken");
+    std::fs::create_dir_all(&scenario).expect("folder");
+    std::fs::write(scenario.join("scenario.toml"), "manifest = [\n").expect("settings");
+    let out = radar(&["test", arg(dir.path())]);
+    let stdout = text(&out.stdout);
+    assert_eq!(out.status.code(), Some(1), "{stdout}");
+    assert!(stdout.contains("scenario broken ... FAILED"), "{stdout}");
+    assert!(stdout.contains("scenario.toml"), "{stdout}");
+}

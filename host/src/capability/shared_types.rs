@@ -8,15 +8,16 @@
 use wasmtime::component::{types, Component, Linker};
 use wasmtime::Engine;
 
-/// Whether `item` is an imported interface that exports types alone (a
-/// resource is not one: it needs a host implementation).
+/// Whether `item` is an imported interface that exports types, and types
+/// alone (a resource is not one: it needs a host implementation).
 pub(crate) fn is_types_only(engine: &Engine, item: &types::ComponentItem) -> bool {
     let types::ComponentItem::ComponentInstance(interface) = item else {
         return false;
     };
-    interface
-        .exports(engine)
-        .all(|(_, export)| matches!(export.ty, types::ComponentItem::Type(_)))
+    // An interface of nothing is no interface of types: refused, named.
+    let mut exports = interface.exports(engine).peekable();
+    exports.peek().is_some()
+        && exports.all(|(_, export)| matches!(export.ty, types::ComponentItem::Type(_)))
 }
 
 /// The names of the component's imports that are interfaces of types

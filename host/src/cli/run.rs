@@ -545,15 +545,11 @@ pub fn run(args: RunArgs) -> Result<()> {
     if let Some(divergence) = &report.replay_divergence {
         anyhow::bail!("{divergence}");
     }
-    match &report.program {
-        // The program said how the run ended: its status is the command's.
-        Some(Err(radar::ProgramFailure::Stopped(status))) => {
-            eprintln!("radar: the deliberative program stopped the run with status {status}");
-            std::process::exit(i32::from(*status));
-        }
+    let stopped_with = match &report.program {
+        Some(Err(radar::ProgramFailure::Stopped(status))) => Some(*status),
         Some(Err(e)) => anyhow::bail!("deliberative program: {e}"),
-        _ => {}
-    }
+        _ => None,
+    };
     if !args.quiet {
         say(format_args!(
             "\nrun ended at {:.3} s ({clock} clock)",
@@ -570,12 +566,18 @@ pub fn run(args: RunArgs) -> Result<()> {
             "radar: {plugin} faulted at {:.3} s: {cause}{more}",
             at.as_secs_f64()
         );
-        if !args.allow_faults {
+        if !args.allow_faults && stopped_with.is_none() {
             drop(monitor);
             // Its own status, so that scripts tell it from a run that
             // could not be made (docs/cli.md#radar-run).
             std::process::exit(FAULTED);
         }
+    }
+    if let Some(status) = stopped_with {
+        // The program said how the run ended: its status is the command's.
+        eprintln!("radar: the deliberative program stopped the run with status {status}");
+        drop(monitor);
+        std::process::exit(i32::from(status));
     }
     Ok(())
 }

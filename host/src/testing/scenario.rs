@@ -64,6 +64,8 @@ pub struct Scenario {
     pub name: String,
     /// The folder.
     pub dir: PathBuf,
+    /// Its system's `radar.toml`: in the folder, or the one it names.
+    manifest_path: PathBuf,
     manifest: Manifest,
     settings: Settings,
     comparison: Comparison,
@@ -219,6 +221,7 @@ impl Scenario {
         Ok(Self {
             name,
             dir: dir.to_path_buf(),
+            manifest_path,
             manifest,
             settings,
             comparison,
@@ -246,6 +249,12 @@ impl Scenario {
     /// `scenario.toml`.
     pub fn settings(&self) -> &Settings {
         &self.settings
+    }
+
+    /// Where its system's manifest is: `radar.toml` in its folder, or the
+    /// one its `scenario.toml` names.
+    pub fn manifest_path(&self) -> &Path {
+        &self.manifest_path
     }
 
     /// The system, `radar.toml`.
@@ -508,8 +517,7 @@ pub fn discover(roots: &[PathBuf]) -> Result<Vec<(String, PathBuf)>, String> {
         walk(root, root, &mut found).map_err(|e| format!("{}: {e}", root.display()))?;
         if found.len() == before {
             return Err(format!(
-                "{}: no scenario folders (folders with a {MANIFEST}, or a {SETTINGS} that \
-                 names the system's `manifest`) in it",
+                "{}: no scenario folders (folders with a {MANIFEST} or a {SETTINGS}) in it",
                 root.display()
             ));
         }
@@ -518,15 +526,10 @@ pub fn discover(roots: &[PathBuf]) -> Result<Vec<(String, PathBuf)>, String> {
 }
 
 /// Whether `folder` is a scenario: it holds a `radar.toml`, or a
-/// `scenario.toml` that names the system's `manifest`.
+/// `scenario.toml` (which names the system's `manifest`; one that does
+/// not, or does not parse, fails as that scenario, not silently).
 fn is_scenario(folder: &Path) -> bool {
-    if folder.join(MANIFEST).is_file() {
-        return true;
-    }
-    std::fs::read_to_string(folder.join(SETTINGS))
-        .ok()
-        .and_then(|text| text.parse::<toml::Table>().ok())
-        .is_some_and(|table| table.contains_key("manifest"))
+    folder.join(MANIFEST).is_file() || folder.join(SETTINGS).is_file()
 }
 
 fn walk(root: &Path, dir: &Path, found: &mut Vec<(String, PathBuf)>) -> std::io::Result<()> {

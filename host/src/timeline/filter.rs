@@ -72,8 +72,14 @@ impl Filter {
                 Some(c) => ends(&c.from, &c.to),
                 None => Vec::new(),
             },
-            Entry::Inject { to, .. } | Entry::Dropped { to, .. } | Entry::Deliver { to, .. } => {
-                vec![plugin_of(to).to_string(), to.to_string()]
+            Entry::Inject { to, .. } => vec![plugin_of(to).to_string(), to.to_string()],
+            // A delivery is about its slot and the signal it carries.
+            Entry::Dropped { id, to, .. } | Entry::Deliver { id, to, .. } => {
+                let mut subjects = vec![plugin_of(to).to_string(), to.to_string()];
+                if let Some(c) = graph.connections.get(id) {
+                    subjects.extend([plugin_of(&c.from).to_string(), c.from.clone()]);
+                }
+                subjects
             }
             Entry::Activate { plugin }
             | Entry::Deactivate { plugin }

@@ -162,7 +162,10 @@ impl<W: Write + Send> Timeline<W> {
         let events = |state: &str| -> Vec<String> {
             g.plugins
                 .iter()
-                .filter(|(n, p)| p.event && p.state == state && filter.shows(&[n]))
+                // A plugin in error is never hidden.
+                .filter(|(n, p)| {
+                    p.event && p.state == state && (state == "error" || filter.shows(&[n]))
+                })
                 .map(|(n, _)| n.clone())
                 .collect()
         };

@@ -5,7 +5,7 @@
 //! and said on the next printed line, and the state block shows the entry
 //! as streaming instead of its changing value. A stream that stops is said
 //! once, with its last value, when an instant a second past its last
-//! printed write ends.
+//! write ends.
 
 use std::collections::BTreeMap;
 
@@ -83,7 +83,14 @@ impl Streams {
     pub fn quieted(&mut self, now: Option<u64>) -> Vec<Quieted> {
         let mut out = Vec::new();
         for (entry, stream) in &mut self.entries {
-            let due = now.is_none_or(|now| now >= stream.last_printed + EVERY);
+            // Quiet a second since its last write, not its last printed
+            // one: a stream still going is not said to have stopped.
+            let last_write = stream.last.as_ref().map(|(t, _, _)| *t);
+            let due = match (now, last_write) {
+                (_, None) => false,
+                (None, Some(_)) => true,
+                (Some(now), Some(t)) => now >= t + EVERY,
+            };
             if stream.held == 0 || !due {
                 continue;
             }
@@ -123,7 +130,9 @@ mod tests {
         assert_eq!(printed, [(0, 0), (10, 9), (20, 9)]);
         assert!(streams.is_streaming("scan"));
         assert!(streams.quieted(Some(2_500 * MS)).is_empty());
-        let quiet = streams.quieted(Some(3_000 * MS));
+        // A second after the last write (2.4 s), not the last printed one.
+        assert!(streams.quieted(Some(3_300 * MS)).is_empty());
+        let quiet = streams.quieted(Some(3_400 * MS));
         assert_eq!(quiet.len(), 1);
         assert_eq!((quiet[0].held, quiet[0].t), (4, 2_400 * MS));
         assert_eq!(quiet[0].value, json!(24));

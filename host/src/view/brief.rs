@@ -144,19 +144,32 @@ fn write_tight(value: &Json, out: &mut String) {
 /// A list too long to print: `[360 numbers: min 0.1, max 10, mean 3.41;
 /// 0.5, 0.51, 0.52, …]`, or `[24 items: …, …, …, …]`.
 fn write_long_list(items: &[Json], depth: usize, out: &mut String) {
-    let numbers: Option<Vec<f64>> = items.iter().map(Json::as_f64).collect();
+    // A float that is not finite is the string the trace writes for it
+    // (`"Infinity"`, `"NaN"`): a LaserScan's out-of-range readings.
+    let numbers: Option<Vec<f64>> = items.iter().map(as_number).collect();
     match numbers {
         Some(numbers) => {
-            let min = numbers.iter().copied().fold(f64::INFINITY, f64::min);
-            let max = numbers.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            let mean = numbers.iter().sum::<f64>() / numbers.len() as f64;
-            out.push_str(&format!(
-                "[{} numbers: min {}, max {}, mean {}; ",
-                thousands(items.len() as u64),
-                number(min),
-                number(max),
-                number(mean)
-            ));
+            let finite: Vec<f64> = numbers.iter().copied().filter(|x| x.is_finite()).collect();
+            let others = numbers.len() - finite.len();
+            out.push_str(&format!("[{} numbers: ", thousands(items.len() as u64)));
+            if !finite.is_empty() {
+                let min = finite.iter().copied().fold(f64::INFINITY, f64::min);
+                let max = finite.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                let mean = finite.iter().sum::<f64>() / finite.len() as f64;
+                out.push_str(&format!(
+                    "min {}, max {}, mean {}",
+                    number(min),
+                    number(max),
+                    number(mean)
+                ));
+            }
+            if others > 0 {
+                if !finite.is_empty() {
+                    out.push_str(", ");
+                }
+                out.push_str(&format!("{} not finite", thousands(others as u64)));
+            }
+            out.push_str("; ");
         }
         None => out.push_str(&format!("[{} items: ", thousands(items.len() as u64))),
     }
@@ -165,6 +178,20 @@ fn write_long_list(items: &[Json], depth: usize, out: &mut String) {
         out.push_str(", ");
     }
     out.push_str("…]");
+}
+
+/// A number, or a float the trace wrote as a string because JSON has no
+/// infinities or NaN.
+fn as_number(value: &Json) -> Option<f64> {
+    match value {
+        Json::String(text) => match text.as_str() {
+            "Infinity" => Some(f64::INFINITY),
+            "-Infinity" => Some(f64::NEG_INFINITY),
+            "NaN" => Some(f64::NAN),
+            _ => None,
+        },
+        other => other.as_f64(),
+    }
 }
 
 /// The size the trace noted for a value it cut (`{"$cut": {"bytes": N}}`).
@@ -232,6 +259,17 @@ mod tests {
         assert_eq!(
             brief(&json!({"ranges": ranges})),
             r#"{"ranges":[360 numbers: min 0.5, max 4.09, mean 2.295; 0.5, 0.51, 0.52, …]}"#
+        );
+    }
+
+    #[test]
+    fn readings_out_of_range_are_counted_apart_from_the_statistics() {
+        let mut ranges = vec![json!(2.0); 10];
+        ranges[3] = json!("Infinity");
+        ranges[4] = json!("NaN");
+        assert_eq!(
+            brief(&json!(ranges)),
+            "[10 numbers: min 2, max 2, mean 2, 2 not finite; 2.0, 2.0, 2.0, …]"
         );
     }
 

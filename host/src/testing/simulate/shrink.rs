@@ -149,8 +149,8 @@ pub fn write_scenario(sim: &Simulation, plan: &Plan, dir: &Path) -> Result<(), S
     let scenario = sim.scenario();
     let spec = sim.spec(plan);
     // radar.toml, its paths absolute.
-    let manifest_path = scenario.dir.join(MANIFEST);
-    let text = std::fs::read_to_string(&manifest_path)
+    let manifest_path = scenario.manifest_path();
+    let text = std::fs::read_to_string(manifest_path)
         .map_err(|e| format!("cannot read {}: {e}", manifest_path.display()))?;
     let mut manifest: toml::Table = toml::from_str(&text)
         .map_err(|e| format!("{}: {}", manifest_path.display(), e.message()))?;
@@ -287,6 +287,9 @@ fn settings_text(sim: &Simulation, plan: &Plan, spec: &RunSpec) -> Result<String
         .into(),
     );
     out.insert("for".into(), duration_text(spec.run_for).into());
+    if settings.components == crate::testing::settings::Components::Recorded {
+        out.insert("components".into(), "recorded".into());
+    }
     if let Some(seed) = spec.seed {
         out.insert("seed".into(), toml::Value::Integer(seed as i64));
     }
