@@ -215,6 +215,7 @@ fn the_graph_with_a_scan_on_the_board_is_as_narrow_as_with_small_values() {
         small["ranges"] = json!([0.9]);
         small
     });
+    println!("radar graph at 12 s: {with_scans} pt wide with 360 ranges, {small} pt with one");
     assert!(
         with_scans <= small * 1.1,
         "{with_scans} pt with 360 ranges against {small} pt with one"

@@ -25,6 +25,10 @@ pub struct GraphArgs {
     /// Where to write it (default: stdout).
     #[arg(short, long)]
     output: Option<PathBuf>,
+    /// The blackboard's values whole (by default a large one is brief and
+    /// none is wider than 48 characters).
+    #[arg(long)]
+    full: bool,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -38,7 +42,7 @@ pub fn graph(args: GraphArgs) -> Result<()> {
     let records =
         read_trace(&args.trace).with_context(|| format!("trace {}", args.trace.display()))?;
     let at = u64::try_from(args.at.as_nanos()).unwrap_or(u64::MAX);
-    let dot = graph_at(&records, at).to_dot();
+    let dot = graph_at(&records, at).to_dot_with(args.full);
     let out = match args.format {
         Format::Dot => dot.into_bytes(),
         Format::Svg => svg(&dot)?,

@@ -183,8 +183,14 @@ fn quote(text: &str) -> String {
 impl Graph {
     /// The graph in Graphviz DOT: events as ellipses (filled while
     /// active), responses as boxes with their state (filled while not
-    /// idle), connections as edges labelled `#id mode signal → slot`.
+    /// idle), connections as edges labelled `#id mode signal → slot`; the
+    /// blackboard's values brief.
     pub fn to_dot(&self) -> String {
+        self.to_dot_with(false)
+    }
+
+    /// [`Graph::to_dot`], the blackboard's values whole when `full`.
+    pub fn to_dot_with(&self, full: bool) -> String {
         let mut dot = String::new();
         let _ = writeln!(dot, "digraph radar {{");
         let _ = writeln!(
@@ -244,7 +250,11 @@ impl Graph {
                 .board
                 .iter()
                 .map(|(entry, e)| {
-                    let value = super::brief::brief_within(&e.value, BOARD_LABEL);
+                    let value = if full {
+                        e.value.to_string()
+                    } else {
+                        super::brief::brief_within(&e.value, BOARD_LABEL)
+                    };
                     format!("{entry} = {value} (by {})", e.by)
                 })
                 .collect();
