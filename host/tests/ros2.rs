@@ -532,6 +532,19 @@ fn twists_on_cmd_vel(python: &str, port: u16, count: u32, timeout: u32) -> Clien
     client
 }
 
+/// What a subscriber of [`twists_on_cmd_vel`] received, once it ended
+/// well: each Twist as JSON, and its lines.
+fn twists_received(twists: Client) -> (Vec<Json>, Vec<String>) {
+    let (ok, lines, stderr) = twists.finish();
+    assert!(ok, "{stderr}");
+    let messages = lines
+        .iter()
+        .filter(|l| l.starts_with('{'))
+        .map(|l| serde_json::from_str(l).expect("JSON"))
+        .collect();
+    (messages, lines)
+}
+
 #[test]
 fn a_fail_safe_route_sends_its_fixed_message_when_a_response_faults_and_the_exit_runs_too() {
     let python = python();
@@ -557,14 +570,7 @@ fn a_fail_safe_route_sends_its_fixed_message_when_a_response_faults_and_the_exit
             "3s:M.start",
         ],
     );
-    let twists = twists_on_cmd_vel(&python, run.port, 3, 15);
-    let (ok, lines, stderr) = twists.finish();
-    assert!(ok, "{stderr}");
-    let messages: Vec<Json> = lines
-        .iter()
-        .filter(|l| l.starts_with('{'))
-        .map(|l| serde_json::from_str(l).expect("JSON"))
-        .collect();
+    let (messages, lines) = twists_received(twists_on_cmd_vel(&python, run.port, 3, 15));
     // Backing away, then the fail-safe's zero Twist at the fault, then the
     // exit's own stop, run on a fresh instance.
     assert_eq!(messages.len(), 3, "{lines:?}");
@@ -686,14 +692,7 @@ fn whole_twists_from_rust_python_and_javascript_plugins_reach_a_ros2_subscriber(
         },
         &args,
     );
-    let twists = twists_on_cmd_vel(&python, run.port, 6, 20);
-    let (ok, lines, stderr) = twists.finish();
-    assert!(ok, "{stderr}");
-    let messages: Vec<Json> = lines
-        .iter()
-        .filter(|l| l.starts_with('{'))
-        .map(|l| serde_json::from_str(l).expect("JSON"))
-        .collect();
+    let (messages, lines) = twists_received(twists_on_cmd_vel(&python, run.port, 6, 20));
     let twist = |x: f64| serde_json::json!({"linear": {"x": x, "y": 0.0, "z": 0.0}, "angular": {"x": 0.0, "y": 0.0, "z": 0.0}});
     // Each language backs away at its speed, then its exit stops the base.
     let expected: Vec<Json> = languages
