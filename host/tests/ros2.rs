@@ -660,21 +660,43 @@ fn a_killed_agent_faults_its_response_and_the_fail_safe_route_stops_the_base() {
     );
 }
 
+/// `plugins/NAME` (C or C++) built by `guest-sdk/c/build` into `dir`.
+fn built_c(name: &str, dir: &Path) -> String {
+    let out = dir.join(format!("{name}.wasm"));
+    let built = Command::new("sh")
+        .arg(root().join("guest-sdk/c/build"))
+        .arg(&out)
+        .current_dir(root().join("plugins").join(name))
+        .env("RADAR_TOOLCHAINS", radar_fixtures::TOOLCHAINS)
+        .env("RADAR", env!("CARGO_BIN_EXE_radar"))
+        .output()
+        .expect("sh runs");
+    assert!(built.status.success(), "{name}: {}", text(&built.stderr));
+    out.to_str().expect("utf-8").to_string()
+}
+
 #[test]
-fn whole_twists_from_rust_python_and_javascript_plugins_reach_a_ros2_subscriber() {
+fn whole_twists_from_a_plugin_in_every_sdk_language_reach_a_ros2_subscriber() {
     use radar_fixtures::plugins::{BACK_OFF_RESPONSE, BACK_OFF_RESPONSE_JS, BACK_OFF_RESPONSE_PY};
     let python = python();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (c, cpp) = (
+        built_c("back-off-response-c", dir.path()),
+        built_c("back-off-response-cpp", dir.path()),
+    );
     let languages = [
         ("Rs", BACK_OFF_RESPONSE, 0.1),
         ("Py", BACK_OFF_RESPONSE_PY, 0.2),
         ("Js", BACK_OFF_RESPONSE_JS, 0.3),
+        ("C", c.as_str(), 0.4),
+        ("Cpp", cpp.as_str(), 0.5),
     ];
     let injects: Vec<String> = languages
         .iter()
         .enumerate()
         .map(|(i, (name, _, speed))| format!("{}s:BackOff{name}.start={speed}", 3 + 2 * i))
         .collect();
-    let mut args = vec!["--clock", "real", "--for", "10s"];
+    let mut args = vec!["--clock", "real", "--for", "14s"];
     for inject in &injects {
         args.extend(["--inject", inject]);
     }
@@ -692,7 +714,7 @@ fn whole_twists_from_rust_python_and_javascript_plugins_reach_a_ros2_subscriber(
         },
         &args,
     );
-    let (messages, lines) = twists_received(twists_on_cmd_vel(&python, run.port, 6, 20));
+    let (messages, lines) = twists_received(twists_on_cmd_vel(&python, run.port, 10, 30));
     let twist = |x: f64| serde_json::json!({"linear": {"x": x, "y": 0.0, "z": 0.0}, "angular": {"x": 0.0, "y": 0.0, "z": 0.0}});
     // Each language backs away at its speed, then its exit stops the base.
     let expected: Vec<Json> = languages

@@ -138,9 +138,11 @@ fn a_c_build_is_reproducible() {
 }
 
 #[test]
-fn a_c_plugin_sends_the_same_whole_commands_as_rust() {
+fn c_and_cpp_plugins_send_the_same_whole_commands_as_rust() {
     let rust = super::commands::back_off_records(Path::new(plugins::BACK_OFF_RESPONSE));
     assert!(!rust.is_empty());
-    let c = super::commands::back_off_records(&built("back-off-response-c"));
-    assert_eq!(c, rust);
+    for name in ["back-off-response-c", "back-off-response-cpp"] {
+        let records = super::commands::back_off_records(&built(name));
+        assert_eq!(records, rust, "{name}");
+    }
 }

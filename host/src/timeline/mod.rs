@@ -10,8 +10,8 @@
 //! ([`crate::view::Graph`]).
 //!
 //! A robot's values are large and its sensors fast, so by default every
-//! value is printed [`brief`](crate::view::brief) and an entry written
-//! faster than once a second is folded ([`streams`]); `--full` prints
+//! value is printed [`brief`](crate::view::brief()) and an entry written
+//! faster than once a second is folded (`streams.rs`); `--full` prints
 //! everything whole. What is printed can be chosen by plugin, signal and
 //! entry ([`Filter`]).
 

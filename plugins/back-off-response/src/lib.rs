@@ -7,8 +7,8 @@ use radar_guest::prelude::*;
 
 radar_guest::plugin!(world: "back-off", path: "../wit/back-off");
 
-use radar_examples::back_off::commands::{Motion, Twist, Vector3};
 use exports::radar_examples::back_off::slots::Guest;
+use radar_examples::back_off::commands::{Motion, Twist, Vector3};
 use radar_examples::back_off::{board, signals};
 
 struct BackOff;
