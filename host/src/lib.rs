@@ -37,6 +37,7 @@ pub mod timeline;
 pub mod trace;
 pub mod view;
 mod watchdog;
+mod wit_names;
 pub mod workspace;
 
 pub use clock::ClockKind;

@@ -33,6 +33,7 @@ const FLOORS: &[(&str, u8, &str)] = &[
     ("suggest", 1, "values and time"),
     ("trace", 1, "values and time"),
     ("watchdog", 1, "values and time"),
+    ("wit_names", 1, "values and time"),
     // 2. The host interfaces plugins import.
     ("capability", 2, "capabilities"),
     // 3. Loading components and live instances.

@@ -435,17 +435,24 @@ fn a_start_past_its_deadline_under_the_real_clock_faults_and_its_exit_runs() {
     assert_eq!(last_command(&trace), Some(0.0));
 }
 
-#[test]
-fn an_exit_running_when_the_run_is_stopped_is_bounded_by_its_exit_ms() {
-    let plugin = with_exit_ms(motor("").config("exit_sleep_ms", 5000), 300);
-    let report = run(virtual_system().plugin(plugin), 30, |radar| {
+/// M (`exit_ms` 300) started at 0, `slot` signalled at 0.1 s (which
+/// sleeps 5 s, as `sleep_key` tells it), the run stopped at 0.2 s.
+fn stopped_while_it_sleeps(slot: &str, sleep_key: &str) -> radar::RunReport {
+    let plugin = with_exit_ms(motor("").config(sleep_key, 5000), 300);
+    let slot = format!("M.{slot}");
+    run(virtual_system().plugin(plugin), 30, move |radar| {
         radar.inject("M.start", json!(null))?;
         radar.sleep(Duration::from_millis(100))?;
-        radar.inject("M.exit", json!(null))?; // its exit sleeps 5 s
+        radar.inject(&slot, json!(null))?;
         radar.sleep(Duration::from_millis(100))?;
         radar.stop();
         Ok(())
-    });
+    })
+}
+
+#[test]
+fn an_exit_running_when_the_run_is_stopped_is_bounded_by_its_exit_ms() {
+    let report = stopped_while_it_sleeps("exit", "exit_sleep_ms");
     let trace = records(&report);
     assert_sequence(
         &trace,
@@ -461,15 +468,7 @@ fn an_exit_running_when_the_run_is_stopped_is_bounded_by_its_exit_ms() {
 
 #[test]
 fn an_interrupt_past_its_bound_at_a_stop_is_not_a_fault_and_the_exit_runs() {
-    let plugin = with_exit_ms(motor("").config("interrupt_sleep_ms", 5000), 300);
-    let report = run(virtual_system().plugin(plugin), 30, |radar| {
-        radar.inject("M.start", json!(null))?;
-        radar.sleep(Duration::from_millis(100))?;
-        radar.inject("M.interrupt", json!(null))?; // its interrupt sleeps 5 s
-        radar.sleep(Duration::from_millis(100))?;
-        radar.stop();
-        Ok(())
-    });
+    let report = stopped_while_it_sleeps("interrupt", "interrupt_sleep_ms");
     let trace = records(&report);
     assert_eq!(count(&trace, json!({"kind": "fault"})), 0, "not a fault");
     assert_sequence(

@@ -8,6 +8,7 @@
 //! a hidden fault would mislead.
 
 use crate::trace::Entry;
+use crate::view::graph::plugin_of;
 use crate::view::Graph;
 
 /// The patterns a timeline filters its lines with.
@@ -109,11 +110,6 @@ fn ends(from: &str, to: &str) -> Vec<String> {
         from.to_string(),
         to.to_string(),
     ]
-}
-
-/// `P` of `P.slot`.
-fn plugin_of(port: &str) -> &str {
-    port.split_once('.').map_or(port, |(plugin, _)| plugin)
 }
 
 /// Whether `pattern` (`*` any text) matches all of `text`.

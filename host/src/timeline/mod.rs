@@ -24,7 +24,7 @@ pub use self::filter::Filter;
 use self::streams::Streams;
 use crate::trace::{Entry, Record, TraceSink};
 use crate::view::brief::shown;
-use crate::view::graph::busy_policy;
+use crate::view::graph::{busy_policy, plugin_of};
 use crate::view::Graph;
 
 /// How a timeline prints: values whole or brief, and what it shows.
@@ -340,11 +340,6 @@ impl<W: Write + Send> Timeline<W> {
     }
 }
 
-/// `P` of `P.signal`.
-fn plugin_of(port: &str) -> &str {
-    port.split_once('.').map_or(port, |(plugin, _)| plugin)
-}
-
 impl<W: Write + Send> TraceSink for Timeline<W> {
     fn record(&mut self, record: &Record) {
         let instant = record.t / INSTANT;
@@ -353,24 +348,23 @@ impl<W: Write + Send> TraceSink for Timeline<W> {
             self.instant = Some(instant);
             self.stamped = false;
         }
-        let mut line = if self.options.filter.shows_entry(&record.entry, &self.graph) {
+        // A write of a stream is held (and not rendered) or printed with
+        // how many were held before it.
+        let held = match &record.entry {
+            Entry::BoardWrite { entry, by, value } if !self.options.full => {
+                self.streams.write(entry, record.t, value, by)
+            }
+            _ => Some(0),
+        };
+        let shown = held.is_some() && self.options.filter.shows_entry(&record.entry, &self.graph);
+        let mut line = if shown {
             self.line(&record.entry)
         } else {
             None
         };
-        if let Entry::BoardWrite { entry, by, value } = &record.entry {
-            if !self.options.full {
-                match self.streams.write(entry, record.t, value, by) {
-                    None => line = None,
-                    Some(0) => {}
-                    Some(held) => {
-                        if let Some(line) = &mut line {
-                            line.pop(); // its `)`
-                            line.push_str(&format!("; {held} writes since the last shown)"));
-                        }
-                    }
-                }
-            }
+        if let (Some(line), Some(held)) = (&mut line, held.filter(|&n| n > 0)) {
+            line.pop(); // its `)`
+            line.push_str(&format!("; {held} writes since the last shown)"));
         }
         self.graph.apply(record);
         if let Some(line) = line {

@@ -85,7 +85,7 @@ pub fn busy_policy(busy: &str, queue: Option<u64>) -> String {
 }
 
 /// The plugin a port (`Plugin.slot`) belongs to.
-fn plugin_of(port: &str) -> &str {
+pub(crate) fn plugin_of(port: &str) -> &str {
     port.split('.').next().unwrap_or(port)
 }
 

@@ -19,6 +19,7 @@ use std::str::FromStr;
 
 pub use super::error::ScaffoldError;
 use super::tables::{Release, Tables};
+use crate::wit_names::kebab;
 
 /// What `radar new` makes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -165,7 +166,7 @@ const PACKAGE_JSON: &Template = template!("js/package.json");
 /// Whether `name` can name a plugin: letters, digits, `-` and `_`,
 /// starting with a letter (`Obstacle`, `BackOff`, `hello-event`). The
 /// manifest takes the name as it is; its folder, crate, package and WIT
-/// world take [`kebab`] of it.
+/// world take it in kebab case (`back-off`).
 pub fn valid_name(name: &str) -> bool {
     name.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
         && name
@@ -184,32 +185,6 @@ fn valid_kebab(name: &str) -> bool {
                     .chars()
                     .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit())
         })
-}
-
-/// A plugin's name as its folder, crate, package and WIT world spell it:
-/// `BackOff` is `back-off`, `Obstacle` is `obstacle`, `my_event` is
-/// `my-event`, `hello-event` stays.
-pub fn kebab(name: &str) -> String {
-    let chars: Vec<char> = name.chars().collect();
-    let mut out = String::new();
-    for (i, &c) in chars.iter().enumerate() {
-        if c.is_ascii_uppercase() && i > 0 {
-            let before = chars[i - 1];
-            let next_lower = chars.get(i + 1).is_some_and(char::is_ascii_lowercase);
-            if before.is_ascii_lowercase()
-                || before.is_ascii_digit()
-                || (before.is_ascii_uppercase() && next_lower)
-            {
-                out.push('-');
-            }
-        }
-        out.push(if c == '_' {
-            '-'
-        } else {
-            c.to_ascii_lowercase()
-        });
-    }
-    out
 }
 
 /// What `radar new` made.
@@ -291,8 +266,8 @@ fn files(
     language: Language,
 ) -> Result<(Vec<NewFile>, Tables), ScaffoldError> {
     // `{{plugin}}` is the name as given, `{{name}}` its folder's.
-    let kebab = kebab(plugin);
-    let name = kebab.as_str();
+    let folder = kebab(plugin);
+    let name = folder.as_str();
     let snake = name.replace('-', "_");
     let names = [
         ("name", name),

@@ -10,89 +10,7 @@ use std::fmt::Write;
 
 use super::msg::{Base, Shape};
 use super::types::{primitive_type, wit_name, Message};
-
-/// WIT's keywords: a name that is one is written `%name`.
-const KEYWORDS: [&str; 45] = [
-    "as",
-    "async",
-    "bool",
-    "borrow",
-    "char",
-    "constructor",
-    "enum",
-    "error-context",
-    "export",
-    "f32",
-    "f64",
-    "flags",
-    "float32",
-    "float64",
-    "from",
-    "func",
-    "future",
-    "import",
-    "include",
-    "interface",
-    "list",
-    "option",
-    "own",
-    "package",
-    "record",
-    "resource",
-    "result",
-    "s16",
-    "s32",
-    "s64",
-    "s8",
-    "static",
-    "stream",
-    "string",
-    "tuple",
-    "type",
-    "u16",
-    "u32",
-    "u64",
-    "u8",
-    "use",
-    "variant",
-    "with",
-    "world",
-    "_",
-];
-
-/// `name`, escaped if it is a WIT keyword.
-fn ident(name: &str) -> String {
-    if KEYWORDS.contains(&name) {
-        format!("%{name}")
-    } else {
-        name.to_string()
-    }
-}
-
-/// A ROS type's name (`LaserScan`, `UInt32`, `PoseWithCovariance`) in
-/// WIT's kebab case (`laser-scan`, `u-int32`, `pose-with-covariance`).
-fn kebab(name: &str) -> String {
-    let chars: Vec<char> = name.chars().collect();
-    let mut out = String::new();
-    for (i, &c) in chars.iter().enumerate() {
-        if c.is_ascii_uppercase() && i > 0 {
-            let before = chars[i - 1];
-            let next_lower = chars.get(i + 1).is_some_and(|n| n.is_ascii_lowercase());
-            if before.is_ascii_lowercase()
-                || before.is_ascii_digit()
-                || (before.is_ascii_uppercase() && next_lower)
-            {
-                out.push('-');
-            }
-        }
-        if c == '_' {
-            out.push('-');
-        } else {
-            out.push(c.to_ascii_lowercase());
-        }
-    }
-    out
-}
+use crate::wit_names::{ident, kebab};
 
 impl Message {
     /// The WIT records of this message and of every message it uses,
@@ -164,18 +82,7 @@ impl Message {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use crate::network::ros2::MessageTypes;
-
-    #[test]
-    fn type_names_become_kebab_case() {
-        assert_eq!(kebab("LaserScan"), "laser-scan");
-        assert_eq!(kebab("UInt32"), "u-int32");
-        assert_eq!(kebab("Vector3"), "vector3");
-        assert_eq!(kebab("Float32MultiArray"), "float32-multi-array");
-        assert_eq!(kebab("MultiDOFJointState"), "multi-dof-joint-state");
-        assert_eq!(kebab("std_msgs"), "std-msgs");
-    }
 
     #[test]
     fn a_twist_prints_its_vector3_first() {
