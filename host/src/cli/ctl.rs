@@ -266,7 +266,13 @@ fn watch(client: &Client, system: &str, shown: &TimelineArgs) -> Result<()> {
     let mut timeline = Timeline::with_options(std::io::stdout(), shown.options());
     loop {
         match rx.recv_timeout(Duration::from_millis(100)) {
-            Ok(Some(record)) => timeline.record(&record),
+            Ok(Some(record)) => {
+                timeline.record(&record);
+                // Printed once what has come is taken.
+                if rx.is_empty() {
+                    timeline.idle();
+                }
+            }
             Ok(None) => break,
             Err(crossbeam_channel::RecvTimeoutError::Timeout) => timeline.idle(),
             Err(crossbeam_channel::RecvTimeoutError::Disconnected) => break,

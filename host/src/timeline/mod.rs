@@ -1,7 +1,10 @@
 //! A readable timeline of a run: the paper's Fig. 3 as text.
 //!
 //! The timeline is a [`TraceSink`]: it prints what happens as it happens
-//! (so a real-clock run can be watched live) and, when an instant is over and
+//! (so a real-clock run can be watched live: records are kept as they come
+//! and rendered when the scheduler is idle, so that formatting and the
+//! terminal's write never sit between a trigger and its response) and, when
+//! an instant is over and
 //! the state of the system changed during it, that state: which connections
 //! exist (with their busy policy, and an `until` with the connection it
 //! serves), which events are active, each response's state and queue, and
@@ -19,10 +22,11 @@ mod filter;
 mod streams;
 
 use std::io::Write;
+use std::time::{Duration, Instant};
 
 pub use self::filter::Filter;
 use self::streams::Streams;
-use crate::trace::{Entry, Record, TraceSink};
+use crate::trace::{Entry, Record, TraceSink, CLOCK_EVERY};
 use crate::view::brief::shown;
 use crate::view::graph::{busy_policy, plugin_of};
 use crate::view::Graph;
@@ -53,7 +57,19 @@ pub struct Timeline<W: Write + Send> {
     last_summary: String,
     options: TimelineOptions,
     streams: Streams,
+    /// Records not rendered yet, and when the timeline last printed.
+    pending: Vec<Record>,
+    printed: Instant,
+    /// Rendered text not written yet: written in one go.
+    text: Vec<u8>,
 }
+
+/// Records the timeline keeps at most before it renders them, idle or not.
+const BATCH: usize = 1024;
+
+/// The longest a record waits to be printed, in wall-clock time, when the
+/// scheduler is never idle (the virtual clock) and records keep coming.
+const PRINT_EVERY: Duration = Duration::from_millis(200);
 
 impl<W: Write + Send> Timeline<W> {
     /// A timeline written to `out`, values brief, everything shown.
@@ -71,6 +87,9 @@ impl<W: Write + Send> Timeline<W> {
             last_summary: String::new(),
             options,
             streams: Streams::default(),
+            pending: Vec::new(),
+            printed: Instant::now(),
+            text: Vec::new(),
         }
     }
 
@@ -105,9 +124,29 @@ impl<W: Write + Send> Timeline<W> {
             self.stamped = true;
             format!("{:>9.3}s", (t * INSTANT) as f64 / 1e9)
         };
+        let _ = writeln!(self.text, "{stamp:>10}  {line}");
+    }
+
+    /// Renders the records kept so far (into `text`).
+    fn render_pending(&mut self) {
+        let pending = std::mem::take(&mut self.pending);
+        for record in &pending {
+            self.render(record);
+        }
+        // The buffer is kept for the next time.
+        self.pending = pending;
+        self.pending.clear();
+    }
+
+    fn write_out(&mut self) {
+        if self.text.is_empty() {
+            return;
+        }
+        self.printed = Instant::now();
         // A closed stdout must not stop the robot.
-        let _ = writeln!(self.out, "{stamp:>10}  {line}");
+        let _ = self.out.write_all(&self.text);
         let _ = self.out.flush();
+        self.text.clear();
     }
 
     /// Ends the current instant: prints the system's state if it changed.
@@ -128,8 +167,7 @@ impl<W: Write + Send> Timeline<W> {
             };
             self.print(what);
         }
-        let _ = self.out.write_all(summary.as_bytes());
-        let _ = self.out.flush();
+        self.text.extend_from_slice(summary.as_bytes());
         self.last_summary = summary;
     }
 
@@ -340,8 +378,10 @@ impl<W: Write + Send> Timeline<W> {
     }
 }
 
-impl<W: Write + Send> TraceSink for Timeline<W> {
-    fn record(&mut self, record: &Record) {
+impl<W: Write + Send> Timeline<W> {
+    /// Prints one record: its line, and the state when it begins a new
+    /// instant.
+    fn render(&mut self, record: &Record) {
         let instant = record.t / INSTANT;
         if self.instant != Some(instant) {
             self.end_instant();
@@ -371,11 +411,39 @@ impl<W: Write + Send> TraceSink for Timeline<W> {
             self.print(&line);
         }
     }
+}
+
+impl<W: Write + Send> TraceSink for Timeline<W> {
+    fn record(&mut self, record: &Record) {
+        self.pending.push(record.clone());
+        let n = self.pending.len();
+        // The clock is looked at every CLOCK_EVERY records only, and never
+        // at the first after a quiet spell (see `JsonLines`).
+        if n >= BATCH || (n.is_multiple_of(CLOCK_EVERY) && self.printed.elapsed() >= PRINT_EVERY) {
+            self.render_pending();
+            self.write_out();
+        }
+    }
+
+    fn idle(&mut self) {
+        if self.pending.is_empty() {
+            return;
+        }
+        self.render_pending();
+        // Nothing is due: the instant is over for now, so its state is
+        // printed at once rather than when the next record comes (a later
+        // record of the same millisecond prints its line, and the state
+        // again if it changed it).
+        self.end_instant();
+        self.write_out();
+    }
 
     fn finish(&mut self) -> std::io::Result<()> {
         // A closed stdout (`radar run | head`) is not the run's failure.
+        self.render_pending();
         self.say_quieted(None);
         self.end_instant();
+        self.write_out();
         Ok(())
     }
 }
@@ -463,5 +531,51 @@ mod tests {
     2.000s    R [info] count 1
 ";
         assert_eq!(text, expected);
+    }
+
+    #[test]
+    fn prints_nothing_on_the_runs_path_and_everything_when_idle() {
+        let mut timeline = Timeline::new(Vec::new());
+        let connect = Entry::Connect {
+            id: 1,
+            from: "E.triggered".into(),
+            to: "R.start".into(),
+            mode: "whenever".into(),
+            busy: "drop".into(),
+            queue: None,
+            until_of: None,
+        };
+        timeline.record(&at(0, connect));
+        timeline.idle();
+        let before = timeline.out.len();
+        assert!(before > 0, "idle prints what came");
+        let signal = Entry::Signal {
+            plugin: "E".into(),
+            signal: "triggered".into(),
+            payload: serde_json::json!(5),
+        };
+        timeline.record(&at(2000, signal));
+        let running = Entry::State {
+            plugin: "R".into(),
+            state: "running".into(),
+        };
+        timeline.record(&at(2000, running));
+        assert_eq!(
+            timeline.out.len(),
+            before,
+            "printed between a trigger and its start"
+        );
+        timeline.idle();
+        let text = String::from_utf8(timeline.out[before..].to_vec()).expect("utf-8");
+        // The instant's state is printed when the run is idle, not when
+        // the next record comes.
+        assert_eq!(
+            text,
+            "    2.000s  E.triggered(5)
+            ┆ connections: #1 E.triggered → R.start (whenever)
+            ┆ active events: none
+            ┆ responses: R running
+"
+        );
     }
 }

@@ -23,4 +23,5 @@ pub use check::{check, explain, Laws, Violation, WITHDRAWN};
 pub(crate) use kept::KeptTrace;
 pub use lines::{parse_json_lines, to_json_lines, to_values, ParseError};
 pub use record::{Entry, Name, Record};
+pub(crate) use sink::CLOCK_EVERY;
 pub use sink::{JsonLines, TraceSink};

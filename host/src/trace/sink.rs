@@ -20,6 +20,10 @@ pub trait TraceSink: Send {
     }
 }
 
+/// How many records a sink takes between two looks at the wall clock for
+/// its time rule (a look costs about what keeping a record does).
+pub(crate) const CLOCK_EVERY: usize = 64;
+
 /// Writes each record as one line of JSON.
 ///
 /// Records are kept as they come and rendered and written when the
@@ -33,10 +37,13 @@ pub struct JsonLines<W: Write + Send> {
     pending: Vec<Record>,
     line: String,
     error: Option<std::io::Error>,
-    /// When the sink last wrote and flushed: under the virtual clock the
-    /// scheduler is never idle, so the file is also brought up to date
-    /// every [`JsonLines::FLUSH_EVERY`] of wall time.
-    flushed: std::time::Instant,
+    /// When the sink last wrote: under the virtual clock the scheduler is
+    /// never idle, so the file is also brought up to date every
+    /// [`JsonLines::FLUSH_EVERY`] of wall time, looked at every
+    /// [`CLOCK_EVERY`] records only. Never at the first record after a
+    /// quiet spell (a real-clock trigger): a write there would sit between
+    /// the trigger and its response, and the next idle moment is near.
+    written: std::time::Instant,
 }
 
 impl<W: Write + Send> JsonLines<W> {
@@ -55,11 +62,12 @@ impl<W: Write + Send> JsonLines<W> {
             pending: Vec::new(),
             line: String::new(),
             error: None,
-            flushed: std::time::Instant::now(),
+            written: std::time::Instant::now(),
         }
     }
 
     fn write_pending(&mut self) {
+        self.written = std::time::Instant::now();
         for record in self.pending.drain(..) {
             if self.error.is_some() {
                 continue;
@@ -83,9 +91,10 @@ impl<W: Write + Send> TraceSink for JsonLines<W> {
             return;
         }
         self.pending.push(record.clone());
-        if self.pending.len() >= Self::BATCH {
+        let n = self.pending.len();
+        if n >= Self::BATCH {
             self.write_pending();
-        } else if self.flushed.elapsed() >= Self::FLUSH_EVERY {
+        } else if n.is_multiple_of(CLOCK_EVERY) && self.written.elapsed() >= Self::FLUSH_EVERY {
             self.idle();
         }
     }
@@ -97,12 +106,58 @@ impl<W: Write + Send> TraceSink for JsonLines<W> {
                 self.error.get_or_insert(e);
             }
         }
-        self.flushed = std::time::Instant::now();
     }
 
     fn finish(&mut self) -> std::io::Result<()> {
         self.write_pending();
         let flushed = self.out.flush();
         self.error.take().map_or(flushed, Err)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use super::*;
+    use crate::trace::Entry;
+
+    fn signal(t: u64) -> Record {
+        Record {
+            t,
+            entry: Entry::Signal {
+                plugin: "E".into(),
+                signal: "triggered".into(),
+                payload: serde_json::json!(5),
+            },
+        }
+    }
+
+    #[test]
+    fn the_first_record_after_a_quiet_spell_waits_for_the_idle_moment() {
+        let mut sink = JsonLines::new(Vec::new());
+        sink.record(&signal(1));
+        sink.idle();
+        let written = sink.out.len();
+        assert!(written > 0, "idle writes what is pending");
+        // A real-clock run quiet for longer than FLUSH_EVERY, then a
+        // trigger: its record is kept, not written on the trigger's path.
+        std::thread::sleep(JsonLines::<Vec<u8>>::FLUSH_EVERY + Duration::from_millis(10));
+        sink.record(&signal(2));
+        assert_eq!(sink.out.len(), written, "written on the trigger's path");
+        sink.idle();
+        assert!(sink.out.len() > written);
+    }
+
+    #[test]
+    fn records_that_keep_coming_are_written_once_the_time_rule_is_due() {
+        let mut sink = JsonLines::new(Vec::new());
+        sink.record(&signal(1));
+        std::thread::sleep(JsonLines::<Vec<u8>>::FLUSH_EVERY + Duration::from_millis(10));
+        for t in 2..=CLOCK_EVERY as u64 {
+            sink.record(&signal(t));
+        }
+        let text = String::from_utf8(sink.out.clone()).expect("utf-8");
+        assert_eq!(text.lines().count(), CLOCK_EVERY, "{text}");
     }
 }
