@@ -23,6 +23,10 @@ const SILENCE: Duration = Duration::from_secs(60);
 /// at most one outstanding).
 const INBOX: usize = 64;
 
+/// How long a wait for an agent's answer looks for it before it sleeps:
+/// a few loopback or LAN round trips.
+const ANSWER_SOON: Duration = Duration::from_millis(1);
+
 /// What happens when an agent comes and goes: given the agent's name.
 pub(super) type OnAgent = Box<dyn Fn(&str, bool) + Send + Sync>;
 
@@ -228,6 +232,15 @@ impl AgentLink for ZenohAgents {
             return Err(Some("has no such instance".into()));
         };
         let began = Instant::now();
+        // The answer to a short call comes within a round trip: the
+        // scheduler's thread looks for it, yielding its core between looks,
+        // rather than sleeping and paying the wake-up when it comes.
+        while began.elapsed() < ANSWER_SOON {
+            if let Ok(message) = rx.try_recv() {
+                return Ok(message);
+            }
+            std::thread::yield_now();
+        }
         loop {
             match rx.recv_timeout(Duration::from_millis(20)) {
                 Ok(message) => return Ok(message),
