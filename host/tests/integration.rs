@@ -23,3 +23,4 @@ mod scenarios;
 mod simulate;
 mod stopping;
 mod view;
+mod wasmtime_facts;

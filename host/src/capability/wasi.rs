@@ -59,7 +59,7 @@ use super::random::SeededRandom;
 use super::stderr::StderrTail;
 use crate::clock::{ClockKind, StopFlag, TimeBase};
 
-/// The interface names `wasmtime_wasi` 48 links WASI 0.2 under; a guest's
+/// The interface names `wasmtime_wasi` 50 links WASI 0.2 under; a guest's
 /// import of any 0.2.x version resolves to them.
 const MONOTONIC_CLOCK: &str = "wasi:clocks/monotonic-clock@0.2.12";
 const POLL: &str = "wasi:io/poll@0.2.12";

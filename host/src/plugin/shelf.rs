@@ -349,7 +349,7 @@ unsafe impl MemoryCreator for MemoryShelf {
         guard_size_in_bytes: usize,
     ) -> Result<Box<dyn LinearMemory>, String> {
         let page = page_size();
-        // wasmtime 48 always asks for a reservation (the engine's
+        // wasmtime (48 to 50) always asks for a reservation (the engine's
         // `memory_reservation`, 4 GiB: a 32-bit memory's whole range);
         // without one, what the memory may grow to, up to that.
         let reserved = reserved_size_in_bytes
