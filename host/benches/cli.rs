@@ -26,22 +26,10 @@ use serde_json::Value;
 
 mod common;
 
-/// Listing 2/3 (a trigger at 5 s, 10 s, ...; TestResponse sleeps 1 s a
-/// count) and `Tick` → `Short`: a trigger every 2 s, a response that
-/// sleeps 0.5 s a count and is idle again before the next.
-const MANIFEST: &str = r#"
-[plugins.TestEvent]
-wasm = "builtin:test-event"
-config = { count_to = 5, interval_s = 1 }
-
-[plugins.TestEvent2]
-wasm = "builtin:timer-event"
-config = { after_s = 3 }
-
-[plugins.TestResponse]
-wasm = "builtin:test-response"
-config = { count_for_s = 10, interval_s = 1 }
-
+/// `Tick` → `Short`, added to the built-in Listing 2/3 (a trigger at
+/// 5 s, 10 s, ...; TestResponse sleeps 1 s a count): a trigger every 2 s,
+/// a response that sleeps 0.5 s a count and is idle again before the next.
+const PAIR: &str = r#"
 [plugins.Tick]
 wasm = "builtin:test-event"
 config = { count_to = 2, interval_s = 1 }
@@ -49,9 +37,6 @@ config = { count_to = 2, interval_s = 1 }
 [plugins.Short]
 wasm = "builtin:test-response"
 config = { count_for_s = 1, interval_s = 0.5 }
-
-[deliberative]
-wasm = "builtin:listing23-program"
 
 [[connect]]
 mode = "whenever"
@@ -159,7 +144,8 @@ fn main() {
     };
     let (secs, rounds) = (env("RADAR_CLI_SECS", 11), env("RADAR_CLI_ROUNDS", 3));
     let dir = tempfile::tempdir().expect("a temporary folder");
-    std::fs::write(dir.path().join("radar.toml"), MANIFEST).expect("the manifest written");
+    let manifest = format!("{}{PAIR}", radar::example::LISTING23_MANIFEST);
+    std::fs::write(dir.path().join("radar.toml"), manifest).expect("the manifest written");
     println!(
         "== the real clock through radar run: {rounds} rounds of {secs} s runs, the three ways \
          taking turns (a shared machine's slow minutes fall on all three); trace written to a \
