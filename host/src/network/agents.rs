@@ -3,6 +3,7 @@
 //! said as such to every call waiting on it (`docs/network.md`).
 
 use std::collections::{HashMap, HashSet};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -43,6 +44,10 @@ pub(super) struct ZenohAgents {
     session: Session,
     inboxes: Mutex<HashMap<(String, String), Inbox>>,
     alive: Mutex<HashSet<String>>,
+    /// Whether the last answer came within [`ANSWER_SOON`]: only then is
+    /// the next one looked for before sleeping (a slow link or a call that
+    /// computes for long would make the look a waste of a core).
+    answers_soon: AtomicBool,
     on_agent: Mutex<Option<OnAgent>>,
     on_report: Mutex<Option<OnReport>>,
     /// The reports taken, by name: an agent sends one until it hears it
@@ -68,6 +73,7 @@ impl ZenohAgents {
             session: session.clone(),
             inboxes: Mutex::default(),
             alive: Mutex::default(),
+            answers_soon: AtomicBool::new(true),
             on_agent: Mutex::default(),
             on_report: Mutex::default(),
             reports: Mutex::default(),
@@ -235,12 +241,40 @@ impl AgentLink for ZenohAgents {
         // The answer to a short call comes within a round trip: the
         // scheduler's thread looks for it, yielding its core between looks,
         // rather than sleeping and paying the wake-up when it comes.
-        while began.elapsed() < ANSWER_SOON {
+        while self.answers_soon.load(Ordering::Relaxed) && began.elapsed() < ANSWER_SOON {
             if let Ok(message) = rx.try_recv() {
                 return Ok(message);
             }
             std::thread::yield_now();
         }
+        let answer = self.wait_for_answer(node, &rx, began, give_up);
+        self.answers_soon
+            .store(began.elapsed() < ANSWER_SOON, Ordering::Relaxed);
+        answer
+    }
+
+    fn forget(&self, node: &str, route: &str) {
+        lock(&self.inboxes).remove(&(node.to_string(), route.to_string()));
+    }
+
+    fn is_alive(&self, node: &str) -> bool {
+        lock(&self.alive).contains(node)
+    }
+
+    fn run_id(&self) -> String {
+        self.run.clone()
+    }
+}
+
+impl ZenohAgents {
+    /// The blocking part of [`AgentLink::recv`].
+    fn wait_for_answer(
+        &self,
+        node: &str,
+        rx: &Receiver<FromAgent>,
+        began: Instant,
+        give_up: &dyn Fn() -> bool,
+    ) -> Result<FromAgent, Option<String>> {
         loop {
             match rx.recv_timeout(Duration::from_millis(20)) {
                 Ok(message) => return Ok(message),
@@ -257,17 +291,5 @@ impl AgentLink for ZenohAgents {
                 Err(_) => {}
             }
         }
-    }
-
-    fn forget(&self, node: &str, route: &str) {
-        lock(&self.inboxes).remove(&(node.to_string(), route.to_string()));
-    }
-
-    fn is_alive(&self, node: &str) -> bool {
-        lock(&self.alive).contains(node)
-    }
-
-    fn run_id(&self) -> String {
-        self.run.clone()
     }
 }

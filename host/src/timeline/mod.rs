@@ -1,10 +1,11 @@
 //! A readable timeline of a run: the paper's Fig. 3 as text.
 //!
-//! The timeline is a [`TraceSink`]: it prints what happens as it happens
-//! (so a real-clock run can be watched live: records are kept as they come
-//! and rendered when the scheduler is idle, so that formatting and the
-//! terminal's write never sit between a trigger and its response) and, when
-//! an instant is over and
+//! The timeline is a [`TraceSink`]: it prints what happens, live under the
+//! real clock (records are kept as they come and rendered and printed when
+//! the scheduler is idle, so that formatting and the terminal's write do
+//! not sit between a trigger and its response; under the virtual clock,
+//! every 200 ms of wall time or 1,024 records) and, when an instant is over
+//! and
 //! the state of the system changed during it, that state: which connections
 //! exist (with their busy policy, and an `until` with the connection it
 //! serves), which events are active, each response's state and queue, and
@@ -57,9 +58,9 @@ pub struct Timeline<W: Write + Send> {
     last_summary: String,
     options: TimelineOptions,
     streams: Streams,
-    /// Records not rendered yet, and when the timeline last printed.
+    /// Records not rendered yet, and when the oldest of them came.
     pending: Vec<Record>,
-    printed: Instant,
+    oldest: Option<Instant>,
     /// Rendered text not written yet: written in one go.
     text: Vec<u8>,
 }
@@ -88,7 +89,7 @@ impl<W: Write + Send> Timeline<W> {
             options,
             streams: Streams::default(),
             pending: Vec::new(),
-            printed: Instant::now(),
+            oldest: None,
             text: Vec::new(),
         }
     }
@@ -129,6 +130,7 @@ impl<W: Write + Send> Timeline<W> {
 
     /// Renders the records kept so far (into `text`).
     fn render_pending(&mut self) {
+        self.oldest = None;
         let pending = std::mem::take(&mut self.pending);
         for record in &pending {
             self.render(record);
@@ -142,7 +144,6 @@ impl<W: Write + Send> Timeline<W> {
         if self.text.is_empty() {
             return;
         }
-        self.printed = Instant::now();
         // A closed stdout must not stop the robot.
         let _ = self.out.write_all(&self.text);
         let _ = self.out.flush();
@@ -417,9 +418,10 @@ impl<W: Write + Send> TraceSink for Timeline<W> {
     fn record(&mut self, record: &Record) {
         self.pending.push(record.clone());
         let n = self.pending.len();
-        // The clock is looked at every CLOCK_EVERY records only, and never
-        // at the first after a quiet spell (see `JsonLines`).
-        if n >= BATCH || (n.is_multiple_of(CLOCK_EVERY) && self.printed.elapsed() >= PRINT_EVERY) {
+        // The clock is read at the first record after a quiet spell and
+        // every CLOCK_EVERY records (see `JsonLines`).
+        let oldest = *self.oldest.get_or_insert_with(Instant::now);
+        if n >= BATCH || (n.is_multiple_of(CLOCK_EVERY) && oldest.elapsed() >= PRINT_EVERY) {
             self.render_pending();
             self.write_out();
         }
@@ -429,12 +431,10 @@ impl<W: Write + Send> TraceSink for Timeline<W> {
         if self.pending.is_empty() {
             return;
         }
+        // An instant's state is printed when the next instant's first
+        // record comes (more of this millisecond may still come), so it
+        // depends on the records alone, never on when the run was idle.
         self.render_pending();
-        // Nothing is due: the instant is over for now, so its state is
-        // printed at once rather than when the next record comes (a later
-        // record of the same millisecond prints its line, and the state
-        // again if it changed it).
-        self.end_instant();
         self.write_out();
     }
 
@@ -534,7 +534,7 @@ mod tests {
     }
 
     #[test]
-    fn prints_nothing_on_the_runs_path_and_everything_when_idle() {
+    fn prints_nothing_on_the_runs_path_and_what_came_when_idle() {
         let mut timeline = Timeline::new(Vec::new());
         let connect = Entry::Connect {
             id: 1,
@@ -567,11 +567,20 @@ mod tests {
         );
         timeline.idle();
         let text = String::from_utf8(timeline.out[before..].to_vec()).expect("utf-8");
-        // The instant's state is printed when the run is idle, not when
-        // the next record comes.
+        // The state of the instant before, over when the trigger's record
+        // came, then the trigger.
+        let earlier = "            ┆ connections: #1 E.triggered → R.start (whenever)
+            ┆ active events: none
+";
+        assert_eq!(text, format!("{earlier}    2.000s  E.triggered(5)\n"));
+        // The trigger's instant's state follows when it is over: here, at
+        // the end.
+        timeline.finish().expect("a timeline reports no error");
+        let text = String::from_utf8(timeline.out[before..].to_vec()).expect("utf-8");
         assert_eq!(
             text,
-            "    2.000s  E.triggered(5)
+            earlier.to_string()
+                + "    2.000s  E.triggered(5)
             ┆ connections: #1 E.triggered → R.start (whenever)
             ┆ active events: none
             ┆ responses: R running

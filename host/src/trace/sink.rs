@@ -37,13 +37,13 @@ pub struct JsonLines<W: Write + Send> {
     pending: Vec<Record>,
     line: String,
     error: Option<std::io::Error>,
-    /// When the sink last wrote: under the virtual clock the scheduler is
-    /// never idle, so the file is also brought up to date every
-    /// [`JsonLines::FLUSH_EVERY`] of wall time, looked at every
-    /// [`CLOCK_EVERY`] records only. Never at the first record after a
-    /// quiet spell (a real-clock trigger): a write there would sit between
-    /// the trigger and its response, and the next idle moment is near.
-    written: std::time::Instant,
+    /// When the oldest pending record came: under the virtual clock the
+    /// scheduler is never idle, so records that have waited
+    /// [`JsonLines::FLUSH_EVERY`] of wall time are written, looked at every
+    /// [`CLOCK_EVERY`] records. Counted from the oldest record, not the
+    /// last write, so that the records of a trigger after a quiet spell
+    /// wait for the next idle moment rather than being written on its path.
+    oldest: Option<std::time::Instant>,
 }
 
 impl<W: Write + Send> JsonLines<W> {
@@ -52,7 +52,7 @@ impl<W: Write + Send> JsonLines<W> {
     pub const BATCH: usize = 4096;
 
     /// The longest a record waits in the sink, in wall-clock time, when
-    /// records keep coming (looked at as each record comes).
+    /// records keep coming (looked at every 64 records).
     pub const FLUSH_EVERY: std::time::Duration = std::time::Duration::from_millis(200);
 
     /// Records written to `out`.
@@ -62,12 +62,12 @@ impl<W: Write + Send> JsonLines<W> {
             pending: Vec::new(),
             line: String::new(),
             error: None,
-            written: std::time::Instant::now(),
+            oldest: None,
         }
     }
 
     fn write_pending(&mut self) {
-        self.written = std::time::Instant::now();
+        self.oldest = None;
         for record in self.pending.drain(..) {
             if self.error.is_some() {
                 continue;
@@ -92,9 +92,10 @@ impl<W: Write + Send> TraceSink for JsonLines<W> {
         }
         self.pending.push(record.clone());
         let n = self.pending.len();
+        let oldest = *self.oldest.get_or_insert_with(std::time::Instant::now);
         if n >= Self::BATCH {
             self.write_pending();
-        } else if n.is_multiple_of(CLOCK_EVERY) && self.written.elapsed() >= Self::FLUSH_EVERY {
+        } else if n.is_multiple_of(CLOCK_EVERY) && oldest.elapsed() >= Self::FLUSH_EVERY {
             self.idle();
         }
     }
