@@ -136,13 +136,10 @@ fn through_library(dir: &Path, secs: u64) -> Result<(Vec<f64>, Vec<f64>), String
 }
 
 fn main() {
-    let env = |name: &str, default: u64| {
-        std::env::var(name)
-            .ok()
-            .and_then(|s| s.parse().ok())
-            .unwrap_or(default)
-    };
-    let (secs, rounds) = (env("RADAR_CLI_SECS", 11), env("RADAR_CLI_ROUNDS", 3));
+    let (secs, rounds) = (
+        common::env_u64("RADAR_CLI_SECS", 11),
+        common::env_u64("RADAR_CLI_ROUNDS", 3),
+    );
     let dir = tempfile::tempdir().expect("a temporary folder");
     let manifest = format!("{}{PAIR}", radar::example::LISTING23_MANIFEST);
     std::fs::write(dir.path().join("radar.toml"), manifest).expect("the manifest written");

@@ -59,13 +59,10 @@ fn round(secs: u64, monitor: bool) -> (Vec<f64>, usize) {
 }
 
 fn main() {
-    let env = |name: &str, default: u64| {
-        std::env::var(name)
-            .ok()
-            .and_then(|s| s.parse().ok())
-            .unwrap_or(default)
-    };
-    let (secs, rounds) = (env("RADAR_MONITOR_SECS", 4), env("RADAR_MONITOR_ROUNDS", 3));
+    let (secs, rounds) = (
+        common::env_u64("RADAR_MONITOR_SECS", 4),
+        common::env_u64("RADAR_MONITOR_ROUNDS", 3),
+    );
     println!(
         "== trigger → start, real clock, an event every 10 ms, {rounds} rounds of {secs} s: none, monitor, none =="
     );

@@ -11,6 +11,14 @@ pub fn free_port() -> u16 {
         .expect("a free port")
 }
 
+/// An integer setting from the environment, or `default`.
+pub fn env_u64(name: &str, default: u64) -> u64 {
+    std::env::var(name)
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(default)
+}
+
 /// The `p` (0 to 1) percentile of `sorted` (NaN if it is empty).
 pub fn percentile(sorted: &[f64], p: f64) -> f64 {
     if sorted.is_empty() {

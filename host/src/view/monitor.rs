@@ -22,7 +22,7 @@ use std::time::{Duration, Instant};
 use crossbeam_channel::{Receiver, Sender};
 
 use super::html::{live_page, write_view_of_lines};
-use crate::trace::{Record, TraceSink};
+use crate::trace::{Record, TraceSink, CLOCK_EVERY};
 
 /// Records kept for a browser that opens the page late: a longer run
 /// shows its last this many records (the page says how many it has).
@@ -135,10 +135,10 @@ impl MonitorSink {
 impl TraceSink for MonitorSink {
     fn record(&mut self, record: &Record) {
         self.pending.push(record.clone());
-        // The clock is read every 64 records only: a read costs as much as
+        // The clock is read every CLOCK_EVERY records only: a read costs as much as
         // keeping a record.
         let n = self.pending.len();
-        if n >= BATCH || (n.is_multiple_of(64) && self.sent.elapsed() >= SEND_EVERY) {
+        if n >= BATCH || (n.is_multiple_of(CLOCK_EVERY) && self.sent.elapsed() >= SEND_EVERY) {
             self.send();
         }
     }
