@@ -578,3 +578,60 @@ fn the_generator_builds_systems_that_do_something() {
         );
     }
 }
+
+/// A case the property test once found: under fuel as time an event's
+/// check ends in a sleep (its compute's time), and the poll that ends it
+/// emits `triggered` before its next call. Here E0's check ends at the very
+/// instant R0's exit begins, so E0's poll must not join R0's batch: on three
+/// threads its signal came before R0's exit log.
+#[test]
+fn an_event_whose_check_ends_at_a_batch_is_not_computed_ahead_in_it() {
+    let connect = |from, to, once| Step::Connect {
+        from,
+        to,
+        once,
+        busy: Busy::Drop,
+        min_interval_ms: None,
+        until: None,
+    };
+    let scenario = Scenario {
+        plugins: vec![
+            Fixture::Timer { after: 1.0 },
+            Fixture::Tick {
+                count_to: 3,
+                interval: 0.5,
+            },
+            Fixture::Timer { after: 2.5 },
+            Fixture::Count {
+                counts: 3,
+                interval: 0.5,
+            },
+            Fixture::Count {
+                counts: 2,
+                interval: 0.5,
+            },
+        ],
+        events: 3,
+        steps: vec![
+            (0, connect((1, "triggered"), To::Slot(3, "interrupt"), true)),
+            (0, connect((0, "faulted"), To::Slot(3, "start"), false)),
+            (0, connect((1, "triggered"), To::Slot(3, "interrupt"), true)),
+            (
+                5,
+                connect((0, "triggered"), To::Slot(4, "interrupt"), false),
+            ),
+            (23, Step::Inject(3, "start")),
+        ],
+        fuel_per_second: Some(100_000),
+    };
+    let one = common::records(&scenario.trace(1));
+    let at = |records: &[serde_json::Value]| {
+        records
+            .iter()
+            .position(|r| r["plugin"] == "E0" && r["t"] == 7_312_470_000u64)
+            .expect("E0 triggers at 7.31247 s, as R0's exit begins")
+    };
+    assert_eq!(one[at(&one) - 1]["message"], "exit", "{one:#?}");
+    let three = common::records(&scenario.trace(3));
+    assert_eq!(one, three, "the run on three threads differs");
+}

@@ -153,6 +153,10 @@ pub(super) struct PluginEntry {
     pub(super) listeners: usize,
     /// Events: when the next check may start.
     pub(super) next_check: u64,
+    /// Events: a check call is under way. Its task, polled, may end that
+    /// check and emit before it makes another call (under fuel as time a
+    /// check's compute ends in a sleep), so it computes no call ahead.
+    pub(super) checking: bool,
     /// Responses.
     pub(super) phase: Phase,
     /// The start that begins next: accepted while the response was idle, or
