@@ -1,7 +1,8 @@
-//! The ROS 2 bridge: Radar as a node on rmw_zenoh. It reads the routes
-//! and their types, checks them against the built system, joins the graph
-//! (the node's and its endpoints' liveliness tokens, subscribers,
-//! publishers) and starts the threads that move messages: `incoming`
+//! The ROS 2 bridge: Radar as a node on rmw_zenoh or DDS. It reads the
+//! routes and their types, checks them against the built system, joins the
+//! graph (on rmw_zenoh the node's and its endpoints' liveliness tokens,
+//! subscribers, publishers; on DDS the node of `dds`) and starts the
+//! threads that move messages: `incoming`
 //! (each message taken, a blackboard write by `(ros2 <topic>)`, an outside
 //! input like any other, so a replay needs neither ROS nor the network)
 //! and `outgoing` (each emission of a published signal, a message).
@@ -20,12 +21,14 @@ use zenoh::qos::CongestionControl;
 use zenoh::{Session, Wait};
 
 use super::cdr;
+#[cfg(feature = "dds")]
+use super::dds::DdsNode;
 use super::error::Ros2Error;
 use super::fit::{self, FieldPath};
 use super::graph::{self, Endpoint, Node};
-use super::incoming::Taker;
-use super::outgoing::{has_header, publish, Outgoing, Tap};
-use super::settings::{Qos, Ros2Settings};
+use super::incoming::{zenoh_sender, Taker};
+use super::outgoing::{has_header, publish, Outgoing, Tap, Wire};
+use super::settings::{Qos, Rmw, Ros2Settings};
 use super::types::{Message, MessageTypes};
 use crate::network::{session, Network};
 use crate::payload::PayloadType;
@@ -61,8 +64,8 @@ struct Publication {
 /// Radar's ROS 2 node (see the module docs).
 pub struct Ros2 {
     settings: Ros2Settings,
-    /// Once started: the session and the node on it.
-    joined: Option<(Session, Node)>,
+    /// Once started: the node on its middleware.
+    joined: Option<Joined>,
     subscriptions: Vec<Subscription>,
     publications: Vec<Publication>,
     /// Emissions the tap queued, taken by the publishing thread.
@@ -151,14 +154,15 @@ impl Ros2 {
     /// One line on what the node does, once started.
     pub fn summary(&self) -> String {
         let (name, domain) = match &self.joined {
-            Some((_, node)) => (
-                format!("{}/{}", node.namespace.trim_end_matches('/'), node.name),
-                node.domain,
-            ),
+            Some(joined) => (joined.name.clone(), self.settings.domain),
             None => ("(not started)".to_string(), self.settings.domain),
         };
+        let rmw = match self.settings.rmw {
+            Rmw::Zenoh => "rmw_zenoh",
+            Rmw::Dds => "DDS",
+        };
         format!(
-            "ros2: node {name} on domain {domain}: {} subscription(s), {} publication(s)",
+            "ros2: node {name} on {rmw}, domain {domain}: {} subscription(s), {} publication(s)",
             self.subscriptions.len(),
             self.publications.len()
         )
@@ -207,13 +211,68 @@ impl Ros2 {
 
     /// Checks every route against the built system's entries and signals
     /// (a mismatch names the topic, the message type, the field and both
-    /// types), then joins the graph (on the network's session, or one of its
-    /// own: `[ros2] listen` and `connect`), declares the
-    /// node, its subscriptions and publishers, and starts taking and
-    /// publishing messages.
+    /// types), then joins the graph on the middleware `[ros2] rmw` names
+    /// (rmw_zenoh: on the network's session, or one of its own, `[ros2]
+    /// listen` and `connect`; DDS: by DDS discovery), declares the node,
+    /// its subscriptions and publishers, and starts taking and publishing
+    /// messages.
     pub fn start(&mut self, system: &System, network: Option<&Network>) -> Result<(), Ros2Error> {
         let checked_in = self.check_subscriptions(system)?;
         let outgoing = self.check_publications(system)?;
+        let radar = system.handle();
+        let takers = self
+            .subscriptions
+            .iter()
+            .zip(checked_in)
+            .map(|(sub, (path, ty))| Taker {
+                max_bytes: sub.max_bytes,
+                refusals: 0,
+                topic: sub.topic.clone(),
+                message: sub.message.clone(),
+                entry: sub.entry.clone(),
+                path,
+                ty,
+                radar: radar.clone(),
+            })
+            .collect();
+        let (joined, wires) = match self.settings.rmw {
+            Rmw::Zenoh => self.start_zenoh(network, takers)?,
+            Rmw::Dds => self.start_dds(network, takers)?,
+        };
+        let mut out = Vec::new();
+        for ((publication, checked), wire) in self.publications.iter().zip(outgoing).zip(wires) {
+            out.push(Outgoing {
+                message: publication.message.clone(),
+                path: checked.path,
+                base: checked.base,
+                unwrap_ok: checked.unwrap_ok,
+                stamp: has_header(&publication.message),
+                topic: publication.topic.clone(),
+                warned: false,
+                wire,
+            });
+        }
+        if let Some(queued) = self.queued.take() {
+            let left_out = self.left_out.clone();
+            let stop = self.stop.clone();
+            let thread = std::thread::Builder::new()
+                .name("radar-ros2-out".into())
+                .spawn(move || publish(out, queued, left_out, stop))
+                .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
+            self.threads.push(thread);
+        }
+        self.joined = Some(joined);
+        Ok(())
+    }
+
+    /// rmw_zenoh: the node's and its endpoints' liveliness tokens, a
+    /// subscriber and its thread for each subscription, a publisher for
+    /// each publication.
+    fn start_zenoh(
+        &mut self,
+        network: Option<&Network>,
+        takers: Vec<Taker>,
+    ) -> Result<(Joined, Vec<Wire>), Ros2Error> {
         let (session, node) = self.join(network)?;
         let declare = |e: zenoh::Error| Ros2Error::Session(e.to_string());
         let liveliness = session.liveliness();
@@ -223,9 +282,8 @@ impl Ros2 {
                 .wait()
                 .map_err(declare)?,
         );
-        let radar = system.handle();
         let mut entity = 1;
-        for (sub, (path, ty)) in self.subscriptions.iter().zip(checked_in) {
+        for (sub, mut taker) in self.subscriptions.iter().zip(takers) {
             let m = &sub.message;
             let token = node.endpoint_token(
                 Endpoint::Subscription,
@@ -246,16 +304,6 @@ impl Ros2 {
                 .with(RingChannel::new(sub.qos.depth as usize))
                 .wait()
                 .map_err(declare)?;
-            let mut taker = Taker {
-                max_bytes: sub.max_bytes,
-                refusals: 0,
-                topic: sub.topic.clone(),
-                message: m.clone(),
-                entry: sub.entry.clone(),
-                path,
-                ty,
-                radar: radar.clone(),
-            };
             let stop = self.stop.clone();
             let thread = std::thread::Builder::new()
                 .name("radar-ros2-in".into())
@@ -265,7 +313,8 @@ impl Ros2 {
                             Ok(Some(sample)) => {
                                 let bytes = sample.payload().to_bytes();
                                 let attachment = sample.attachment().map(|a| a.to_bytes());
-                                if !taker.take(&bytes, attachment.as_deref()) {
+                                let sender = || zenoh_sender(attachment.as_deref());
+                                if !taker.take(&bytes, sender) {
                                     break;
                                 }
                             }
@@ -277,8 +326,8 @@ impl Ros2 {
                 .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
             self.threads.push(thread);
         }
-        let mut out = Vec::new();
-        for (publication, checked) in self.publications.iter().zip(outgoing) {
+        let mut wires = Vec::new();
+        for publication in &self.publications {
             let m = &publication.message;
             let token = node.endpoint_token(
                 Endpoint::Publisher,
@@ -298,31 +347,64 @@ impl Ros2 {
                 .express(true)
                 .wait()
                 .map_err(declare)?;
-            out.push(Outgoing {
-                message: m.clone(),
-                path: checked.path,
-                base: checked.base,
-                unwrap_ok: checked.unwrap_ok,
-                stamp: has_header(m),
-                topic: publication.topic.clone(),
-                warned: false,
+            wires.push(Wire::Zenoh {
                 publisher,
                 gid: node.gid(entity),
                 sequence: 0,
             });
             entity += 1;
         }
-        if let Some(queued) = self.queued.take() {
-            let left_out = self.left_out.clone();
-            let stop = self.stop.clone();
-            let thread = std::thread::Builder::new()
-                .name("radar-ros2-out".into())
-                .spawn(move || publish(out, queued, left_out, stop))
-                .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
-            self.threads.push(thread);
+        let name = format!("{}/{}", node.namespace.trim_end_matches('/'), node.name);
+        Ok((
+            Joined {
+                name,
+                _zenoh: Some(session),
+                #[cfg(feature = "dds")]
+                _dds: None,
+            },
+            wires,
+        ))
+    }
+
+    /// DDS: the node, a DDS reader for each subscription (all taken on one
+    /// thread), a DDS writer for each publication.
+    #[cfg(feature = "dds")]
+    fn start_dds(
+        &mut self,
+        network: Option<&Network>,
+        takers: Vec<Taker>,
+    ) -> Result<(Joined, Vec<Wire>), Ros2Error> {
+        let settings = &self.settings;
+        let name = settings.node_name(network.map(Network::system));
+        let mut node = DdsNode::join(settings.domain, &settings.namespace, &name)?;
+        for (sub, taker) in self.subscriptions.iter().zip(takers) {
+            node.subscribe(&sub.topic, &sub.message, &sub.qos, taker)?;
         }
-        self.joined = Some((session, node));
-        Ok(())
+        let mut wires = Vec::new();
+        for p in &self.publications {
+            wires.push(Wire::Dds(node.publisher(&p.topic, &p.message, &p.qos)?));
+        }
+        node.start(self.stop.clone())?;
+        let name = format!("{}/{name}", settings.namespace.trim_end_matches('/'));
+        Ok((
+            Joined {
+                name,
+                _zenoh: None,
+                _dds: Some(node),
+            },
+            wires,
+        ))
+    }
+
+    #[cfg(not(feature = "dds"))]
+    fn start_dds(
+        &mut self,
+        _: Option<&Network>,
+        _: Vec<Taker>,
+    ) -> Result<(Joined, Vec<Wire>), Ros2Error> {
+        Err(Ros2Error::Settings(
+            "[ros2] rmw = \"dds\": this radar was built without DDS (cargo feature `dds`)".into(),
+        ))
     }
 
     fn check_subscriptions(
@@ -414,6 +496,16 @@ struct Checked {
     base: Json,
     /// The payload is a result, published only when `ok`, as what it holds.
     unwrap_ok: bool,
+}
+
+/// The node on its middleware, kept for the run: the session (rmw_zenoh) or
+/// the DDS participant, which the node leaves the graph with.
+struct Joined {
+    /// `namespace/name`.
+    name: String,
+    _zenoh: Option<Session>,
+    #[cfg(feature = "dds")]
+    _dds: Option<DdsNode>,
 }
 
 impl Drop for Ros2 {

@@ -27,39 +27,48 @@ pub(super) struct Taker {
 }
 
 impl Taker {
-    /// Writes one message's value, or records why not; `false` once the
+    /// Writes one message's value (its CDR bytes), or records why not
+    /// (`sender`: who sent it, as the record names it); `false` once the
     /// run has ended.
-    pub(super) fn take(&mut self, bytes: &[u8], attachment: Option<&[u8]>) -> bool {
+    pub(super) fn take(&mut self, bytes: &[u8], sender: impl FnOnce() -> String) -> bool {
         if bytes.len() > self.max_bytes {
             let reason = format!(
                 "a message of {} bytes, over the subscription's max_bytes ({})",
                 bytes.len(),
                 self.max_bytes
             );
-            return self.refuse(attachment, reason);
+            return self.refuse(sender(), reason);
         }
         let value = match cdr::decode(&self.message, bytes) {
             Ok(value) => fit::take(&value, &self.path, &self.ty),
-            Err(e) => {
-                let reason = format!(
-                    "a malformed {} ({} bytes): {e}",
-                    self.message.name,
-                    bytes.len()
-                );
-                return self.refuse(attachment, reason);
-            }
+            Err(e) => return self.malformed(Some(bytes.len()), &e.to_string(), sender),
         };
         let by = format!("(ros2 {})", self.topic);
         match self.radar.board_write_by(&self.entry, value, &by) {
             Ok(()) => true,
             Err(crate::error::RadarError::Stopped) => false,
-            Err(e) => self.refuse(attachment, e.to_string()),
+            Err(e) => self.refuse(sender(), e.to_string()),
         }
+    }
+
+    /// Records a message (of `size` bytes, if known) that does not read
+    /// as its type (`why`); `false` once the run has ended.
+    pub(super) fn malformed(
+        &mut self,
+        size: Option<usize>,
+        why: &str,
+        sender: impl FnOnce() -> String,
+    ) -> bool {
+        let reason = match size {
+            Some(size) => format!("a malformed {} ({size} bytes): {why}", self.message.name),
+            None => format!("a malformed {}: {why}", self.message.name),
+        };
+        self.refuse(sender(), reason)
     }
 
     /// Records a refused message (see [`REFUSALS_RECORDED`]); `false` once
     /// the run has ended.
-    fn refuse(&mut self, attachment: Option<&[u8]>, reason: String) -> bool {
+    fn refuse(&mut self, sender: String, reason: String) -> bool {
         self.refusals += 1;
         let n = self.refusals;
         if n > REFUSALS_RECORDED && !n.is_multiple_of(REFUSALS_EVERY) {
@@ -71,18 +80,15 @@ impl Taker {
             reason
         };
         self.radar
-            .refused(
-                format!("ros2 {}", self.topic),
-                self.sender(attachment),
-                reason,
-            )
+            .refused(format!("ros2 {}", self.topic), sender, reason)
             .is_ok()
     }
+}
 
-    fn sender(&self, attachment: Option<&[u8]>) -> String {
-        match attachment.and_then(graph::sender) {
-            Some(gid) => format!("a ROS 2 publisher (gid {gid})"),
-            None => "a ROS 2 publisher".to_string(),
-        }
+/// Who sent a message on rmw_zenoh, from its attachment.
+pub(super) fn zenoh_sender(attachment: Option<&[u8]>) -> String {
+    match attachment.and_then(graph::sender) {
+        Some(gid) => format!("a ROS 2 publisher (gid {gid})"),
+        None => "a ROS 2 publisher".to_string(),
     }
 }

@@ -1,18 +1,24 @@
 //! ROS 2 topics in and out (`docs/ros2.md`), wire-compatible with
-//! rmw_zenoh, ROS 2's Zenoh middleware: a ROS 2 topic feeds a blackboard
-//! entry, a signal is published on a topic, and Radar is a node that ROS 2's
-//! graph tools list, with no ROS installation.
+//! rmw_zenoh, ROS 2's Zenoh middleware, and with DDS, its default (`dds`,
+//! cargo feature `dds`): a ROS 2 topic feeds a blackboard entry, a signal is
+//! published on a topic, and Radar is a node that ROS 2's graph tools list,
+//! with no ROS installation.
 //!
 //! The floors of this module, bottom up: `.msg` definitions (`msg`, the
 //! built-in ones in `builtin`, where they come from in `types`), their
 //! type hash (`hash`) and wire form (`cdr`), how a message fits an entry
 //! or a signal (`fit`), rmw_zenoh's names (`graph`), and the bridge that
 //! runs them (`bridge`), with its subscriptions' threads (`incoming`) and
-//! its publishing (`outgoing`).
+//! its publishing (`outgoing`); on DDS, the node (`dds`) and the bytes
+//! through RustDDS's CDR (`dds_cdr`).
 
 mod bridge;
 mod builtin;
 pub mod cdr;
+#[cfg(feature = "dds")]
+mod dds;
+#[cfg(feature = "dds")]
+mod dds_cdr;
 mod error;
 mod fit;
 mod graph;
@@ -27,5 +33,5 @@ mod wit_text;
 pub use bridge::Ros2;
 pub use error::{CdrError, Ros2Error, TypeError};
 pub use graph::dds_type;
-pub use settings::{Publish, Qos, Ros2Settings, Subscribe};
+pub use settings::{Publish, Qos, Rmw, Ros2Settings, Subscribe};
 pub use types::{wit_name, Message, MessageTypes};

@@ -1,7 +1,7 @@
 //! Publishing at run time: the sink that queues the published signals'
 //! emissions (the scheduler never waits for the network), and the thread
 //! that makes each a message: the route's values, the payload on top, a
-//! stamp for a header left without one, the attachment rmw_zenoh expects.
+//! stamp for a header left without one, sent on the middleware's [`Wire`].
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -31,9 +31,45 @@ pub(super) struct Outgoing {
     pub(super) topic: String,
     /// Whether a message not published has been reported.
     pub(super) warned: bool,
-    pub(super) publisher: zenoh::pubsub::Publisher<'static>,
-    pub(super) gid: [u8; 16],
-    pub(super) sequence: i64,
+    pub(super) wire: Wire,
+}
+
+/// Where a publication's messages go: the one part that differs between
+/// the middlewares.
+pub(super) enum Wire {
+    /// rmw_zenoh: a Zenoh publisher, with the attachment rmw_zenoh expects
+    /// (a sequence number, the time, the publisher's gid).
+    Zenoh {
+        publisher: zenoh::pubsub::Publisher<'static>,
+        gid: [u8; 16],
+        sequence: i64,
+    },
+    /// DDS: a DDS writer.
+    #[cfg(feature = "dds")]
+    Dds(super::dds::DdsPublisher),
+}
+
+impl Wire {
+    /// Sends one message's CDR bytes, made at `nanos` (since the epoch).
+    fn put(&mut self, bytes: Vec<u8>, nanos: i64) -> Result<(), String> {
+        match self {
+            Wire::Zenoh {
+                publisher,
+                gid,
+                sequence,
+            } => {
+                *sequence += 1;
+                let attachment = graph::attachment(*sequence, nanos, gid);
+                publisher
+                    .put(bytes)
+                    .attachment(attachment)
+                    .wait()
+                    .map_err(|e| e.to_string())
+            }
+            #[cfg(feature = "dds")]
+            Wire::Dds(publisher) => publisher.put(bytes),
+        }
+    }
 }
 
 /// The publishing thread: each queued emission as a message, until the
@@ -85,11 +121,9 @@ pub(super) fn publish(
                 continue;
             }
         };
-        o.sequence += 1;
         let nanos = i64::try_from(now.as_nanos()).unwrap_or(i64::MAX);
-        let attachment = graph::attachment(o.sequence, nanos, &o.gid);
-        if let Err(e) = o.publisher.put(bytes).attachment(attachment).wait() {
-            o.not_published(&e.to_string(), &left_out);
+        if let Err(e) = o.wire.put(bytes, nanos) {
+            o.not_published(&e, &left_out);
         }
     }
 }

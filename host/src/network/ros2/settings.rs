@@ -5,11 +5,15 @@ use std::path::PathBuf;
 
 use serde::Deserialize;
 
-/// The `[ros2]` table: Radar as a node of a ROS 2 graph that runs on
-/// rmw_zenoh.
+/// The `[ros2]` table: Radar as a node of a ROS 2 graph, on rmw_zenoh or
+/// DDS.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Ros2Settings {
+    /// The middleware: `zenoh` (rmw_zenoh, the default) or `dds` (ROS 2's
+    /// default, RTPS as Fast DDS and Cyclone DDS speak it).
+    #[serde(default)]
+    pub rmw: Rmw,
     /// The ROS 2 domain (`ROS_DOMAIN_ID`), 0 by default.
     #[serde(default)]
     pub domain: u32,
@@ -36,6 +40,17 @@ pub struct Ros2Settings {
     /// Signals out to topics.
     #[serde(default)]
     pub publish: Vec<Publish>,
+}
+
+/// ROS 2's middleware, as `RMW_IMPLEMENTATION` chooses it for a ROS 2 node.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Rmw {
+    /// rmw_zenoh (`rmw_zenoh_cpp`).
+    #[default]
+    Zenoh,
+    /// DDS (`rmw_fastrtps_cpp`, `rmw_cyclonedds_cpp`).
+    Dds,
 }
 
 fn root() -> String {
@@ -170,6 +185,19 @@ impl Ros2Settings {
 
     /// Checks what can be checked without the system: names and routes.
     pub fn validate(&self) -> Result<(), String> {
+        if self.rmw == Rmw::Dds && !(self.listen.is_empty() && self.connect.is_empty()) {
+            return Err(
+                "[ros2] listen and connect are Zenoh endpoints: with rmw = \"dds\" the node \
+                 finds its peers by DDS discovery"
+                    .into(),
+            );
+        }
+        if self.rmw == Rmw::Dds && self.domain > 232 {
+            return Err(format!(
+                "[ros2] domain = {}: DDS domains go from 0 to 232",
+                self.domain
+            ));
+        }
         if !is_ros_name(&self.namespace) || !self.namespace.starts_with('/') {
             return Err(format!(
                 "[ros2] namespace `{}` is not a ROS 2 namespace (e.g. `/` or `/robot1`)",

@@ -1,0 +1,219 @@
+//! ROS 2's default middleware (`[ros2] rmw = "dds"`): Radar as a node on
+//! DDS, through `ros2-client` on RustDDS (RTPS, heard by Fast DDS and
+//! Cyclone DDS). It is the same node as on rmw_zenoh (`bridge`): the same
+//! routes, checks, values and records; only the wire differs. The node
+//! announces itself and its endpoints on `ros_discovery_info`, so ROS 2's
+//! graph queries list it.
+//!
+//! DDS discovers its peers by multicast on every interface that has it:
+//! docs/ros2.md says how to keep a test or a trial inside one machine.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+
+use futures::channel::oneshot;
+use futures::{FutureExt, StreamExt};
+use ros2_client::dds::{Context, ContextOptions, Node, Publisher, Subscription};
+use ros2_client::qos::{Durability, History, QosProfile, Reliability, WhenFull};
+use ros2_client::{MessageTypeName, Name, NodeName, NodeOptions};
+
+use super::dds_cdr::{Encoded, Recode, Recoded};
+use super::error::Ros2Error;
+use super::incoming::Taker;
+use super::settings::Qos;
+use super::types::Message;
+
+/// Radar's node on DDS, and the thread that takes its subscriptions.
+pub(super) struct DdsNode {
+    node: Node,
+    subscriptions: Vec<(Subscription<Recoded>, Recode)>,
+    takers: Vec<Taker>,
+    /// Stops the taking thread (dropped: stops it too).
+    stop: Option<oneshot::Sender<()>>,
+    thread: Option<JoinHandle<()>>,
+    /// Kept last: the participant ends with it.
+    _context: Context,
+}
+
+/// A publisher on DDS: takes the bytes `cdr::encode` made.
+pub(super) struct DdsPublisher(Publisher<Encoded>);
+
+impl DdsPublisher {
+    pub(super) fn put(&self, bytes: Vec<u8>) -> Result<(), String> {
+        self.0.publish(Encoded(bytes)).map_err(|e| format!("{e:?}"))
+    }
+}
+
+impl DdsNode {
+    /// Joins DDS domain `domain` as node `namespace`/`name`.
+    pub(super) fn join(domain: u32, namespace: &str, name: &str) -> Result<Self, Ros2Error> {
+        let domain = u16::try_from(domain)
+            .ok()
+            .filter(|d| *d <= 232)
+            .ok_or_else(|| {
+                Ros2Error::Settings(format!(
+                    "[ros2] domain = {domain}: DDS domains go from 0 to 232"
+                ))
+            })?;
+        let context = Context::with_options(ContextOptions::new().domain_id(domain))
+            .map_err(|e| Ros2Error::Session(format!("DDS: cannot join domain {domain}: {e:?}")))?;
+        let node_name = NodeName::new(namespace, name)
+            .map_err(|e| Ros2Error::Settings(format!("[ros2] node `{name}`: {e:?}")))?;
+        let node = context
+            .new_node(node_name, NodeOptions::new().enable_rosout(false))
+            .map_err(|e| Ros2Error::Session(format!("DDS: cannot make node `{name}`: {e:?}")))?;
+        Ok(Self {
+            node,
+            subscriptions: Vec::new(),
+            takers: Vec::new(),
+            stop: None,
+            thread: None,
+            _context: context,
+        })
+    }
+
+    /// Subscribes to `topic`: each message goes to `taker`, from the thread
+    /// [`DdsNode::start`] starts.
+    pub(super) fn subscribe(
+        &mut self,
+        topic: &str,
+        message: &Message,
+        qos: &Qos,
+        taker: Taker,
+    ) -> Result<(), Ros2Error> {
+        let dds_topic = self.topic(topic, message, qos)?;
+        let subscription = self
+            .node
+            .create_subscription::<Recoded>(&dds_topic, Some(profile(qos)))
+            .map_err(|e| Ros2Error::Session(format!("DDS: subscribing to `{topic}`: {e:?}")))?;
+        let seed = Recode {
+            message: Arc::new(message.clone()),
+        };
+        self.subscriptions.push((subscription, seed));
+        self.takers.push(taker);
+        Ok(())
+    }
+
+    /// A publisher on `topic`.
+    pub(super) fn publisher(
+        &mut self,
+        topic: &str,
+        message: &Message,
+        qos: &Qos,
+    ) -> Result<DdsPublisher, Ros2Error> {
+        let dds_topic = self.topic(topic, message, qos)?;
+        self.node
+            .create_publisher::<Encoded>(&dds_topic, Some(profile(qos)))
+            .map(DdsPublisher)
+            .map_err(|e| Ros2Error::Session(format!("DDS: publishing on `{topic}`: {e:?}")))
+    }
+
+    fn topic(
+        &mut self,
+        topic: &str,
+        message: &Message,
+        qos: &Qos,
+    ) -> Result<ros2_client::dds::rustdds::Topic, Ros2Error> {
+        let (namespace, base) = match topic.rsplit_once('/') {
+            Some(("", base)) => ("/", base),
+            Some((namespace, base)) => (namespace, base),
+            None => ("/", topic),
+        };
+        let name = Name::new(namespace, base)
+            .map_err(|e| Ros2Error::Settings(format!("[ros2] topic `{topic}`: {e:?}")))?;
+        let mut parts = message.name.split('/');
+        let (package, _, type_name) = (parts.next(), parts.next(), parts.next());
+        let type_name = MessageTypeName::new(package.unwrap_or(""), type_name.unwrap_or(""));
+        self.node
+            .create_topic(&name, type_name, &profile(qos))
+            .map_err(|e| Ros2Error::Session(format!("DDS: topic `{topic}`: {e:?}")))
+    }
+
+    /// Starts taking messages (every subscription, on one thread); `stop`
+    /// ends the thread too. The node's graph entry needs no thread: it is
+    /// published as its readers and writers are made. (ros2-client's
+    /// spinner, which serves parameters, is not run: it also subscribes to
+    /// `/clock` as `builtin_interfaces/msg/Time`, which ROS 2's graph would
+    /// list beside a simulator's `rosgraph_msgs/msg/Clock`.)
+    pub(super) fn start(&mut self, stop: Arc<AtomicBool>) -> Result<(), Ros2Error> {
+        let subscriptions = std::mem::take(&mut self.subscriptions);
+        let mut takers = std::mem::take(&mut self.takers);
+        let (tx, rx) = oneshot::channel::<()>();
+        self.stop = Some(tx);
+        let thread = std::thread::Builder::new()
+            .name("radar-ros2-dds".into())
+            .spawn(move || {
+                let streams = subscriptions
+                    .iter()
+                    .enumerate()
+                    .map(|(i, (subscription, seed))| {
+                        subscription
+                            .async_stream_seed(seed.clone())
+                            .map(move |taken| (i, taken))
+                            .boxed()
+                    })
+                    .collect::<Vec<_>>();
+                let mut taken = futures::stream::select_all(streams);
+                let mut rx = rx.fuse();
+                futures::executor::block_on(async {
+                    loop {
+                        futures::select! {
+                            next = taken.next() => {
+                                let Some((i, result)) = next else { break };
+                                let taker = &mut takers[i];
+                                let more = match result {
+                                    Ok((Recoded(bytes), info)) => {
+                                        let gid = info.publisher_gid();
+                                        taker.take(&bytes, || sender(gid.as_bytes()))
+                                    }
+                                    Err(e) => taker.malformed(None, &format!("{e:?}"), || {
+                                        "a ROS 2 publisher".to_string()
+                                    }),
+                                };
+                                if !more || stop.load(Ordering::Relaxed) {
+                                    break;
+                                }
+                            }
+                            _ = rx => break,
+                        }
+                    }
+                });
+            })
+            .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
+        self.thread = Some(thread);
+        Ok(())
+    }
+}
+
+impl Drop for DdsNode {
+    fn drop(&mut self) {
+        self.stop = None;
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+/// A publisher's gid as the trace names a sender.
+fn sender(gid: &[u8]) -> String {
+    let hex: String = gid.iter().map(|b| format!("{b:02x}")).collect();
+    format!("a ROS 2 publisher (gid {hex})")
+}
+
+/// A route's QoS as DDS takes it: volatile, keep last `depth`.
+fn profile(qos: &Qos) -> QosProfile {
+    let reliability = if qos.best_effort {
+        Reliability::BestEffort
+    } else {
+        Reliability::Reliable {
+            when_full: WhenFull::DEFAULT,
+        }
+    };
+    QosProfile::publisher_default()
+        .reliability(reliability)
+        .durability(Durability::Volatile)
+        .history(History::KeepLast {
+            depth: qos.depth as usize,
+        })
+}

@@ -1,0 +1,114 @@
+"""The ROS 2 side of the obstacle example on DDS, written with rclpy (ROS 2's
+own Python client library, on Fast DDS): a range sensor node that publishes
+sensor_msgs/msg/Range on /range, and listens to /cmd_vel (Twist) and
+/avoided (UInt32), as the robot around Radar would.
+
+    obstacle.py [--timeout S] -- RADAR_COMMAND...
+
+Starts RADAR_COMMAND (a `radar run` of the example with rmw = "dds"), waits
+for its `ros2: node` line, then publishes a clear reading (2 m) every 0.1 s
+until Radar's node has matched the topic, then near readings (0.3 m) for
+1 s, then clear again, until /avoided says 1 (or the timeout). It prints one
+JSON object once Radar's run has ended by itself: what arrived on each
+topic, the graph as rclpy sees it (node names, topics and types), and
+Radar's exit code and stderr. Run it inside a
+private network namespace (tests/clients/rclpy/netns): DDS discovers by
+multicast.
+"""
+
+import argparse
+import json
+import subprocess
+import sys
+import threading
+import time
+
+import rclpy
+from geometry_msgs.msg import Twist
+from rclpy.node import Node
+from sensor_msgs.msg import Range
+from std_msgs.msg import UInt32
+
+
+def wait_for_node_line(radar, timeout):
+    """Reads Radar's stdout until its `ros2: node` line; the rest is drained
+    on a thread so that Radar never blocks on a full pipe."""
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        line = radar.stdout.readline()
+        if not line:
+            return None
+        if line.startswith("ros2: node"):
+            threading.Thread(target=radar.stdout.read, daemon=True).start()
+            return line.strip()
+    return None
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--timeout", type=float, default=30.0)
+    parser.add_argument("radar", nargs=argparse.REMAINDER)
+    args = parser.parse_args()
+    command = args.radar[1:] if args.radar[:1] == ["--"] else args.radar
+    radar = subprocess.Popen(
+        command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    report = {"joined": wait_for_node_line(radar, 60), "cmd_vel": [], "avoided": []}
+    if report["joined"] is None:
+        radar.kill()
+        report["radar_stderr"] = radar.stderr.read()
+        print(json.dumps(report))
+        return 1
+
+    rclpy.init()
+    node = Node("range_sensor")
+    publisher = node.create_publisher(Range, "/range", 10)
+    node.create_subscription(
+        Twist, "/cmd_vel", lambda m: report["cmd_vel"].append(m.angular.z), 10
+    )
+    node.create_subscription(
+        UInt32, "/avoided", lambda m: report["avoided"].append(m.data), 10
+    )
+
+    began = time.time()
+    near_from = None
+    while time.time() - began < args.timeout and not report["avoided"]:
+        matched = publisher.get_subscription_count() > 0
+        if matched and near_from is None:
+            # Radar's reader has matched: a moment more for its node's
+            # own readers (cmd_vel's and avoided's writers) to match ours.
+            near_from = time.time() + 1.0
+        near = near_from is not None and near_from <= time.time() < near_from + 1.0
+        message = Range()
+        message.header.frame_id = "sonar"
+        message.range = 0.3 if near else 2.0
+        publisher.publish(message)
+        rclpy.spin_once(node, timeout_sec=0.1)
+    # A moment for the zero Twist that follows the turn.
+    settle = time.time() + 1.0
+    while time.time() < settle:
+        rclpy.spin_once(node, timeout_sec=0.1)
+
+    report["nodes"] = sorted(
+        f"{ns.rstrip('/')}/{name}" for name, ns in node.get_node_names_and_namespaces()
+    )
+    report["topics"] = {
+        name: types for name, types in node.get_topic_names_and_types()
+    }
+    report["radar_publishers_on_cmd_vel"] = node.count_publishers("/cmd_vel")
+    # The run ends by itself (its `--for`); stopped if it does not.
+    try:
+        radar.wait(timeout=args.timeout + 30)
+    except subprocess.TimeoutExpired:
+        radar.terminate()
+        radar.wait()
+    report["radar_exit"] = radar.returncode
+    report["radar_stderr"] = radar.stderr.read()
+    node.destroy_node()
+    rclpy.shutdown()
+    print(json.dumps(report))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
