@@ -98,7 +98,8 @@ impl Ros2 {
                 message: load(&s.topic, &s.type_name)?,
                 entry: s.entry.clone(),
                 field: s.field.clone(),
-                qos: Qos::parse(s.qos.as_deref(), s.depth).map_err(Ros2Error::Settings)?,
+                qos: Qos::parse(s.qos.as_deref(), s.depth, s.durability.as_deref())
+                    .map_err(Ros2Error::Settings)?,
             });
         }
         let mut publications = Vec::new();
@@ -116,7 +117,8 @@ impl Ros2 {
                 field: p.field.clone(),
                 use_payload: p.use_payload && p.message.is_none(),
                 values,
-                qos: Qos::parse(p.qos.as_deref(), p.depth).map_err(Ros2Error::Settings)?,
+                qos: Qos::parse(p.qos.as_deref(), p.depth, p.durability.as_deref())
+                    .map_err(Ros2Error::Settings)?,
             });
         }
         let (tap, queued) = bounded(QUEUE);

@@ -14,7 +14,8 @@ use std::thread::JoinHandle;
 
 use futures::channel::oneshot;
 use futures::{FutureExt, StreamExt};
-use ros2_client::dds::{Context, ContextOptions, Node, Publisher, Subscription};
+use ros2_client::dds::rustdds::DomainParticipantBuilder;
+use ros2_client::dds::{Context, Node, Publisher, Subscription};
 use ros2_client::qos::{Durability, History, QosProfile, Reliability, WhenFull};
 use ros2_client::{MessageTypeName, Name, NodeName, NodeOptions};
 
@@ -56,7 +57,10 @@ impl DdsNode {
                     "[ros2] domain = {domain}: DDS domains go from 0 to 232"
                 ))
             })?;
-        let context = Context::with_options(ContextOptions::new().domain_id(domain))
+        let participant = discovery(DomainParticipantBuilder::new(domain))?
+            .build()
+            .map_err(|e| Ros2Error::Session(format!("DDS: cannot join domain {domain}: {e:?}")))?;
+        let context = Context::from_domain_participant(participant)
             .map_err(|e| Ros2Error::Session(format!("DDS: cannot join domain {domain}: {e:?}")))?;
         let node_name = NodeName::new(namespace, name)
             .map_err(|e| Ros2Error::Settings(format!("[ros2] node `{name}`: {e:?}")))?;
@@ -195,13 +199,38 @@ impl Drop for DdsNode {
     }
 }
 
+/// Where the node looks for peers, as ROS 2 nodes do:
+/// `ROS_AUTOMATIC_DISCOVERY_RANGE` `SUBNET` (the default, every interface
+/// with multicast) or `LOCALHOST` (this machine only: discovery and
+/// locators on loopback). `OFF` and `ROS_STATIC_PEERS` need a list of
+/// peers to reach by unicast, which RustDDS does not take: refused, rather
+/// than discovering more widely than asked.
+fn discovery(builder: DomainParticipantBuilder) -> Result<DomainParticipantBuilder, Ros2Error> {
+    let range = std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE").unwrap_or_default();
+    if std::env::var("ROS_STATIC_PEERS").is_ok_and(|p| !p.trim().is_empty()) {
+        return Err(Ros2Error::Settings(
+            "ROS_STATIC_PEERS is set, and Radar's DDS node cannot reach peers by a static list \
+             (RustDDS has none): unset it, or use rmw = \"zenoh\" with [ros2] connect"
+                .into(),
+        ));
+    }
+    match range.trim().to_ascii_uppercase().as_str() {
+        "" | "SYSTEM_DEFAULT" | "SUBNET" => Ok(builder),
+        "LOCALHOST" => Ok(builder.with_only_networks([std::net::Ipv4Addr::LOCALHOST])),
+        other => Err(Ros2Error::Settings(format!(
+            "ROS_AUTOMATIC_DISCOVERY_RANGE={other}: Radar's DDS node takes SUBNET (the \
+             default) or LOCALHOST"
+        ))),
+    }
+}
+
 /// A publisher's gid as the trace names a sender.
 fn sender(gid: &[u8]) -> String {
     let hex: String = gid.iter().map(|b| format!("{b:02x}")).collect();
     format!("a ROS 2 publisher (gid {hex})")
 }
 
-/// A route's QoS as DDS takes it: volatile, keep last `depth`.
+/// A route's QoS as DDS takes it: keep last `depth`.
 fn profile(qos: &Qos) -> QosProfile {
     let reliability = if qos.best_effort {
         Reliability::BestEffort
@@ -212,7 +241,11 @@ fn profile(qos: &Qos) -> QosProfile {
     };
     QosProfile::publisher_default()
         .reliability(reliability)
-        .durability(Durability::Volatile)
+        .durability(if qos.transient_local {
+            Durability::TransientLocal
+        } else {
+            Durability::Volatile
+        })
         .history(History::KeepLast {
             depth: qos.depth as usize,
         })

@@ -162,6 +162,7 @@ mod tests {
         let qos = Qos {
             best_effort: true,
             depth: 5,
+            transient_local: false,
         };
         assert_eq!(
             node.endpoint_token(Endpoint::Subscription, 2, "/range", "std_msgs/msg/Float32", "RIHS01_x", &qos),

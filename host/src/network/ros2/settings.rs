@@ -77,6 +77,10 @@ pub struct Subscribe {
     /// Keep last: how many messages wait at most (default 10).
     #[serde(default)]
     pub depth: Option<u32>,
+    /// `volatile` (default) or `transient_local` (a latched topic: a late
+    /// subscriber gets the last `depth` messages; DDS only).
+    #[serde(default)]
+    pub durability: Option<String>,
     /// The largest message read, in bytes (default 4 MiB).
     #[serde(default)]
     pub max_bytes: Option<usize>,
@@ -116,6 +120,10 @@ pub struct Publish {
     /// Keep last: how many messages wait at most (default 10).
     #[serde(default)]
     pub depth: Option<u32>,
+    /// `volatile` (default) or `transient_local` (a latched topic: a late
+    /// subscriber gets the last `depth` messages; DDS only).
+    #[serde(default)]
+    pub durability: Option<String>,
 }
 
 fn yes() -> bool {
@@ -138,11 +146,27 @@ pub struct Qos {
     /// How many messages wait, at most, for the run to take them (keep
     /// last): older ones give way to newer.
     pub depth: u32,
+    /// Transient local rather than volatile: a publisher keeps its last
+    /// `depth` messages for subscribers that come later (DDS only).
+    pub transient_local: bool,
 }
 
 impl Qos {
-    /// From a route's `qos` and `depth`.
-    pub fn parse(qos: Option<&str>, depth: Option<u32>) -> Result<Self, String> {
+    /// From a route's `qos`, `depth` and `durability`.
+    pub fn parse(
+        qos: Option<&str>,
+        depth: Option<u32>,
+        durability: Option<&str>,
+    ) -> Result<Self, String> {
+        let transient_local = match durability {
+            None | Some("volatile") => false,
+            Some("transient_local" | "transient-local") => true,
+            Some(other) => {
+                return Err(format!(
+                    "unknown durability `{other}` (expected `volatile` or `transient_local`)"
+                ))
+            }
+        };
         let best_effort = match qos {
             None | Some("reliable") => false,
             Some("best_effort" | "best-effort") => true,
@@ -158,7 +182,11 @@ impl Qos {
                 "depth = {depth}: a topic keeps from 1 to {MAX_DEPTH} messages"
             ));
         }
-        Ok(Self { best_effort, depth })
+        Ok(Self {
+            best_effort,
+            depth,
+            transient_local,
+        })
     }
 }
 
@@ -223,13 +251,24 @@ impl Ros2Settings {
                 ));
             }
         }
-        for (qos, depth) in self
+        for (topic, qos, depth, durability) in self
             .subscribe
             .iter()
-            .map(|s| (&s.qos, s.depth))
-            .chain(self.publish.iter().map(|p| (&p.qos, p.depth)))
+            .map(|s| (&s.topic, &s.qos, s.depth, &s.durability))
+            .chain(
+                self.publish
+                    .iter()
+                    .map(|p| (&p.topic, &p.qos, p.depth, &p.durability)),
+            )
         {
-            Qos::parse(qos.as_deref(), depth).map_err(|e| format!("[ros2]: {e}"))?;
+            let qos = Qos::parse(qos.as_deref(), depth, durability.as_deref())
+                .map_err(|e| format!("[ros2]: {e}"))?;
+            if qos.transient_local && self.rmw == Rmw::Zenoh {
+                return Err(format!(
+                    "[ros2] topic `{topic}`: durability = \"transient_local\" is built on DDS \
+                     only (rmw = \"dds\"); on rmw_zenoh Radar's topics are volatile"
+                ));
+            }
         }
         for p in &self.publish {
             if p.message.is_some() && (p.values.is_some() || p.field.is_some() || !p.use_payload) {
