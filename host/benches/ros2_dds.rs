@@ -1,0 +1,82 @@
+//! One hop of a robot's reaction on DDS, as ROS 2 sees it: an rclpy node
+//! publishes a `sensor_msgs/msg/Range`, and times until a
+//! `geometry_msgs/msg/Twist` comes back, through Radar (Obstacle checks the
+//! entry every 1 ms, Avoid starts, its `started` is published) against
+//! through a plain rclpy relay node doing the same hop (what a ROS 2 user
+//! would write instead), interleaved in one run
+//! (`tests/clients/rclpy/latency.py`). Everything runs inside a private
+//! network namespace (`tests/clients/rclpy/netns`), on ROS 2 Kilted's
+//! rclpy (Fast DDS), installed by `tests/clients/rclpy/setup`.
+//!
+//! `cargo bench -p radar --bench ros2_dds` (`RADAR_DDS_SAMPLES`, default
+//! 300 of each; `RADAR_DDS_DISTRO`, default `kilted`). Radar's p50
+//! includes half its check period on average (0.5 ms).
+
+use std::path::Path;
+use std::process::Command;
+
+const MANIFEST: &str = r#"
+[plugins.Obstacle]
+wasm = "builtin:obstacle-event"
+config = { near_m = 0.5, interval_s = 0 }
+period_ms = 1
+board = { read = ["range"] }
+
+[plugins.Avoid]
+wasm = "builtin:avoid-response"
+config = { turn_s = 0 }
+board = { write = ["avoided"] }
+
+[[connect]]
+mode = "whenever"
+from = "Obstacle.triggered"
+to = "Avoid.start"
+
+[ros2]
+rmw = "dds"
+node = "radar_latency"
+
+[[ros2.subscribe]]
+topic = "/range"
+type = "sensor_msgs/msg/Range"
+entry = "range"
+field = "range"
+
+[[ros2.publish]]
+signal = "Avoid.started"
+topic = "/cmd_vel"
+type = "geometry_msgs/msg/Twist"
+use_payload = false
+values = { angular = { z = 0.8 } }
+"#;
+
+fn main() {
+    let samples = std::env::var("RADAR_DDS_SAMPLES").unwrap_or_else(|_| "300".into());
+    let distro = std::env::var("RADAR_DDS_DISTRO").unwrap_or_else(|_| "kilted".into());
+    let clients = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/clients/rclpy");
+    let setup = Command::new(clients.join("setup"))
+        .arg(&distro)
+        .output()
+        .expect("tests/clients/rclpy/setup runs");
+    assert!(
+        setup.status.success(),
+        "{}",
+        String::from_utf8_lossy(&setup.stderr)
+    );
+    let python = String::from_utf8_lossy(&setup.stdout).trim().to_string();
+    let dir = tempfile::tempdir().expect("a temp dir");
+    let manifest = dir.path().join("radar.toml");
+    std::fs::write(&manifest, MANIFEST).expect("the manifest");
+    println!("== rclpy → Range → … → Twist → rclpy, on DDS (ROS 2 {distro}), {samples} of each ==");
+    let status = Command::new(clients.join("netns"))
+        .arg(python)
+        .arg(clients.join("latency.py"))
+        .args(["--samples", &samples, "--"])
+        .arg(env!("CARGO_BIN_EXE_radar"))
+        .arg("run")
+        .arg(&manifest)
+        .args(["--clock", "real", "--for", "600s", "-q"])
+        .status()
+        .expect("latency.py runs");
+    assert!(status.success(), "latency.py failed");
+}
