@@ -98,7 +98,7 @@ fn obstacle_beside_rclpy(python: &str, distro: &str) {
     let mut driver = Command::new(client("netns"))
         .arg(python)
         .arg(client("obstacle.py"))
-        .args(["--timeout", "30", "--"])
+        .args(["--timeout", "30", "--malformed", "--"])
         .arg(env!("CARGO_BIN_EXE_radar"))
         .args(["run", &manifest, "--clock", "real", "--for", "15s", "-q"])
         .arg("--trace")
@@ -157,6 +157,21 @@ fn obstacle_beside_rclpy(python: &str, distro: &str) {
         trace_text.contains(r#""kind":"board-write","entry":"range","by":"(ros2 /range)""#),
         "{trace_text}"
     );
+    // The message cut short was refused and recorded, with where it ended;
+    // the run went on (the count above came after it). (RustDDS gives no
+    // sender for a sample it cannot read.)
+    let refused: Vec<&str> = trace_text
+        .lines()
+        .filter(|l| l.contains(r#""kind":"refused""#))
+        .collect();
+    assert_eq!(refused.len(), 1, "{distro}: {trace_text}");
+    for needle in [
+        r#""command":"ros2 /range""#,
+        r#""from":"a ROS 2 publisher""#,
+        "a malformed sensor_msgs/msg/Range: field `header`: field `stamp`: field `nanosec`: ",
+    ] {
+        assert!(refused[0].contains(needle), "{distro}: {}", refused[0]);
+    }
     // The recording replays with neither ROS nor the network.
     let replayed = dir.path().join("replay.jsonl");
     let out = radar(&[

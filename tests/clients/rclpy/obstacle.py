@@ -3,12 +3,14 @@ own Python client library, on Fast DDS): a range sensor node that publishes
 sensor_msgs/msg/Range on /range, and listens to /cmd_vel (Twist) and
 /avoided (UInt32), as the robot around Radar would.
 
-    obstacle.py [--timeout S] -- RADAR_COMMAND...
+    obstacle.py [--timeout S] [--malformed] -- RADAR_COMMAND...
 
 Starts RADAR_COMMAND (a `radar run` of the example with rmw = "dds"), waits
 for its `ros2: node` line, then publishes a clear reading (2 m) every 0.1 s
 until Radar's node has matched the topic, then near readings (0.3 m) for
-1 s, then clear again, until /avoided says 1 (or the timeout). It prints one
+1 s, then clear again, until /avoided says 1 (or the timeout). With
+--malformed it first publishes, once matched, a Range cut short (raw bytes:
+the CDR header and 3 bytes), which Radar must refuse. It prints one
 JSON object once Radar's run has ended by itself: what arrived on each
 topic, the graph as rclpy sees it (node names, topics and types), and
 Radar's exit code and stderr. Run it inside a
@@ -47,6 +49,7 @@ def wait_for_node_line(radar, timeout):
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--timeout", type=float, default=30.0)
+    parser.add_argument("--malformed", action="store_true")
     parser.add_argument("radar", nargs=argparse.REMAINDER)
     args = parser.parse_args()
     command = args.radar[1:] if args.radar[:1] == ["--"] else args.radar
@@ -78,6 +81,8 @@ def main():
             # Radar's reader has matched: a moment more for its node's
             # own readers (cmd_vel's and avoided's writers) to match ours.
             near_from = time.time() + 1.0
+            if args.malformed:
+                publisher.publish(b"\x00\x01\x00\x00\x07\x00\x00")
         near = near_from is not None and near_from <= time.time() < near_from + 1.0
         message = Range()
         message.header.frame_id = "sonar"

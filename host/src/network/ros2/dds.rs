@@ -17,7 +17,7 @@ use futures::{FutureExt, StreamExt};
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::dds::{Context, Node, Publisher, Subscription};
 use ros2_client::qos::{Durability, History, QosProfile, Reliability, WhenFull};
-use ros2_client::{MessageTypeName, Name, NodeName, NodeOptions};
+use ros2_client::{MessageTypeName, Name, NodeName, NodeOptions, ReadError};
 
 use super::dds_cdr::{Encoded, Recode, Recoded};
 use super::error::Ros2Error;
@@ -171,7 +171,8 @@ impl DdsNode {
                                         let gid = info.publisher_gid();
                                         taker.take(&bytes, || sender(gid.as_bytes()))
                                     }
-                                    Err(e) => taker.malformed(None, &format!("{e:?}"), || {
+                                    Err(ReadError::Closed) => false,
+                                    Err(e) => taker.malformed(None, &why(&e), || {
                                         "a ROS 2 publisher".to_string()
                                     }),
                                 };
@@ -221,6 +222,23 @@ fn discovery(builder: DomainParticipantBuilder) -> Result<DomainParticipantBuild
             "ROS_AUTOMATIC_DISCOVERY_RANGE={other}: Radar's DDS node takes SUBNET (the \
              default) or LOCALHOST"
         ))),
+    }
+}
+
+/// Why a message did not read, in RustDDS's words less its own framing
+/// (`Failed to deserialize sample bytes: …, , Topic = …`).
+fn why(error: &ReadError) -> String {
+    match error {
+        ReadError::Deserialization { reason } => {
+            let reason = reason
+                .strip_prefix("Failed to deserialize sample bytes: ")
+                .unwrap_or(reason);
+            reason
+                .split_once(", , Topic =")
+                .map_or(reason, |(why, _)| why)
+                .to_string()
+        }
+        other => other.to_string(),
     }
 }
 
