@@ -19,6 +19,14 @@ pub const OBSTACLE_EVENT: &[u8] = include_bytes!("../assets/obstacle_event.wasm"
 /// `plugins/avoid-response`: the blackboard example's response.
 pub const AVOID_RESPONSE: &[u8] = include_bytes!("../assets/avoid_response.wasm");
 
+/// `plugins/scan-event`: the obstacle event on a real sensor's whole
+/// `sensor_msgs/msg/LaserScan` (entry `scan`), triggering with the nearest
+/// range.
+pub const SCAN_EVENT: &[u8] = include_bytes!("../assets/scan_event.wasm");
+/// `plugins/back-off-response`: backs away, sending whole Twist records
+/// (its signal `cmd-vel`), and stops the base in its exit.
+pub const BACK_OFF_RESPONSE: &[u8] = include_bytes!("../assets/back_off_response.wasm");
+
 /// `plugins/listing23-program`: Listing 2/3's deliberative part as a
 /// component.
 pub const LISTING23_PROGRAM: &[u8] = include_bytes!("../assets/listing23_program.wasm");
@@ -31,13 +39,15 @@ pub const COUNTER_EVENT: &[u8] = include_bytes!("../assets/counter_event.wasm");
 pub const COUNTER_EVENT_V2: &[u8] = include_bytes!("../assets/counter_event_v2.wasm");
 
 /// The names a manifest gives these as `wasm = "builtin:NAME"`.
-pub const BUILTIN: [(&str, &[u8]); 9] = [
+pub const BUILTIN: [(&str, &[u8]); 11] = [
     ("test-event", TEST_EVENT),
     ("test-response", TEST_RESPONSE),
     ("timer-event", TIMER_EVENT),
     ("count-up", COUNT_UP),
     ("obstacle-event", OBSTACLE_EVENT),
     ("avoid-response", AVOID_RESPONSE),
+    ("scan-event", SCAN_EVENT),
+    ("back-off-response", BACK_OFF_RESPONSE),
     ("listing23-program", LISTING23_PROGRAM),
     ("counter-event", COUNTER_EVENT),
     ("counter-event-v2", COUNTER_EVENT_V2),

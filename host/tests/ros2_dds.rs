@@ -75,6 +75,49 @@ fn each_distro(have: fn(&str) -> Result<String, String>, test: fn(&str, &str)) {
     }
 }
 
+/// Runs `script` (an rclpy driver in `tests/clients/rclpy`, with `args`)
+/// inside a private network namespace, with Radar running `manifest` for
+/// 15 s under the real clock (with `radar_args` and its trace to `trace`)
+/// beside it; returns the driver's one JSON report, once Radar's run has
+/// ended by itself (exit code 0).
+fn drive(
+    python: &str,
+    script: &str,
+    args: &[&str],
+    manifest: &str,
+    radar_args: &[&str],
+    trace: &Path,
+) -> Json {
+    let mut driver = Command::new(client("netns"))
+        .arg(python)
+        .arg(client(script))
+        .args(["--timeout", "30"])
+        .args(args)
+        .arg("--")
+        .arg(env!("CARGO_BIN_EXE_radar"))
+        .args(["run", manifest, "--clock", "real", "--for", "15s", "-q"])
+        .arg("--trace")
+        .arg(trace)
+        .args(radar_args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the rclpy side starts");
+    // Its one line of report fits the pipe: read once it has ended.
+    let mut pipe = driver.stdout.take().expect("stdout");
+    let out = wait_within(&mut driver, Duration::from_secs(120));
+    let mut stdout = String::new();
+    std::io::Read::read_to_string(&mut pipe, &mut stdout).expect("the report");
+    assert!(
+        out.status.success(),
+        "{script}: {stdout}\n{}",
+        text(&out.stderr)
+    );
+    let report: Json = serde_json::from_str(stdout.trim()).expect("one JSON report");
+    assert_eq!(report["radar_exit"], 0, "{script}: {report:#}");
+    report
+}
+
 /// The obstacle example (docs/examples/ros2-obstacle) on DDS.
 fn obstacle_on_dds() -> String {
     let example = std::fs::read_to_string(root().join("docs/examples/ros2-obstacle/radar.toml"))
@@ -95,51 +138,39 @@ fn obstacle_beside_rclpy(python: &str, distro: &str) {
     let manifest = write_manifest(dir.path(), &obstacle_on_dds());
     let trace = dir.path().join("trace.jsonl");
     let inputs = dir.path().join("inputs.jsonl");
-    let mut driver = Command::new(client("netns"))
-        .arg(python)
-        .arg(client("obstacle.py"))
-        .args(["--timeout", "30", "--malformed", "--"])
-        .arg(env!("CARGO_BIN_EXE_radar"))
-        .args(["run", &manifest, "--clock", "real", "--for", "15s", "-q"])
-        .arg("--trace")
-        .arg(&trace)
-        .arg("--record")
-        .arg(&inputs)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("the rclpy side starts");
-    // Its one line of report fits the pipe: read once it has ended.
-    let mut pipe = driver.stdout.take().expect("stdout");
-    let out = wait_within(&mut driver, Duration::from_secs(120));
-    let mut stdout = String::new();
-    std::io::Read::read_to_string(&mut pipe, &mut stdout).expect("the report");
-    assert!(
-        out.status.success(),
-        "{distro}: {stdout}\n{}",
-        text(&out.stderr)
+    let report = drive(
+        python,
+        "obstacle.py",
+        &["--malformed"],
+        &manifest,
+        &["--record", inputs.to_str().expect("utf-8")],
+        &trace,
     );
-    let report: Json = serde_json::from_str(stdout.trim()).expect("one JSON report");
-    let report = serde_json::json!({"distro": distro, "report": report});
-    let report = &report["report"];
-    assert_eq!(report["radar_exit"], 0, "{report:#}");
+    let report = &report;
     assert!(
         report["joined"]
             .as_str()
             .is_some_and(|l| l.contains("/radar_obstacle on DDS")),
-        "{report:#}"
+        "{distro}: {report:#}"
     );
     // rclpy heard Radar turn (0.8 rad/s) as Avoid started, then stop (a
     // zero Twist) as it exited, and the count of obstacles avoided.
     assert_eq!(
         report["cmd_vel"],
         serde_json::json!([0.8, 0.0]),
-        "{report:#}"
+        "{distro}: {report:#}"
     );
-    assert_eq!(report["avoided"], serde_json::json!([1]), "{report:#}");
+    assert_eq!(
+        report["avoided"],
+        serde_json::json!([1]),
+        "{distro}: {report:#}"
+    );
     // ROS 2's own graph queries list Radar's node and its topics.
     let nodes = report["nodes"].as_array().expect("nodes");
-    assert!(nodes.iter().any(|n| n == "/radar_obstacle"), "{report:#}");
+    assert!(
+        nodes.iter().any(|n| n == "/radar_obstacle"),
+        "{distro}: {report:#}"
+    );
     for (topic, ty) in [
         ("/range", "sensor_msgs/msg/Range"),
         ("/cmd_vel", "geometry_msgs/msg/Twist"),
@@ -148,7 +179,7 @@ fn obstacle_beside_rclpy(python: &str, distro: &str) {
         assert_eq!(
             report["topics"][topic],
             serde_json::json!([ty]),
-            "{report:#}"
+            "{distro}: {report:#}"
         );
     }
 
@@ -277,4 +308,52 @@ fn hex(text: &str) -> Vec<u8> {
         .step_by(2)
         .map(|i| u8::from_str_radix(&text[i..i + 2], 16).expect("hex"))
         .collect()
+}
+
+#[test]
+fn the_dds_robot_example_backs_away_from_an_rclpy_laser_scan_with_whole_twists() {
+    each_distro(rclpy_in_namespace, robot_beside_rclpy);
+}
+
+fn robot_beside_rclpy(python: &str, distro: &str) {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let manifest = root().join("docs/examples/ros2-dds-robot/radar.toml");
+    let trace = dir.path().join("trace.jsonl");
+    let report = drive(
+        python,
+        "robot.py",
+        &[],
+        manifest.to_str().expect("utf-8"),
+        &[],
+        &trace,
+    );
+    // A whole LaserScan (360 ranges) reached the entry; Obstacle triggered
+    // with the nearest range, 0.3 m; BackOff backed away at that speed in
+    // a whole Twist record, and its exit stopped the base.
+    let twist = |x: f64| serde_json::json!({"linear": [x, 0.0, 0.0], "angular": [0.0, 0.0, 0.0]});
+    assert_eq!(
+        report["cmd_vel"],
+        serde_json::json!([twist(-0.3), twist(0.0)]),
+        "{distro}: {report:#}"
+    );
+    assert!(
+        report["nodes"]
+            .as_array()
+            .is_some_and(|n| n.iter().any(|n| n == "/radar_robot")),
+        "{distro}: {report:#}"
+    );
+    assert_eq!(
+        report["topics"]["/scan"],
+        serde_json::json!(["sensor_msgs/msg/LaserScan"]),
+        "{distro}: {report:#}"
+    );
+    let (trace_text, records) = lawful_trace(&trace);
+    let scans = records
+        .iter()
+        .filter(|r| {
+            matches!(&r.entry, radar::trace::Entry::BoardWrite { entry, by, .. }
+                if entry == "scan" && &**by == "(ros2 /scan)")
+        })
+        .count();
+    assert!(scans > 10, "{distro}: {scans} scans written: {trace_text}");
 }

@@ -105,6 +105,8 @@ fn the_embedded_example_plugins_are_the_current_builds() {
         ("count_up.wasm", plugins::COUNT_UP),
         ("obstacle_event.wasm", plugins::OBSTACLE_EVENT),
         ("avoid_response.wasm", plugins::AVOID_RESPONSE),
+        ("scan_event.wasm", plugins::SCAN_EVENT),
+        ("back_off_response.wasm", plugins::BACK_OFF_RESPONSE),
         ("counter_event.wasm", plugins::COUNTER_EVENT),
         ("counter_event_v2.wasm", plugins::COUNTER_EVENT_V2),
     ] {

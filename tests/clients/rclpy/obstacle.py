@@ -20,30 +20,16 @@ multicast.
 
 import argparse
 import json
-import subprocess
 import sys
-import threading
 import time
+
+import radar_run
 
 import rclpy
 from geometry_msgs.msg import Twist
 from rclpy.node import Node
 from sensor_msgs.msg import Range
 from std_msgs.msg import UInt32
-
-
-def wait_for_node_line(radar, timeout):
-    """Reads Radar's stdout until its `ros2: node` line; the rest is drained
-    on a thread so that Radar never blocks on a full pipe."""
-    deadline = time.time() + timeout
-    while time.time() < deadline:
-        line = radar.stdout.readline()
-        if not line:
-            return None
-        if line.startswith("ros2: node"):
-            threading.Thread(target=radar.stdout.read, daemon=True).start()
-            return line.strip()
-    return None
 
 
 def main():
@@ -53,12 +39,9 @@ def main():
     parser.add_argument("radar", nargs=argparse.REMAINDER)
     args = parser.parse_args()
     command = args.radar[1:] if args.radar[:1] == ["--"] else args.radar
-    radar = subprocess.Popen(
-        command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
-    )
-    report = {"joined": wait_for_node_line(radar, 60), "cmd_vel": [], "avoided": []}
-    if report["joined"] is None:
-        radar.kill()
+    radar, joined = radar_run.start(command)
+    report = {"joined": joined, "cmd_vel": [], "avoided": []}
+    if joined is None:
         report["radar_stderr"] = radar.stderr.read()
         print(json.dumps(report))
         return 1
@@ -94,21 +77,8 @@ def main():
     while time.time() < settle:
         rclpy.spin_once(node, timeout_sec=0.1)
 
-    report["nodes"] = sorted(
-        f"{ns.rstrip('/')}/{name}" for name, ns in node.get_node_names_and_namespaces()
-    )
-    report["topics"] = {
-        name: types for name, types in node.get_topic_names_and_types()
-    }
-    report["radar_publishers_on_cmd_vel"] = node.count_publishers("/cmd_vel")
-    # The run ends by itself (its `--for`); stopped if it does not.
-    try:
-        radar.wait(timeout=args.timeout + 30)
-    except subprocess.TimeoutExpired:
-        radar.terminate()
-        radar.wait()
-    report["radar_exit"] = radar.returncode
-    report["radar_stderr"] = radar.stderr.read()
+    report.update(radar_run.graph(node))
+    report["radar_exit"], report["radar_stderr"] = radar_run.finish(radar, args.timeout + 30)
     node.destroy_node()
     rclpy.shutdown()
     print(json.dumps(report))

@@ -1,0 +1,45 @@
+"""Runs `radar run` beside the rclpy test nodes: started, ready once it has
+joined the ROS 2 graph, and waited for at its end."""
+
+import subprocess
+import threading
+import time
+
+
+def start(command, timeout=60):
+    """Starts `command` (a `radar run`) and reads its stdout until its
+    `ros2: node` line; returns the process and that line (None if it never
+    came). The rest of stdout is drained on a thread so that Radar never
+    blocks on a full pipe."""
+    radar = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        line = radar.stdout.readline()
+        if not line:
+            break
+        if line.startswith("ros2: node"):
+            threading.Thread(target=radar.stdout.read, daemon=True).start()
+            return radar, line.strip()
+    radar.kill()
+    return radar, None
+
+
+def finish(radar, timeout):
+    """Waits for the run to end by itself (its `--for`), stopping it past
+    `timeout` seconds; returns its exit code and stderr."""
+    try:
+        radar.wait(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        radar.terminate()
+        radar.wait()
+    return radar.returncode, radar.stderr.read()
+
+
+def graph(node):
+    """ROS 2's graph as `node` sees it: node names and topics with types."""
+    return {
+        "nodes": sorted(
+            f"{ns.rstrip('/')}/{name}" for name, ns in node.get_node_names_and_namespaces()
+        ),
+        "topics": dict(node.get_topic_names_and_types()),
+    }
