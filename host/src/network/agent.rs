@@ -303,6 +303,7 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
         seed,
         wasi: Arc::default(),
         fuel_used: Arc::default(),
+        settling: Arc::default(),
         budget: Arc::new(MemoryBudget::from_machine()),
         watch: Arc::new(RunWatch::new(None)),
         remote: None,

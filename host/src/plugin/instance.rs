@@ -4,7 +4,7 @@
 //! and a swap build a new one.
 
 use std::collections::BTreeMap;
-use std::sync::atomic::AtomicU64;
+use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::sync::Arc;
 
 use sha2::{Digest, Sha256};
@@ -56,6 +56,11 @@ pub(crate) struct InstanceSetup {
     pub wasi: Arc<WasiGrants>,
     /// Fuel used by the plugin's calls so far, all instances together.
     pub fuel_used: Arc<AtomicU64>,
+    /// Fuel as time: set while a call that has returned waits out its
+    /// compute's time (the call's end then comes later). The task that
+    /// waits must not join calls computed ahead (`scheduler/ahead.rs`):
+    /// its next poll ends the call and emits before any other call.
+    pub settling: Arc<AtomicBool>,
     /// The memory all the system's plugins may take together.
     pub budget: Arc<MemoryBudget>,
     /// What stops a call from outside it (see [`crate::watchdog`]).
@@ -89,6 +94,7 @@ pub(crate) struct LocalInstance {
     _counted: crate::limits::LiveInstance,
     fuel_per_call: u64,
     fuel_used: Arc<AtomicU64>,
+    settling: Arc<AtomicBool>,
     /// Real clock: how long one call may compute (`Limits::deadline`).
     deadline: Option<std::time::Duration>,
     /// Real clock: its stop flag, looked at while a call computes (see
@@ -231,6 +237,7 @@ impl PluginCode {
             _counted: counted,
             fuel_per_call: setup.limits.fuel_per_call,
             fuel_used: setup.fuel_used,
+            settling: setup.settling,
             deadline: setup.limits.deadline.filter(|_| real_clock),
             stop: real_clock.then(|| setup.stop.clone()),
             stderr,
@@ -361,6 +368,7 @@ impl LocalInstance {
         let compute = clock.compute_nanos(clock.fuel_mark.saturating_sub(left));
         if compute > 0 && !stopped {
             let deadline = clock.base.now().saturating_add(compute);
+            let _settling = Settling::enter(&self.settling);
             let _ = clock.base.sleep_until(deadline, None).await;
         }
         called.map_err(|e| {
@@ -400,6 +408,23 @@ impl LocalInstance {
                 .map_err(|e| Fault::new(e.to_string()))?;
         }
         Ok(has_result.then_some(result))
+    }
+}
+
+/// [`InstanceSetup::settling`] while it lives (a call dropped in its wait
+/// clears it too).
+struct Settling<'a>(&'a AtomicBool);
+
+impl<'a> Settling<'a> {
+    fn enter(flag: &'a AtomicBool) -> Self {
+        flag.store(true, std::sync::atomic::Ordering::Relaxed);
+        Settling(flag)
+    }
+}
+
+impl Drop for Settling<'_> {
+    fn drop(&mut self) {
+        self.0.store(false, std::sync::atomic::Ordering::Relaxed);
     }
 }
 

@@ -131,13 +131,11 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
         }
         let began = core.base.now();
         began_behind = (core.base.kind() == ClockKind::Real).then(|| core.base.behind());
-        core.with(|st| st.plugins[pid].checking = true);
         let outcome = inst.check().await;
         let ended_by_stop = matches!(&outcome, Err(fault) if fault.ended_by_stop);
         core.with(|st| {
             let now = st.now();
             let entry = &mut st.plugins[pid];
-            entry.checking = false;
             entry.next_check = began.saturating_add(period).max(now);
             // A `restart` swap interrupted this check: its result does not
             // count; nor while the run stops.

@@ -6,9 +6,10 @@
 //! their turns can stop that call from being made: then computing it ahead
 //! and going on at its turn is the one-threaded run, step for step. So a
 //! member is an event whose check is due (active, nothing pending, no
-//! planned fault, no check of its own under way, which its poll could end
-//! and emit, no `until` connection another plugin's activation ends, not
-//! near a burst), or a call that yielded and goes on. Under the virtual
+//! planned fault, no check of its own waiting out its compute's time under
+//! fuel as time, which its poll would end and emit, no `until` connection
+//! another plugin's activation ends, not near a burst), or a call that
+//! yielded and goes on. Under the virtual
 //! clock nothing joins while an input is due at this instant, and a batch
 //! ends with the first poll whose turn may resume a deliberative context
 //! (its plugin's signals reach a `waitfor`, an anonymous slot or a
@@ -207,7 +208,7 @@ impl State {
             && entry.stop.get().is_none()
             && entry.stop.fault().is_none()
             && !entry.faults.plans_call_faults()
-            && !entry.checking
+            && !entry.settling.load(std::sync::atomic::Ordering::Relaxed)
             && now >= entry.next_check;
         if !due {
             return false;

@@ -193,7 +193,7 @@ impl Scheduler {
                     reset_requested: false,
                     listeners: 0,
                     next_check: 0,
-                    checking: false,
+                    settling: Arc::default(),
                     phase: Phase::Idle,
                     next: None,
                     queue: VecDeque::new(),

@@ -153,10 +153,11 @@ pub(super) struct PluginEntry {
     pub(super) listeners: usize,
     /// Events: when the next check may start.
     pub(super) next_check: u64,
-    /// Events: a check call is under way. Its task, polled, may end that
-    /// check and emit before it makes another call (under fuel as time a
-    /// check's compute ends in a sleep), so it computes no call ahead.
-    pub(super) checking: bool,
+    /// Fuel as time: a call of its has returned and waits out its
+    /// compute's time (see [`InstanceSetup::settling`]): its task, polled,
+    /// ends that call and emits before it makes another, so it computes no
+    /// call ahead.
+    pub(super) settling: Arc<std::sync::atomic::AtomicBool>,
     /// Responses.
     pub(super) phase: Phase,
     /// The start that begins next: accepted while the response was idle, or
@@ -408,6 +409,7 @@ impl State {
                 wasi: entry.def.wasi.clone(),
                 seed: self.seed,
                 fuel_used: entry.fuel_used.clone(),
+                settling: entry.settling.clone(),
                 budget: self.budget.clone(),
                 watch: self.watch.clone(),
                 remote: entry.def.remote.clone(),
