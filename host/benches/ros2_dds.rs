@@ -68,7 +68,21 @@ fn main() {
     let manifest = dir.path().join("radar.toml");
     std::fs::write(&manifest, MANIFEST).expect("the manifest");
     println!("== rclpy → Range → … → Twist → rclpy, on DDS (ROS 2 {distro}), {samples} of each ==");
-    let status = Command::new(clients.join("netns"))
+    let mut command = Command::new(clients.join("netns"));
+    // The caller's own ROS 2 settings stay out of the namespace.
+    for var in [
+        "ROS_DOMAIN_ID",
+        "ROS_STATIC_PEERS",
+        "ROS_AUTOMATIC_DISCOVERY_RANGE",
+        "ROS_LOCALHOST_ONLY",
+        "RMW_IMPLEMENTATION",
+        "FASTRTPS_DEFAULT_PROFILES_FILE",
+        "FASTDDS_DEFAULT_PROFILES_FILE",
+        "CYCLONEDDS_URI",
+    ] {
+        command.env_remove(var);
+    }
+    let status = command
         .arg(python)
         .arg(clients.join("latency.py"))
         .args(["--samples", &samples, "--"])

@@ -27,6 +27,19 @@ fn client(name: &str) -> PathBuf {
     root().join("tests/clients/rclpy").join(name)
 }
 
+/// What a shell with ROS 2 sourced may set that would change a test's
+/// graph (its domain, discovery, middleware or DDS profile).
+const ROS_ENVIRONMENT: [&str; 8] = [
+    "ROS_DOMAIN_ID",
+    "ROS_STATIC_PEERS",
+    "ROS_AUTOMATIC_DISCOVERY_RANGE",
+    "ROS_LOCALHOST_ONLY",
+    "RMW_IMPLEMENTATION",
+    "FASTRTPS_DEFAULT_PROFILES_FILE",
+    "FASTDDS_DEFAULT_PROFILES_FILE",
+    "CYCLONEDDS_URI",
+];
+
 /// The ROS 2 distributions tested.
 const DISTROS: [&str; 2] = ["jazzy", "kilted"];
 
@@ -77,7 +90,7 @@ fn each_distro(have: fn(&str) -> Result<String, String>, test: fn(&str, &str)) {
 
 /// Runs `script` (an rclpy driver in `tests/clients/rclpy`, with `args`)
 /// inside a private network namespace, with Radar running `manifest` for
-/// 15 s under the real clock (with `radar_args` and its trace to `trace`)
+/// 20 s under the real clock (with `radar_args` and its trace to `trace`)
 /// beside it; returns the driver's one JSON report, once Radar's run has
 /// ended by itself (exit code 0).
 fn drive(
@@ -88,14 +101,19 @@ fn drive(
     radar_args: &[&str],
     trace: &Path,
 ) -> Json {
-    let mut driver = Command::new(client("netns"))
+    let mut driver = Command::new(client("netns"));
+    // The caller's own ROS 2 settings stay out of the test's namespace.
+    for var in ROS_ENVIRONMENT {
+        driver.env_remove(var);
+    }
+    let mut driver = driver
         .arg(python)
         .arg(client(script))
         .args(["--timeout", "30"])
         .args(args)
         .arg("--")
         .arg(env!("CARGO_BIN_EXE_radar"))
-        .args(["run", manifest, "--clock", "real", "--for", "15s", "-q"])
+        .args(["run", manifest, "--clock", "real", "--for", "20s", "-q"])
         .arg("--trace")
         .arg(trace)
         .args(radar_args)
@@ -254,9 +272,17 @@ fn types_against_rclpy(python: &str, distro: &str) {
         let message = types.load(name).unwrap_or_else(|e| panic!("{name}: {e}"));
         let theirs = hex(fixture["cdr"].as_str().expect("cdr"));
         let value = normal(&message, &fixture["value"]);
-        // rclpy's bytes read as the value rclpy gave them.
+        // rclpy's bytes read as the value rclpy gave them, by Radar's
+        // codec and as a DDS subscription reads them (through RustDDS).
         let read = cdr::decode(&message, &theirs).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!(read, value, "{distro}: {name}: reading rclpy's CDR");
+        let taken = radar::network::ros2::read_as_dds(&message, &theirs)
+            .unwrap_or_else(|e| panic!("{distro}: {name}: read as DDS: {e}"));
+        let taken = cdr::decode(&message, &taken).expect("decodes");
+        assert_eq!(
+            taken, value,
+            "{distro}: {name}: reading rclpy's CDR as DDS does"
+        );
         // Radar's bytes are no longer than rclpy's: Fast CDR's buffer may
         // end in bytes it reserved and left unwritten, as it leaves padding
         // (so bytes are not compared here); rclpy reads Radar's back below.

@@ -7,7 +7,7 @@ sensor_msgs/msg/Range on /range, and listens to /cmd_vel (Twist) and
 
 Starts RADAR_COMMAND (a `radar run` of the example with rmw = "dds"), waits
 for its `ros2: node` line, then publishes a clear reading (2 m) every 0.1 s
-until Radar's node has matched the topic, then near readings (0.3 m) for
+until Radar's node has matched the topics both ways, then near readings (0.3 m) for
 1 s, then clear again, until /avoided says 1 (or the timeout). With
 --malformed it first publishes, once matched, a Range cut short (raw bytes:
 the CDR header and 3 bytes), which Radar must refuse. It prints one
@@ -42,28 +42,32 @@ def main():
     radar, joined = radar_run.start(command)
     report = {"joined": joined, "cmd_vel": [], "avoided": []}
     if joined is None:
-        report["radar_stderr"] = radar.stderr.read()
+        report["radar_stderr"] = "".join(radar.stderr_lines)
         print(json.dumps(report))
         return 1
 
     rclpy.init()
     node = Node("range_sensor")
     publisher = node.create_publisher(Range, "/range", 10)
-    node.create_subscription(
-        Twist, "/cmd_vel", lambda m: report["cmd_vel"].append(m.angular.z), 10
-    )
-    node.create_subscription(
-        UInt32, "/avoided", lambda m: report["avoided"].append(m.data), 10
-    )
+    listening = [
+        node.create_subscription(
+            Twist, "/cmd_vel", lambda m: report["cmd_vel"].append(m.angular.z), 10
+        ),
+        node.create_subscription(
+            UInt32, "/avoided", lambda m: report["avoided"].append(m.data), 10
+        ),
+    ]
 
     began = time.time()
     near_from = None
     while time.time() - began < args.timeout and not report["avoided"]:
-        matched = publisher.get_subscription_count() > 0
+        # Radar's reader has matched ours, and its writers (on volatile
+        # topics, where nothing sent before is kept) ours.
+        matched = publisher.get_subscription_count() > 0 and all(
+            s.get_publisher_count() > 0 for s in listening
+        )
         if matched and near_from is None:
-            # Radar's reader has matched: a moment more for its node's
-            # own readers (cmd_vel's and avoided's writers) to match ours.
-            near_from = time.time() + 1.0
+            near_from = time.time() + 0.5
             if args.malformed:
                 publisher.publish(b"\x00\x01\x00\x00\x07\x00\x00")
         near = near_from is not None and near_from <= time.time() < near_from + 1.0

@@ -12,6 +12,11 @@ def start(command, timeout=60):
     came). The rest of stdout is drained on a thread so that Radar never
     blocks on a full pipe."""
     radar = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # Its stderr is read as it comes, so that Radar never blocks on it.
+    radar.stderr_lines = []
+    threading.Thread(
+        target=lambda: radar.stderr_lines.extend(radar.stderr), daemon=True
+    ).start()
     deadline = time.time() + timeout
     while time.time() < deadline:
         line = radar.stdout.readline()
@@ -21,6 +26,7 @@ def start(command, timeout=60):
             threading.Thread(target=radar.stdout.read, daemon=True).start()
             return radar, line.strip()
     radar.kill()
+    radar.wait()
     return radar, None
 
 
@@ -32,7 +38,8 @@ def finish(radar, timeout):
     except subprocess.TimeoutExpired:
         radar.terminate()
         radar.wait()
-    return radar.returncode, radar.stderr.read()
+    time.sleep(0.1)  # the last lines of stderr, read on their thread
+    return radar.returncode, "".join(radar.stderr_lines)
 
 
 def graph(node):

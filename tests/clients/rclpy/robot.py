@@ -6,7 +6,7 @@ on /scan (360 ranges, 10 Hz) and a base that listens to /cmd_vel (Twist).
 
 Starts RADAR_COMMAND (a `radar run` of the example), waits for its `ros2:
 node` line, publishes clear scans (2 m everywhere) until Radar's node has
-matched /scan, then for 1 s scans with an obstacle 0.3 m away in a sector,
+matched /scan and /cmd_vel, then for 1 s scans with an obstacle 0.3 m away in a sector,
 then clear scans until two Twists have arrived (backing away, then the
 stop) or the timeout. It prints one JSON object once Radar's run has ended
 by itself: each Twist's linear and angular parts, the graph as rclpy sees
@@ -49,14 +49,14 @@ def main():
     radar, joined = radar_run.start(command)
     report = {"joined": joined, "cmd_vel": []}
     if joined is None:
-        report["radar_stderr"] = radar.stderr.read()
+        report["radar_stderr"] = "".join(radar.stderr_lines)
         print(json.dumps(report))
         return 1
 
     rclpy.init()
     node = Node("laser_and_base")
     publisher = node.create_publisher(LaserScan, "/scan", 10)
-    node.create_subscription(
+    base = node.create_subscription(
         Twist,
         "/cmd_vel",
         lambda m: report["cmd_vel"].append(
@@ -68,8 +68,10 @@ def main():
     began = time.time()
     near_from = None
     while time.time() - began < args.timeout and len(report["cmd_vel"]) < 2:
-        if publisher.get_subscription_count() > 0 and near_from is None:
-            near_from = time.time() + 1.0
+        # Radar's reader has matched ours, and its writer ours.
+        matched = publisher.get_subscription_count() > 0 and base.get_publisher_count() > 0
+        if matched and near_from is None:
+            near_from = time.time() + 0.5
         near = near_from is not None and near_from <= time.time() < near_from + 1.0
         publisher.publish(scan(near))
         rclpy.spin_once(node, timeout_sec=0.1)

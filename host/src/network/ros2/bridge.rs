@@ -22,7 +22,7 @@ use zenoh::{Session, Wait};
 
 use super::cdr;
 #[cfg(feature = "dds")]
-use super::dds::DdsNode;
+use super::dds::{DdsNode, DdsPublisher};
 use super::error::Ros2Error;
 use super::fit::{self, FieldPath};
 use super::graph::{self, Endpoint, Node};
@@ -84,6 +84,7 @@ impl Ros2 {
     /// folder); nothing is on the network until [`Ros2::start`].
     pub fn open(settings: &Ros2Settings, base: &Path) -> Result<Self, Ros2Error> {
         settings.validate().map_err(Ros2Error::Settings)?;
+        settings.check_environment().map_err(Ros2Error::Settings)?;
         let types = MessageTypes::new(settings.msg_paths.iter().map(|p| base.join(p)).collect());
         let load = |topic: &str, type_name: &str| {
             types
@@ -382,9 +383,27 @@ impl Ros2 {
         for (sub, taker) in self.subscriptions.iter().zip(takers) {
             node.subscribe(&sub.topic, &sub.message, &sub.qos, taker)?;
         }
+        // One writer a topic (see `Wire::Dds`): its routes must agree on
+        // its type and QoS.
+        let mut writers: HashMap<&str, (&Publication, Arc<DdsPublisher>)> = HashMap::new();
         let mut wires = Vec::new();
         for p in &self.publications {
-            wires.push(Wire::Dds(node.publisher(&p.topic, &p.message, &p.qos)?));
+            let writer = match writers.get(p.topic.as_str()) {
+                Some((first, _)) if first.message.name != p.message.name || first.qos != p.qos => {
+                    return Err(Ros2Error::Settings(format!(
+                        "[[ros2.publish]] routes on topic `{}` differ in type or QoS ({} and \
+                         {}): on DDS a topic has one writer, so they must agree",
+                        p.topic, first.signal, p.signal
+                    )))
+                }
+                Some((_, writer)) => writer.clone(),
+                None => {
+                    let writer = Arc::new(node.publisher(&p.topic, &p.message, &p.qos)?);
+                    writers.insert(&p.topic, (p, writer.clone()));
+                    writer
+                }
+            };
+            wires.push(Wire::Dds(writer));
         }
         node.start(self.stop.clone())?;
         let name = format!("{}/{name}", settings.namespace.trim_end_matches('/'));
@@ -454,9 +473,13 @@ impl Ros2 {
             let payload = system
                 .signal_type(&p.signal)
                 .map_err(|e| Ros2Error::Mismatch(format!("{route}: {e}")))?;
-            // A result publishes what it holds when it is `ok`.
+            // A result publishes what it holds when it is `ok`, if the
+            // payload is used at all: a fixed message goes out whatever the
+            // signal carries, an `err` too (the stop after an interrupt).
             let (payload, unwrap_ok) = match payload {
-                Some(PayloadType::Result { ok: Some(ok), .. }) => (Some(*ok), true),
+                Some(PayloadType::Result { ok: Some(ok), .. }) if p.use_payload => {
+                    (Some(*ok), true)
+                }
                 other => (other, false),
             };
             let path = match payload.filter(|_| p.use_payload) {

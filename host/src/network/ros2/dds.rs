@@ -1,6 +1,6 @@
 //! ROS 2's default middleware (`[ros2] rmw = "dds"`): Radar as a node on
-//! DDS, through `ros2-client` on RustDDS (RTPS, heard by Fast DDS and
-//! Cyclone DDS). It is the same node as on rmw_zenoh (`bridge`): the same
+//! DDS, through `ros2-client` on RustDDS (RTPS, as Fast DDS speaks it;
+//! tested against rclpy on Fast DDS). It is the same node as on rmw_zenoh (`bridge`): the same
 //! routes, checks, values and records; only the wire differs. The node
 //! announces itself and its endpoints on `ros_discovery_info`, so ROS 2's
 //! graph queries list it.
@@ -42,7 +42,7 @@ pub(super) struct DdsPublisher(Publisher<Encoded>);
 
 impl DdsPublisher {
     pub(super) fn put(&self, bytes: Vec<u8>) -> Result<(), String> {
-        self.0.publish(Encoded(bytes)).map_err(|e| format!("{e:?}"))
+        self.0.publish(Encoded(bytes)).map_err(|e| format!("{e}"))
     }
 }
 
@@ -59,14 +59,14 @@ impl DdsNode {
             })?;
         let participant = discovery(DomainParticipantBuilder::new(domain))?
             .build()
-            .map_err(|e| Ros2Error::Session(format!("DDS: cannot join domain {domain}: {e:?}")))?;
+            .map_err(|e| Ros2Error::Session(format!("DDS: cannot join domain {domain}: {e}")))?;
         let context = Context::from_domain_participant(participant)
-            .map_err(|e| Ros2Error::Session(format!("DDS: cannot join domain {domain}: {e:?}")))?;
+            .map_err(|e| Ros2Error::Session(format!("DDS: cannot join domain {domain}: {e}")))?;
         let node_name = NodeName::new(namespace, name)
-            .map_err(|e| Ros2Error::Settings(format!("[ros2] node `{name}`: {e:?}")))?;
+            .map_err(|e| Ros2Error::Settings(format!("[ros2] node `{name}`: {e}")))?;
         let node = context
             .new_node(node_name, NodeOptions::new().enable_rosout(false))
-            .map_err(|e| Ros2Error::Session(format!("DDS: cannot make node `{name}`: {e:?}")))?;
+            .map_err(|e| Ros2Error::Session(format!("DDS: cannot make node `{name}`: {e}")))?;
         Ok(Self {
             node,
             subscriptions: Vec::new(),
@@ -90,7 +90,7 @@ impl DdsNode {
         let subscription = self
             .node
             .create_subscription::<Recoded>(&dds_topic, Some(profile(qos)))
-            .map_err(|e| Ros2Error::Session(format!("DDS: subscribing to `{topic}`: {e:?}")))?;
+            .map_err(|e| Ros2Error::Session(format!("DDS: subscribing to `{topic}`: {e}")))?;
         let seed = Recode {
             message: Arc::new(message.clone()),
         };
@@ -110,7 +110,7 @@ impl DdsNode {
         self.node
             .create_publisher::<Encoded>(&dds_topic, Some(profile(qos)))
             .map(DdsPublisher)
-            .map_err(|e| Ros2Error::Session(format!("DDS: publishing on `{topic}`: {e:?}")))
+            .map_err(|e| Ros2Error::Session(format!("DDS: publishing on `{topic}`: {e}")))
     }
 
     fn topic(
@@ -125,13 +125,13 @@ impl DdsNode {
             None => ("/", topic),
         };
         let name = Name::new(namespace, base)
-            .map_err(|e| Ros2Error::Settings(format!("[ros2] topic `{topic}`: {e:?}")))?;
+            .map_err(|e| Ros2Error::Settings(format!("[ros2] topic `{topic}`: {e}")))?;
         let mut parts = message.name.split('/');
         let (package, _, type_name) = (parts.next(), parts.next(), parts.next());
         let type_name = MessageTypeName::new(package.unwrap_or(""), type_name.unwrap_or(""));
         self.node
             .create_topic(&name, type_name, &profile(qos))
-            .map_err(|e| Ros2Error::Session(format!("DDS: topic `{topic}`: {e:?}")))
+            .map_err(|e| Ros2Error::Session(format!("DDS: topic `{topic}`: {e}")))
     }
 
     /// Starts taking messages (every subscription, on one thread); `stop`
@@ -172,9 +172,14 @@ impl DdsNode {
                                         taker.take(&bytes, || sender(gid.as_bytes()))
                                     }
                                     Err(ReadError::Closed) => false,
-                                    Err(e) => taker.malformed(None, &why(&e), || {
-                                        "a ROS 2 publisher".to_string()
-                                    }),
+                                    Err(ReadError::Deserialization { reason }) => {
+                                        taker.malformed(None, &why(&reason), || {
+                                            "a ROS 2 publisher".to_string()
+                                        })
+                                    }
+                                    // Not a message that did not read: the
+                                    // reader's own trouble, said as it is.
+                                    Err(e) => taker.failed(&e.to_string()),
                                 };
                                 if !more || stop.load(Ordering::Relaxed) {
                                     break;
@@ -203,9 +208,10 @@ impl Drop for DdsNode {
 /// Where the node looks for peers, as ROS 2 nodes do:
 /// `ROS_AUTOMATIC_DISCOVERY_RANGE` `SUBNET` (the default, every interface
 /// with multicast) or `LOCALHOST` (this machine only: discovery and
-/// locators on loopback). `OFF` and `ROS_STATIC_PEERS` need a list of
-/// peers to reach by unicast, which RustDDS does not take: refused, rather
-/// than discovering more widely than asked.
+/// advertised locators on loopback), and Humble's and Jazzy's
+/// `ROS_LOCALHOST_ONLY=1` as `LOCALHOST`. `OFF` and `ROS_STATIC_PEERS` need
+/// a list of peers to reach by unicast, which RustDDS does not take:
+/// refused, rather than discovering more widely than asked.
 fn discovery(builder: DomainParticipantBuilder) -> Result<DomainParticipantBuilder, Ros2Error> {
     let range = std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE").unwrap_or_default();
     if std::env::var("ROS_STATIC_PEERS").is_ok_and(|p| !p.trim().is_empty()) {
@@ -215,7 +221,11 @@ fn discovery(builder: DomainParticipantBuilder) -> Result<DomainParticipantBuild
                 .into(),
         ));
     }
+    let localhost_only = std::env::var("ROS_LOCALHOST_ONLY").is_ok_and(|v| v.trim() == "1");
     match range.trim().to_ascii_uppercase().as_str() {
+        "" | "SYSTEM_DEFAULT" if localhost_only => {
+            Ok(builder.with_only_networks([std::net::Ipv4Addr::LOCALHOST]))
+        }
         "" | "SYSTEM_DEFAULT" | "SUBNET" => Ok(builder),
         "LOCALHOST" => Ok(builder.with_only_networks([std::net::Ipv4Addr::LOCALHOST])),
         other => Err(Ros2Error::Settings(format!(
@@ -227,19 +237,14 @@ fn discovery(builder: DomainParticipantBuilder) -> Result<DomainParticipantBuild
 
 /// Why a message did not read, in RustDDS's words less its own framing
 /// (`Failed to deserialize sample bytes: …, , Topic = …`).
-fn why(error: &ReadError) -> String {
-    match error {
-        ReadError::Deserialization { reason } => {
-            let reason = reason
-                .strip_prefix("Failed to deserialize sample bytes: ")
-                .unwrap_or(reason);
-            reason
-                .split_once(", , Topic =")
-                .map_or(reason, |(why, _)| why)
-                .to_string()
-        }
-        other => other.to_string(),
-    }
+fn why(reason: &str) -> String {
+    let reason = reason
+        .strip_prefix("Failed to deserialize sample bytes: ")
+        .unwrap_or(reason);
+    reason
+        .split_once(", , Topic =")
+        .map_or(reason, |(why, _)| why)
+        .to_string()
 }
 
 /// A publisher's gid as the trace names a sender.

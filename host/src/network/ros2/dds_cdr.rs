@@ -18,8 +18,29 @@ use std::sync::Arc;
 use serde::de::{self, DeserializeSeed, Deserializer, SeqAccess, Visitor};
 use serde::ser::{Serialize, SerializeTuple, Serializer};
 
+use super::error::CdrError;
 use super::msg::{Base, Field, Primitive, Shape};
 use super::types::Message;
+
+/// Reads a message as a DDS subscription does (`bytes`: CDR after its
+/// 4-byte encapsulation header, as a DDS node puts it on the wire), through
+/// RustDDS's own deserializer, into the little-endian CDR bytes `cdr`
+/// reads. For tests against other libraries' bytes.
+pub fn read_as_dds(message: &Message, bytes: &[u8]) -> Result<Vec<u8>, CdrError> {
+    use ros2_client::dds::rustdds::serialization::deserialize_from_cdr_with_decoder_and_rep_id;
+    use ros2_client::dds::rustdds::RepresentationIdentifier;
+    let (header, body) = bytes
+        .split_at_checked(CDR_LE.len())
+        .ok_or_else(|| CdrError("shorter than the CDR header".into()))?;
+    let encoding =
+        RepresentationIdentifier::from_bytes(header).map_err(|e| CdrError(e.to_string()))?;
+    let seed = Recode {
+        message: Arc::new(message.clone()),
+    };
+    deserialize_from_cdr_with_decoder_and_rep_id(body, encoding, seed)
+        .map(|(Recoded(bytes), _)| bytes)
+        .map_err(|e| CdrError(e.to_string()))
+}
 
 /// The encapsulation header of little-endian CDR (as `cdr` writes it).
 const CDR_LE: [u8; 4] = [0, 1, 0, 0];

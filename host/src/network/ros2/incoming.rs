@@ -66,6 +66,13 @@ impl Taker {
         self.refuse(sender(), reason)
     }
 
+    /// Records that the subscription's reader failed (`why`), not any
+    /// message; `false` once the run has ended.
+    pub(super) fn failed(&mut self, why: &str) -> bool {
+        let reason = format!("the subscription's reader failed: {why}");
+        self.refuse("the ROS 2 middleware".to_string(), reason)
+    }
+
     /// Records a refused message (see [`REFUSALS_RECORDED`]); `false` once
     /// the run has ended.
     fn refuse(&mut self, sender: String, reason: String) -> bool {

@@ -31,6 +31,8 @@ mod types;
 mod wit_text;
 
 pub use bridge::Ros2;
+#[cfg(feature = "dds")]
+pub use dds_cdr::read_as_dds;
 pub use error::{CdrError, Ros2Error, TypeError};
 pub use graph::dds_type;
 pub use settings::{Publish, Qos, Rmw, Ros2Settings, Subscribe};

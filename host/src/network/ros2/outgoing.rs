@@ -44,9 +44,10 @@ pub(super) enum Wire {
         gid: [u8; 16],
         sequence: i64,
     },
-    /// DDS: a DDS writer.
+    /// DDS: the topic's one DDS writer, shared by every route on it (DDS
+    /// keeps order per writer: a fail-safe stop must not pass a command).
     #[cfg(feature = "dds")]
-    Dds(super::dds::DdsPublisher),
+    Dds(Arc<super::dds::DdsPublisher>),
 }
 
 impl Wire {
@@ -92,23 +93,13 @@ pub(super) fn publish(
         let Some(o) = out.get_mut(route) else {
             continue;
         };
-        if payload.get("$cut").is_some() {
-            // Too large for the trace, which is all the bridge sees.
-            o.not_published("its payload is over the trace's 16 KiB", &left_out);
-            continue;
-        }
-        let payload = match (o.unwrap_ok, payload) {
-            (false, payload) => payload,
-            (true, Json::Object(mut result)) => match result.remove("ok") {
-                Some(ok) => ok,
-                // An `err` is not published.
-                None => continue,
-            },
-            (true, _) => continue,
-        };
-        let value = match &o.path {
-            Some(path) => fit::fill(&o.base, path, payload),
-            None => o.base.clone(),
+        let value = match message(o.unwrap_ok, o.path.as_ref(), &o.base, payload) {
+            Ok(Some(value)) => value,
+            Ok(None) => continue,
+            Err(why) => {
+                o.not_published(why, &left_out);
+                continue;
+            }
         };
         let now = SystemTime::now()
             .duration_since(UNIX_EPOCH)
@@ -126,6 +117,35 @@ pub(super) fn publish(
             o.not_published(&e, &left_out);
         }
     }
+}
+
+/// The message an emission makes: the route's values with the payload on
+/// top (`path`: where it goes), or the values alone when the payload is
+/// not used, whatever the signal carries (a fixed message goes out after
+/// an `err` too). `Ok(None)`: nothing goes out (an `err` of a route that
+/// publishes what a result holds); `Err`: why it cannot.
+fn message(
+    unwrap_ok: bool,
+    path: Option<&FieldPath>,
+    base: &Json,
+    payload: Json,
+) -> Result<Option<Json>, &'static str> {
+    let Some(path) = path else {
+        return Ok(Some(base.clone()));
+    };
+    if payload.get("$cut").is_some() {
+        // Too large for the trace, which is all the bridge sees.
+        return Err("its payload is over the trace's 16 KiB");
+    }
+    let payload = match (unwrap_ok, payload) {
+        (false, payload) => payload,
+        (true, Json::Object(mut result)) => match result.remove("ok") {
+            Some(ok) => ok,
+            None => return Ok(None),
+        },
+        (true, _) => return Ok(None),
+    };
+    Ok(Some(fit::fill(base, path, payload)))
 }
 
 impl Outgoing {
@@ -202,5 +222,33 @@ impl TraceSink for Tap {
         // The publishing thread ends once what is queued is out.
         self.tx = None;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn a_fixed_message_goes_out_whatever_the_signal_carries_an_err_too() {
+        let zero = json!({"linear": {"x": 0.0}});
+        for payload in [json!({"err": "exit"}), json!({"ok": 3}), json!(null)] {
+            assert_eq!(message(false, None, &zero, payload), Ok(Some(zero.clone())));
+        }
+    }
+
+    #[test]
+    fn a_route_that_publishes_a_results_ok_sends_nothing_for_an_err() {
+        let path: FieldPath = vec!["data".to_string()];
+        let base = json!({"data": 0});
+        assert_eq!(
+            message(true, Some(&path), &base, json!({"err": "exit"})),
+            Ok(None)
+        );
+        assert!(message(true, Some(&path), &base, json!({"ok": 3}))
+            .expect("fits")
+            .is_some());
+        assert!(message(true, Some(&path), &base, json!({"$cut": 20000})).is_err());
     }
 }

@@ -211,8 +211,32 @@ impl Ros2Settings {
         }
     }
 
+    /// Checks the settings against the ROS 2 environment a user runs in:
+    /// a `ROS_DOMAIN_ID` other than `domain` would put Radar in another
+    /// domain than the user's ROS 2 nodes, silently.
+    pub fn check_environment(&self) -> Result<(), String> {
+        let Ok(id) = std::env::var("ROS_DOMAIN_ID") else {
+            return Ok(());
+        };
+        match id.trim().parse::<u32>() {
+            Ok(id) if id == self.domain => Ok(()),
+            _ if id.trim().is_empty() => Ok(()),
+            _ => Err(format!(
+                "ROS_DOMAIN_ID is {id} but [ros2] domain = {}: set the domain in the manifest \
+                 to the one your ROS 2 nodes use, or unset ROS_DOMAIN_ID",
+                self.domain
+            )),
+        }
+    }
+
     /// Checks what can be checked without the system: names and routes.
     pub fn validate(&self) -> Result<(), String> {
+        if self.rmw == Rmw::Dds && !cfg!(feature = "dds") {
+            return Err(
+                "[ros2] rmw = \"dds\": this radar was built without DDS (cargo feature `dds`)"
+                    .into(),
+            );
+        }
         if self.rmw == Rmw::Dds && !(self.listen.is_empty() && self.connect.is_empty()) {
             return Err(
                 "[ros2] listen and connect are Zenoh endpoints: with rmw = \"dds\" the node \
