@@ -17,7 +17,7 @@ use serde_json::Value as Json;
 
 use crate::common;
 
-use common::{lawful_trace, radar, text, wait_within, write_manifest};
+use common::{lawful_trace, text, wait_within, write_manifest};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
@@ -222,25 +222,7 @@ fn obstacle_beside_rclpy(python: &str, distro: &str) {
         assert!(refused[0].contains(needle), "{distro}: {}", refused[0]);
     }
     // The recording replays with neither ROS nor the network.
-    let replayed = dir.path().join("replay.jsonl");
-    let out = radar(&[
-        "run",
-        &manifest,
-        "-q",
-        "--replay",
-        inputs.to_str().expect("utf-8"),
-        "--trace",
-        replayed.to_str().expect("utf-8"),
-    ]);
-    assert!(out.status.success(), "{}", text(&out.stderr));
-    let (replay, _) = lawful_trace(&replayed);
-    let kept = |t: &str| -> Vec<String> {
-        t.lines()
-            .filter(|l| l.contains(r#""kind":"board-write""#) || l.contains(r#""kind":"signal""#))
-            .map(|l| l.split_once(',').map_or(l, |(_, rest)| rest).to_string())
-            .collect()
-    };
-    assert_eq!(kept(&replay), kept(&trace_text));
+    super::ros2::replays_to_the_same_writes_and_signals(Path::new(&manifest), &inputs, &trace_text);
 }
 
 /// Radar's value of `cdr`, as Radar itself writes and reads it back:

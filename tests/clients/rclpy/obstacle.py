@@ -81,11 +81,7 @@ def main():
     while time.time() < settle:
         rclpy.spin_once(node, timeout_sec=0.1)
 
-    report.update(radar_run.graph(node))
-    report["radar_exit"], report["radar_stderr"] = radar_run.finish(radar, args.timeout + 30)
-    node.destroy_node()
-    rclpy.shutdown()
-    print(json.dumps(report))
+    radar_run.report_at_end(radar, node, report, args.timeout + 30)
     return 0
 
 

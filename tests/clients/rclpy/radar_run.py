@@ -1,9 +1,12 @@
 """Runs `radar run` beside the rclpy test nodes: started, ready once it has
 joined the ROS 2 graph, and waited for at its end."""
 
+import json
 import subprocess
 import threading
 import time
+
+import rclpy
 
 
 def start(command, timeout=60):
@@ -40,6 +43,17 @@ def finish(radar, timeout):
         radar.wait()
     time.sleep(0.1)  # the last lines of stderr, read on their thread
     return radar.returncode, "".join(radar.stderr_lines)
+
+
+def report_at_end(radar, node, report, timeout):
+    """Adds the graph as `node` sees it, then Radar's exit code and stderr
+    once its run has ended (see `finish`) to `report`, shuts rclpy down and
+    prints the report as one JSON line."""
+    report.update(graph(node))
+    report["radar_exit"], report["radar_stderr"] = finish(radar, timeout)
+    node.destroy_node()
+    rclpy.shutdown()
+    print(json.dumps(report))
 
 
 def graph(node):

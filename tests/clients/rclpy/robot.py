@@ -75,11 +75,7 @@ def main():
         near = near_from is not None and near_from <= time.time() < near_from + 1.0
         publisher.publish(scan(near))
         rclpy.spin_once(node, timeout_sec=0.1)
-    report.update(radar_run.graph(node))
-    report["radar_exit"], report["radar_stderr"] = radar_run.finish(radar, args.timeout + 30)
-    node.destroy_node()
-    rclpy.shutdown()
-    print(json.dumps(report))
+    radar_run.report_at_end(radar, node, report, args.timeout + 30)
     return 0
 
 
