@@ -16,7 +16,7 @@ use zenoh::Wait;
 
 use crate::common;
 
-use common::{free_port, lawful_trace, lines, radar, text, wait_within, write_manifest};
+use common::{free_port, hex, lawful_trace, lines, radar, text, wait_within, write_manifest};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
@@ -34,13 +34,6 @@ fn python() -> String {
 
 fn script(name: &str) -> PathBuf {
     root().join("tests/clients/ros2").join(name)
-}
-
-fn hex(text: &str) -> Vec<u8> {
-    (0..text.len())
-        .step_by(2)
-        .map(|i| u8::from_str_radix(&text[i..i + 2], 16).expect("hex"))
-        .collect()
 }
 
 #[test]

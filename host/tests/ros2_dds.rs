@@ -17,7 +17,7 @@ use serde_json::Value as Json;
 
 use crate::common;
 
-use common::{lawful_trace, text, wait_within, write_manifest};
+use common::{hex, lawful_trace, text, wait_within, write_manifest};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
@@ -309,13 +309,6 @@ fn types_against_rclpy(python: &str, distro: &str) {
             message.name
         );
     }
-}
-
-fn hex(text: &str) -> Vec<u8> {
-    (0..text.len())
-        .step_by(2)
-        .map(|i| u8::from_str_radix(&text[i..i + 2], 16).expect("hex"))
-        .collect()
 }
 
 #[test]

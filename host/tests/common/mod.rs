@@ -107,3 +107,11 @@ pub fn lines(stdout: ChildStdout) -> Receiver<String> {
     });
     rx
 }
+
+/// Bytes from their hex text (`"0001"` → `[0, 1]`).
+pub fn hex(text: &str) -> Vec<u8> {
+    (0..text.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&text[i..i + 2], 16).expect("hex"))
+        .collect()
+}
