@@ -585,7 +585,8 @@ impl StopFlag {
         }
     }
 
-    fn register(&self, waker: &Waker) {
+    /// Wakes `waker` when a stop or a fault is asked for.
+    pub(crate) fn register(&self, waker: &Waker) {
         let mut slot = self.waker.lock().unwrap_or_else(|e| e.into_inner());
         match slot.as_ref() {
             Some(w) if w.will_wake(waker) => {}

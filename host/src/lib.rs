@@ -43,7 +43,9 @@ pub mod workspace;
 pub use clock::ClockKind;
 pub use error::RadarError;
 pub use payload::{Payload, PayloadType};
-pub use plugin::{on_first_compile, Agents, FaultKind, InjectedFault, Limits};
+pub use plugin::{
+    on_first_compile, Agents, Answer, Backed, Backing, FaultKind, InjectedFault, Limits,
+};
 pub use ports::{
     Busy, ConnectionOverview, Mode, Overview, PluginOverview, PluginState, SwapPolicy,
 };

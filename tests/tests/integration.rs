@@ -12,6 +12,7 @@
 
 mod common;
 
+mod backed;
 mod bad_input;
 mod board;
 mod board_in_languages;

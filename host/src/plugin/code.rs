@@ -46,7 +46,11 @@ pub(crate) struct PluginCode {
     pub kind: Kind,
     /// The first 12 hex digits of the component's sha256 (`docs/hot-swap.md`).
     pub version: String,
-    pub(super) pre: InstancePre<PluginCtx>,
+    /// The component, ready to instantiate: none for a response backed by
+    /// a server ([`super::backed`]).
+    pub(super) pre: Option<InstancePre<PluginCtx>>,
+    /// What backs a response that has no component.
+    pub(crate) backed: Option<super::backed::Backed>,
     /// The blackboard entries it reads and writes.
     pub board: Arc<[BoardPort]>,
     /// Where each of [`EXPORTS`] is, resolved once at load.
@@ -100,6 +104,32 @@ pub(super) fn export_index(
         let slots = component.get_export_index(None, slots?)?;
         component.get_export_index(Some(&slots), name)
     })
+}
+
+impl PluginCode {
+    /// A response backed by a server: its slots' types are the server's
+    /// request and reply; its version, what backs it.
+    pub(crate) fn backed(backed: super::backed::Backed) -> Self {
+        let version = version_of(
+            format!("{}\n{}\n{}", backed.label, backed.request, backed.reply).as_bytes(),
+        );
+        PluginCode {
+            kind: Kind::Response {
+                start_param: Some(backed.request.clone()),
+                start_result: Some(backed.reply.clone()),
+                interrupt_param: None,
+                signals: Arc::new([]),
+            },
+            version: version.clone(),
+            pre: None,
+            backed: Some(backed),
+            board: Arc::new([]),
+            exports: Arc::new([None, None, None, None, None, None]),
+            component_version: version.into(),
+            script: None,
+            bytes: Arc::new([]),
+        }
+    }
 }
 
 /// A component's version: the first 12 hex digits of its sha256.

@@ -11,6 +11,7 @@ use sha2::{Digest, Sha256};
 use wasmtime::component::{Func, ResourceTable, Val};
 use wasmtime::Store;
 
+use super::backed::BackedInstance;
 use super::code::PluginCode;
 use super::faults::FaultPlan;
 use super::limits::Limits;
@@ -86,6 +87,7 @@ pub(crate) struct PluginInstance {
 enum Inner {
     Local(LocalInstance),
     Remote(RemoteInstance),
+    Backed(BackedInstance),
 }
 
 /// One live instance of a plugin in its own store, in this process.
@@ -109,6 +111,14 @@ impl PluginCode {
     /// plugin is placed on.
     pub async fn instantiate(&self, setup: InstanceSetup) -> Result<PluginInstance, Fault> {
         let faults = setup.faults.clone();
+        if let Some(backed) = &self.backed {
+            let inner = Inner::Backed(BackedInstance::new(
+                backed.clone(),
+                setup.base.clone(),
+                setup.stop.clone(),
+            ));
+            return Ok(PluginInstance { inner, faults });
+        }
         let inner = match setup.remote.clone() {
             Some(remote) => Inner::Remote(
                 RemoteInstance::open(
@@ -190,7 +200,10 @@ impl PluginCode {
             table,
             limits: StoreLimiter::new(setup.limits.growth(), setup.budget),
         };
-        let mut store = Store::new(self.pre.engine(), ctx);
+        let Some(pre) = &self.pre else {
+            return Err(Fault::new("it has no component to instantiate"));
+        };
+        let mut store = Store::new(pre.engine(), ctx);
         store.limiter(|ctx| &mut ctx.limits);
         // What one value the guest hands the host may take in the host,
         // counted by wasmtime as it is lifted, before it is allocated: so a
@@ -220,11 +233,7 @@ impl PluginCode {
         store
             .set_fuel(setup.limits.fuel_per_call.max(INSTANTIATION_FUEL))
             .map_err(fault)?;
-        let instance = self
-            .pre
-            .instantiate_async(&mut store)
-            .await
-            .map_err(fault)?;
+        let instance = pre.instantiate_async(&mut store).await.map_err(fault)?;
         let mut funcs = self.exports.iter().map(|index| {
             index
                 .as_ref()
@@ -433,6 +442,7 @@ impl PluginInstance {
         match &self.inner {
             Inner::Local(local) => local.has(export),
             Inner::Remote(remote) => remote.has(export),
+            Inner::Backed(backed) => backed.has(export),
         }
     }
 
@@ -451,6 +461,7 @@ impl PluginInstance {
         match &mut self.inner {
             Inner::Local(local) => local.call_export(export, params, has_result).await,
             Inner::Remote(remote) => remote.call(export, params, has_result).await,
+            Inner::Backed(backed) => backed.call(export, params).await,
         }
     }
 

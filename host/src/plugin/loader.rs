@@ -320,7 +320,8 @@ impl Loader {
         let code = PluginCode {
             kind,
             version: digest[..12].to_string(),
-            pre,
+            pre: Some(pre),
+            backed: None,
             board: board_ports.map(|b| b.ports).unwrap_or_default().into(),
             exports,
             component_version: digest[..12].into(),

@@ -10,6 +10,7 @@
 //! (memory, fuel, limits), rebuilt from scratch by `reset` because a trap
 //! poisons a store for good.
 
+pub(crate) mod backed;
 mod cache;
 mod call;
 mod code;
@@ -22,6 +23,7 @@ mod shelf;
 mod store;
 mod world;
 
+pub use backed::{Answer, Backed, Backing};
 pub(crate) use cache::default_cache_dir;
 pub use cache::on_first_compile;
 pub(crate) use code::{version_of, Kind, PluginCode};

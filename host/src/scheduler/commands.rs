@@ -106,6 +106,12 @@ pub(crate) enum Command {
         node: String,
         exits: Vec<crate::trace::inputs::ReportedExit>,
     },
+    /// A server answered a backed response's request.
+    Answer {
+        plugin: String,
+        call: u64,
+        answer: crate::plugin::Answer,
+    },
     /// A command from outside was refused: recorded.
     Refused {
         command: String,
@@ -247,6 +253,7 @@ impl Command {
                 | Command::Refused { .. }
                 | Command::Node { .. }
                 | Command::ExitsReported { .. }
+                | Command::Answer { .. }
                 | Command::Swap {
                     origin: Some(_),
                     ..

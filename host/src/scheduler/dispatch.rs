@@ -55,6 +55,11 @@ impl Scheduler {
             Command::ExitsReported { node, exits } => {
                 core.with(|st| st.exits_reported(&node, exits))
             }
+            Command::Answer {
+                plugin,
+                call,
+                answer,
+            } => core.with(|st| st.answer(&plugin, call, answer)),
             Command::Overview { reply } => {
                 let _ = reply.send(core.with(|st| st.overview()));
             }

@@ -90,6 +90,12 @@ pub(crate) enum StaticWhat {
     Stop(String),
     /// Exits an agent ran alone.
     AgentExits(String, Vec<crate::trace::inputs::ReportedExit>),
+    /// A server's answer to a backed response.
+    Answer {
+        plugin: String,
+        call: u64,
+        answer: crate::plugin::Answer,
+    },
     /// A refused command's record.
     Refused {
         command: String,
@@ -290,6 +296,11 @@ impl State {
             Action::Outside(StaticWhat::Reset(plugin)) => {
                 let _ = self.request_reset(&plugin, true);
             }
+            Action::Outside(StaticWhat::Answer {
+                plugin,
+                call,
+                answer,
+            }) => self.answer(&plugin, call, answer),
             Action::Outside(StaticWhat::Refused {
                 command,
                 from,
@@ -347,6 +358,9 @@ impl State {
             Action::Outside(StaticWhat::Stop(_)) => "the stop of the run".to_string(),
             Action::Outside(StaticWhat::AgentExits(node, _)) => {
                 format!("the exits agent {node} ran alone")
+            }
+            Action::Outside(StaticWhat::Answer { plugin, call, .. }) => {
+                format!("the answer to {plugin}'s request {call}")
             }
             Action::Outside(_) => "a refused command".to_string(),
         };

@@ -8,7 +8,7 @@ use super::commands::{LinkSpec, LinkTarget};
 use super::state::{Lifecycle, State};
 use crate::error::RadarError;
 use crate::plugin::remote::static_level;
-use crate::plugin::Fault;
+use crate::plugin::{Answer, Fault};
 use crate::ports::{ConnectionOverview, Overview, PluginOverview, PluginState};
 use crate::trace::inputs::{Input, ReportedExit};
 use crate::trace::Entry;
@@ -100,6 +100,39 @@ impl State {
                 let name = entry.def.name.clone();
                 let _ = self.request_reset(&name, true);
             }
+        }
+    }
+
+    /// A server answered request `call` of backed response `plugin`:
+    /// recorded as an input, then handed to the activation waiting for it.
+    /// An answer nothing waits for any more (its activation was stopped
+    /// and gave up on it) is said in the trace and left out.
+    pub(super) fn answer(&mut self, plugin: &str, call: u64, answer: Answer) {
+        let (reply, failed) = match &answer {
+            Answer::Reply(json) => (Some(json.clone()), None),
+            Answer::Failed(why) => (None, Some(why.clone())),
+        };
+        self.record_input(Input::Answer {
+            plugin: plugin.to_string(),
+            call,
+            reply,
+            failed,
+        });
+        let Some(pid) = self.by_name.get(plugin).copied() else {
+            return;
+        };
+        let taken = match &self.plugins[pid].def.code.backed {
+            Some(backed) => backed.answers.deliver(call, answer),
+            None => false,
+        };
+        if !taken {
+            self.record(Entry::Log {
+                plugin: plugin.into(),
+                level: "warn".into(),
+                message: format!(
+                    "answer to request {call} came when nothing waited for it: left out"
+                ),
+            });
         }
     }
 

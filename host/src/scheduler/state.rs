@@ -470,6 +470,7 @@ impl State {
                 | Input::NodeBack { .. }
                 | Input::Stop { .. }
                 | Input::AgentExits { .. }
+                | Input::Answer { .. }
         );
         let virtual_clock = self.base.kind() == ClockKind::Virtual;
         let step = (placed && virtual_clock).then(|| self.moves_now());

@@ -23,7 +23,7 @@ use crate::clock::ClockKind;
 use crate::error::RadarError;
 use crate::limiter::MemoryBudget;
 use crate::plugin::remote::Remote;
-use crate::plugin::{default_cache_dir, Agents, InjectedFault, Limits, Loader};
+use crate::plugin::{default_cache_dir, Agents, InjectedFault, Limits, Loader, PluginCode};
 use crate::ports::{Mode, SwapPolicy};
 use crate::scheduler::board::BoardUser;
 use crate::scheduler::{LinkSpec, LinkTarget, Place, PluginDef, StaticInput, StaticWhat};
@@ -348,6 +348,21 @@ impl SystemBuilder {
                 Input::AgentExits { node, exits } => {
                     StaticWhat::AgentExits(node.clone(), exits.clone())
                 }
+                Input::Answer {
+                    plugin,
+                    call,
+                    reply,
+                    failed,
+                } => StaticWhat::Answer {
+                    plugin: plugin.clone(),
+                    call: *call,
+                    answer: match (reply, failed) {
+                        (Some(reply), _) => crate::plugin::Answer::Reply(reply.clone()),
+                        (None, failed) => crate::plugin::Answer::Failed(
+                            failed.clone().unwrap_or_else(|| "no reply".into()),
+                        ),
+                    },
+                },
                 Input::Refused {
                     command,
                     from,
@@ -550,6 +565,7 @@ impl SystemBuilder {
             let runtime = match &p.source {
                 Source::File(path) => loader.load_file(&p.name, path)?,
                 Source::Bytes(bytes) => loader.load_bytes(&p.name, bytes)?,
+                Source::Backed(backed) => PluginCode::backed(backed.clone()),
             };
             let mut code = match &p.script {
                 Some(main) => loader.with_script(&p.name, &runtime, main)?,
@@ -558,7 +574,7 @@ impl SystemBuilder {
             let mut origin = match (&p.script, &p.source) {
                 (Some(main), _) => Some(main.clone()),
                 (None, Source::File(path)) => Some(path.clone()),
-                (None, Source::Bytes(_)) => None,
+                (None, Source::Bytes(_) | Source::Backed(_)) => None,
             };
             // A replay runs the version its recording began with, which
             // the recording keeps, when the manifest's has changed since.
@@ -632,6 +648,12 @@ impl SystemBuilder {
                         })?
                     }
                     Source::Bytes(bytes) => bytes.clone(),
+                    Source::Backed(_) => {
+                        return Err(RadarError::NotAComponent {
+                            plugin: PROGRAM_NAME.into(),
+                            cause: "a deliberative program is a component, not a server".into(),
+                        })
+                    }
                 };
                 let script = d
                     .script

@@ -294,6 +294,23 @@ impl Radar {
             .map_err(|_| RadarError::Stopped)
     }
 
+    /// Server's answer to request `call` of backed response `plugin`
+    /// (see [`crate::plugin::Backing`]): an outside input, recorded.
+    pub fn answer(
+        &self,
+        plugin: &str,
+        call: u64,
+        answer: crate::plugin::Answer,
+    ) -> Result<(), RadarError> {
+        self.tx
+            .send(Command::Answer {
+                plugin: plugin.to_string(),
+                call,
+                answer,
+            })
+            .map_err(|_| RadarError::Stopped)
+    }
+
     /// The system now: every plugin (kind, state, version, node) and every
     /// live connection (id, mode, busy policy, until).
     pub fn overview(&self) -> Result<crate::ports::Overview, RadarError> {

@@ -16,6 +16,8 @@ use crate::scheduler::Grants;
 pub(super) enum Source {
     File(PathBuf),
     Bytes(Vec<u8>),
+    /// No component: a response backed by a server.
+    Backed(crate::plugin::Backed),
 }
 
 /// One plugin of a system: a name, a component, configuration and limits.
@@ -43,6 +45,13 @@ impl Plugin {
     /// A plugin whose component is `bytes`.
     pub fn bytes(name: impl Into<String>, bytes: impl Into<Vec<u8>>) -> Self {
         Self::new(name.into(), Source::Bytes(bytes.into()))
+    }
+
+    /// A response with no component, backed by a server (a ROS 2 service,
+    /// `docs/ros2.md`): `start` sends the request, `exited` carries the
+    /// reply.
+    pub fn backed(name: impl Into<String>, backed: crate::plugin::Backed) -> Self {
+        Self::new(name.into(), Source::Backed(backed))
     }
 
     fn new(name: String, source: Source) -> Self {

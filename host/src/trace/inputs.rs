@@ -167,6 +167,20 @@ pub enum Input {
         /// What it ran.
         exits: Vec<ReportedExit>,
     },
+    /// A server answered a request of a response it backs (a ROS 2
+    /// service, `docs/ros2.md`): the reply, or why there is none.
+    Answer {
+        /// The backed response.
+        plugin: String,
+        /// Which of its requests (counted from 1).
+        call: u64,
+        /// The reply, as JSON.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        reply: Option<Json>,
+        /// Why there is no reply.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        failed: Option<String>,
+    },
     /// The run was stopped (a signal, `radar ctl stop`, `Radar::stop`)
     /// while responses ran: their exits ran before it ended
     /// (`docs/semantics.md#stopping-a-run`).
