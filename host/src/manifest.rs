@@ -97,6 +97,10 @@ pub struct Manifest {
     /// replay, which runs the whole system here).
     #[serde(skip, default = "placed")]
     place_on_agents: bool,
+    /// The responses ROS 2 backs (`ros2 = { service = ... }`), read when
+    /// the manifest is.
+    #[serde(skip)]
+    backed: BTreeMap<String, crate::plugin::Backed>,
 }
 
 fn placed() -> bool {
@@ -121,8 +125,13 @@ pub const PROGRAM: &str = "(deliberative)";
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PluginEntry {
-    /// The component file, relative to the manifest, or `builtin:NAME`.
+    /// The component file, relative to the manifest, or `builtin:NAME`
+    /// (empty for a response ROS 2 backs).
+    #[serde(default)]
     pub wasm: PathBuf,
+    /// A response with no component, backed by a ROS 2 service: `{ service
+    /// = "/beep", type = "std_srvs/srv/SetBool" }` (`docs/ros2.md`).
+    pub ros2: Option<crate::network::ros2::BackedBy>,
     /// For a development runtime as `wasm` (`guest-sdk/python/build
     /// --dev`): the plugin's script, its main file (`app.py`), relative to
     /// the manifest; the other files of its language in its folder go
@@ -424,6 +433,7 @@ impl Manifest {
                 }
             }
         }
+        manifest.read_backed().map_err(bad)?;
         for (name, entry) in &manifest.plugins {
             match &entry.node {
                 Some(node) if manifest.network.is_none() => {
@@ -450,6 +460,60 @@ impl Manifest {
             manifest.link(c).map_err(bad)?;
         }
         Ok(manifest)
+    }
+
+    /// Checks the plugins ROS 2 backs and reads their types; a plugin
+    /// with neither a component nor a backing is refused.
+    fn read_backed(&mut self) -> Result<(), String> {
+        use crate::network::ros2::{backed_response, MessageTypes};
+        for (name, entry) in &self.plugins {
+            let Some(by) = &entry.ros2 else {
+                if entry.wasm.as_os_str().is_empty() {
+                    return Err(format!(
+                        "plugins.{name}: say its component (`wasm = \"...\"`), or the ROS 2 \
+                         service that backs it (`ros2 = {{ service = \"/name\", type = \
+                         \"pkg/srv/Name\" }}`)"
+                    ));
+                }
+                continue;
+            };
+            by.validate(name)?;
+            let component_keys = [
+                (!entry.wasm.as_os_str().is_empty(), "wasm"),
+                (entry.source.is_some(), "source"),
+                (entry.build.is_some(), "build"),
+                (entry.release.is_some(), "release"),
+                (entry.node.is_some(), "node"),
+                (entry.board.is_some(), "board"),
+                (entry.wasi.is_some(), "wasi"),
+                (!entry.config.is_empty(), "config"),
+                (entry.period_ms.is_some(), "period_ms"),
+            ];
+            if let Some((_, key)) = component_keys.iter().find(|(set, _)| *set) {
+                return Err(format!(
+                    "plugins.{name}: `{key}` goes with a component, and a ROS 2 service backs \
+                     this response (leave `{key}` out, or `ros2` for a component)"
+                ));
+            }
+            let Some(settings) = self.ros2.as_mut() else {
+                return Err(format!(
+                    "plugins.{name}.ros2: a response backed by ROS 2 needs a [ros2] table \
+                     (docs/ros2.md)"
+                ));
+            };
+            let types = MessageTypes::new(
+                settings
+                    .msg_paths
+                    .iter()
+                    .map(|p| self.dir.join(p))
+                    .collect(),
+            );
+            let (backed, _) =
+                backed_response(settings, &types, name, by).map_err(|e| e.to_string())?;
+            settings.backed.push((name.clone(), by.clone()));
+            self.backed.insert(name.clone(), backed);
+        }
+        Ok(())
     }
 
     /// The agents the plugins are placed on, each once.
@@ -524,6 +588,14 @@ impl Manifest {
             builder = builder.deliberative(program);
         }
         for (name, entry) in &self.plugins {
+            if let Some(backed) = self.backed.get(name) {
+                let mut plugin = Plugin::backed(name, backed.clone());
+                if let Some(limits) = entry.limits() {
+                    plugin = plugin.limits(limits);
+                }
+                builder = builder.plugin(plugin);
+                continue;
+            }
             let builtin = builtin_name(&entry.wasm).and_then(crate::assets::builtin);
             let mut plugin = match builtin {
                 Some(wasm) => Plugin::bytes(name, wasm),
@@ -640,7 +712,7 @@ impl Manifest {
     pub fn builds(&self) -> Vec<Build> {
         self.plugins
             .iter()
-            .filter(|(_, entry)| builtin_name(&entry.wasm).is_none())
+            .filter(|(_, entry)| builtin_name(&entry.wasm).is_none() && entry.ros2.is_none())
             .map(|(name, entry)| {
                 let build = entry.build.as_ref();
                 Build {

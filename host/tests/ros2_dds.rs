@@ -358,3 +358,90 @@ fn robot_beside_rclpy(python: &str, distro: &str) {
         .count();
     assert!(scans > 10, "{distro}: {scans} scans written: {trace_text}");
 }
+
+/// A response backed by an rclpy `std_srvs/srv/SetBool` server.
+const BEEPER: &str = r#"
+[plugins.Beep]
+ros2 = { service = "/beep", type = "std_srvs/srv/SetBool" }
+
+[ros2]
+rmw = "dds"
+node = "radar_beeper"
+"#;
+
+#[test]
+fn a_response_backed_by_an_rclpy_service_calls_it_and_exits_with_the_reply() {
+    each_distro(rclpy_in_namespace, service_beside_rclpy);
+}
+
+fn service_beside_rclpy(python: &str, distro: &str) {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let manifest = write_manifest(dir.path(), BEEPER);
+    let trace = dir.path().join("trace.jsonl");
+    let inputs = dir.path().join("inputs.jsonl");
+    let report = drive(
+        python,
+        "service.py",
+        &[
+            "--count",
+            "2",
+            "--delay",
+            "0.3",
+            "--radar-node",
+            "radar_beeper",
+        ],
+        &manifest,
+        &[
+            "--inject",
+            r#"3s:Beep.start={"data":true}"#,
+            "--inject",
+            r#"6s:Beep.start={"data":false}"#,
+            "--record",
+            inputs.to_str().expect("utf-8"),
+        ],
+        &trace,
+    );
+    // The server had both requests, in order; ROS 2's graph lists Radar's
+    // node as a client of /beep.
+    assert_eq!(
+        report["requests"],
+        serde_json::json!([true, false]),
+        "{distro}: {report:#}"
+    );
+    assert_eq!(
+        report["radar_clients"]["/beep"],
+        serde_json::json!(["std_srvs/srv/SetBool"]),
+        "{distro}: {report:#}"
+    );
+    let (trace_text, records) = lawful_trace(&trace);
+    // Each activation lasted until its reply (the server took 0.3 s), and
+    // `exited` carried it.
+    let exited: Vec<(u64, Json)> = records
+        .iter()
+        .filter_map(|r| match &r.entry {
+            radar::trace::Entry::Signal {
+                plugin,
+                signal,
+                payload,
+                ..
+            } if &**plugin == "Beep" && &**signal == "exited" => Some((r.t, payload.clone())),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(exited.len(), 2, "{distro}: {trace_text}");
+    assert_eq!(
+        exited[0].1,
+        serde_json::json!({"success": true, "message": "beeped 1"})
+    );
+    assert_eq!(
+        exited[1].1,
+        serde_json::json!({"success": false, "message": "beeped 2"})
+    );
+    assert!(
+        exited[0].0 >= 3_300_000_000,
+        "{distro}: the first activation lasted until its reply: {trace_text}"
+    );
+    // The recording replays with neither ROS nor the network: the replies
+    // come from it.
+    super::ros2::replays_to_the_same_writes_and_signals(Path::new(&manifest), &inputs, &trace_text);
+}

@@ -18,11 +18,14 @@ use crate::common::{assert_sequence, checked, count, find, ns, records, run, vir
 fn set_bool() -> Backed {
     Backed::new(
         "test service /beep",
-        PayloadType::Record(vec![("data".into(), PayloadType::Bool)]),
-        PayloadType::Record(vec![
+        Some(PayloadType::Record(vec![(
+            "data".into(),
+            PayloadType::Bool,
+        )])),
+        Some(PayloadType::Record(vec![
             ("success".into(), PayloadType::Bool),
             ("message".into(), PayloadType::String),
-        ]),
+        ])),
     )
 }
 

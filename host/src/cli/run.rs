@@ -439,6 +439,9 @@ pub fn run(args: RunArgs) -> Result<()> {
             if let Some(settings) = manifest.ros2.as_ref().filter(|_| replay.is_none()) {
                 let mut bridge = Ros2::open(settings, manifest.dir())?;
                 builder = builder.trace_to(bridge.tap());
+                for (plugin, link) in bridge.backings() {
+                    builder = builder.backing(plugin, link);
+                }
                 ros2 = Some(bridge);
             }
             let system = manifest

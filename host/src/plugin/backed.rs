@@ -38,6 +38,12 @@ pub trait Backing: Send + Sync {
     /// Sends request number `call` (counted from 1, per plugin). An error
     /// faults the plugin with it.
     fn call(&self, call: u64, request: Json) -> Result<(), String>;
+
+    /// Call `call`'s activation no longer waits for it (it faulted, or
+    /// gave up after a stop): a request not sent yet is not sent.
+    fn abandon(&self, call: u64) {
+        let _ = call;
+    }
 }
 
 /// What a server answered: the reply, or why there is none.
@@ -54,12 +60,17 @@ pub enum Answer {
 pub struct Backed {
     /// What backs it, for messages: `ROS 2 service /beep (std_srvs/srv/SetBool)`.
     pub(crate) label: Arc<str>,
-    /// The request: `start`'s payload.
-    pub(crate) request: PayloadType,
-    /// The reply: `start`'s result, which `exited` carries.
-    pub(crate) reply: PayloadType,
+    /// The request: `start`'s payload (none: the request is always the
+    /// same, as `std_srvs/srv/Trigger`'s).
+    pub(crate) request: Option<PayloadType>,
+    /// The reply: `start`'s result, which `exited` carries (none: the
+    /// reply says nothing but that it came).
+    pub(crate) reply: Option<PayloadType>,
     /// How long a stopped activation waits for the answer.
     pub(crate) cancel: Duration,
+    /// How long a request waits for its answer at all (none: as long as
+    /// it takes).
+    pub(crate) timeout: Option<Duration>,
     /// Where requests go: none in a replay or a scenario, where answers
     /// come from inputs.
     pub(crate) link: Option<Arc<dyn Backing>>,
@@ -69,12 +80,17 @@ pub struct Backed {
 impl Backed {
     /// A response backed by `label`'s server, taking `request` and giving
     /// `reply`; with no link until [`Backed::link`] gives one.
-    pub fn new(label: impl Into<String>, request: PayloadType, reply: PayloadType) -> Self {
+    pub fn new(
+        label: impl Into<String>,
+        request: Option<PayloadType>,
+        reply: Option<PayloadType>,
+    ) -> Self {
         Self {
             label: label.into().into(),
             request,
             reply,
             cancel: DEFAULT_CANCEL,
+            timeout: None,
             link: None,
             answers: Arc::default(),
         }
@@ -89,6 +105,12 @@ impl Backed {
     /// How long a stopped activation waits for its answer (`cancel_ms`).
     pub fn cancel_after(mut self, cancel: Duration) -> Self {
         self.cancel = cancel;
+        self
+    }
+
+    /// How long a request waits for its answer at all (`timeout_ms`).
+    pub fn timeout_after(mut self, timeout: Duration) -> Self {
+        self.timeout = Some(timeout);
         self
     }
 
@@ -201,19 +223,32 @@ impl BackedInstance {
                 )));
             }
         }
+        let timeout = self.backed.timeout.map(|t| {
+            let at = self.base.now().saturating_add(duration_nanos(t));
+            (Box::pin(self.base.sleep_until(at, None)), t)
+        });
         let answer = AnswerWait {
             answers: &answers,
             stop: &self.stop,
             base: &self.base,
             cancel: duration_nanos(self.backed.cancel),
             deadline: None,
+            timeout,
         }
         .await;
         answers.end();
+        if answer.is_err() {
+            if let Some(link) = &self.backed.link {
+                link.abandon(call);
+            }
+        }
         match answer {
-            Ok(Answer::Reply(json)) => json_to_val(&json, &self.backed.reply)
-                .map(Some)
-                .map_err(|e| Fault::new(format!("{label}: answer {call} does not fit: {e}"))),
+            Ok(Answer::Reply(json)) => match &self.backed.reply {
+                Some(reply) => json_to_val(&json, reply)
+                    .map(Some)
+                    .map_err(|e| Fault::new(format!("{label}: answer {call} does not fit: {e}"))),
+                None => Ok(None),
+            },
             Ok(Answer::Failed(why)) => Err(Fault::new(format!("{label}: request {call}: {why}"))),
             Err(cause) => Err(Fault::new(format!("{label}: request {call}: {cause}"))),
         }
@@ -221,13 +256,16 @@ impl BackedInstance {
 }
 
 /// Waits for the answer to the current call: until a fault is asked for,
-/// or, once a stop is asked for, at most `cancel` more.
+/// the request's timeout passes, or, once a stop is asked for, at most
+/// `cancel` more.
 struct AnswerWait<'a> {
     answers: &'a Answers,
     stop: &'a Arc<StopFlag>,
     base: &'a TimeBase,
     cancel: u64,
     deadline: Option<Pin<Box<Sleep>>>,
+    /// The request's own bound, if it has one.
+    timeout: Option<(Pin<Box<Sleep>>, Duration)>,
 }
 
 impl Future for AnswerWait<'_> {
@@ -251,6 +289,14 @@ impl Future for AnswerWait<'_> {
                 self.deadline = Some(Box::pin(self.base.sleep_until(at, None)));
             }
             _ => self.stop.register(cx.waker()),
+        }
+        if let Some((timeout, bound)) = self.timeout.as_mut() {
+            if timeout.as_mut().poll(cx).is_ready() {
+                return Poll::Ready(Err(format!(
+                    "no answer within {} ms (timeout_ms)",
+                    bound.as_millis()
+                )));
+            }
         }
         if let Some(deadline) = self.deadline.as_mut() {
             if deadline.as_mut().poll(cx).is_ready() {

@@ -111,12 +111,12 @@ impl PluginCode {
     /// request and reply; its version, what backs it.
     pub(crate) fn backed(backed: super::backed::Backed) -> Self {
         let version = version_of(
-            format!("{}\n{}\n{}", backed.label, backed.request, backed.reply).as_bytes(),
+            format!("{}\n{:?}\n{:?}", backed.label, backed.request, backed.reply).as_bytes(),
         );
         PluginCode {
             kind: Kind::Response {
-                start_param: Some(backed.request.clone()),
-                start_result: Some(backed.reply.clone()),
+                start_param: backed.request.clone(),
+                start_result: backed.reply.clone(),
                 interrupt_param: None,
                 signals: Arc::new([]),
             },

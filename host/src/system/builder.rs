@@ -68,6 +68,8 @@ pub struct SystemBuilder {
     recorded: BTreeMap<String, (String, String)>,
     /// The manifest the system comes from, named in a recording.
     manifest: Option<PathBuf>,
+    /// Where backed responses' requests go, by plugin.
+    backings: BTreeMap<String, Arc<dyn crate::plugin::Backing>>,
 }
 
 impl Default for SystemBuilder {
@@ -99,6 +101,7 @@ impl Default for SystemBuilder {
             fuel_rates: BTreeMap::new(),
             recorded: BTreeMap::new(),
             manifest: None,
+            backings: BTreeMap::new(),
         }
     }
 }
@@ -135,6 +138,18 @@ impl SystemBuilder {
             system: agents.system.clone(),
             link: agents.link.clone(),
         })
+    }
+
+    /// Sends backed response `plugin`'s requests to `link` (a ROS 2
+    /// node's client, `docs/ros2.md`); without one its answers come only
+    /// from inputs (a replay, a scenario).
+    pub fn backing(
+        mut self,
+        plugin: impl Into<String>,
+        link: Arc<dyn crate::plugin::Backing>,
+    ) -> Self {
+        self.backings.insert(plugin.into(), link);
+        self
     }
 
     /// Injects `fault` into `plugin` (`docs/testing.md#faults`): a trap or
@@ -515,7 +530,7 @@ impl SystemBuilder {
 
     /// Compiles and validates every plugin. The first plugin that cannot be
     /// loaded is named in the error.
-    pub fn build(self) -> Result<System, RadarError> {
+    pub fn build(mut self) -> Result<System, RadarError> {
         let mut loader = Loader::new(self.cache_dir, self.plugins.len() >= COMPACT_FROM)?;
         let mut defs: Vec<PluginDef> = Vec::new();
         let mut names = std::collections::HashSet::new();
@@ -565,7 +580,13 @@ impl SystemBuilder {
             let runtime = match &p.source {
                 Source::File(path) => loader.load_file(&p.name, path)?,
                 Source::Bytes(bytes) => loader.load_bytes(&p.name, bytes)?,
-                Source::Backed(backed) => PluginCode::backed(backed.clone()),
+                Source::Backed(backed) => {
+                    let mut backed = backed.clone();
+                    if let Some(link) = self.backings.remove(&p.name) {
+                        backed = backed.link(link);
+                    }
+                    PluginCode::backed(backed)
+                }
             };
             let mut code = match &p.script {
                 Some(main) => loader.with_script(&p.name, &runtime, main)?,
@@ -620,8 +641,14 @@ impl SystemBuilder {
                 name: p.name,
             });
         }
-        // A fault or a rate for a plugin the system does not have.
-        if let Some(name) = faults.keys().chain(fuel_rates.keys()).next() {
+        // A fault, a rate or a backing for a plugin the system does not
+        // have (or that is not backed).
+        if let Some(name) = faults
+            .keys()
+            .chain(fuel_rates.keys())
+            .chain(self.backings.keys())
+            .next()
+        {
             return Err(RadarError::UnknownPlugin {
                 name: name.clone(),
                 hint: crate::suggest::hint(name, defs.iter().map(|d| d.name.as_str())),

@@ -28,6 +28,7 @@ use super::fit::{self, FieldPath};
 use super::graph::{self, Endpoint, Node};
 use super::incoming::{zenoh_sender, Taker};
 use super::outgoing::{has_header, publish, Outgoing, Tap, Wire};
+use super::services::{backed_response, ServiceLink};
 use super::settings::{Qos, Rmw, Ros2Settings};
 use super::types::{Message, MessageTypes};
 use crate::network::{session, Network};
@@ -68,6 +69,8 @@ pub struct Ros2 {
     joined: Option<Joined>,
     subscriptions: Vec<Subscription>,
     publications: Vec<Publication>,
+    /// The responses backed by services: each one's client.
+    services: Vec<Arc<ServiceLink>>,
     /// Emissions the tap queued, taken by the publishing thread.
     queued: Option<Receiver<(usize, Json)>>,
     tap: Option<Sender<(usize, Json)>>,
@@ -122,11 +125,26 @@ impl Ros2 {
                     .map_err(Ros2Error::Settings)?,
             });
         }
+        if settings.rmw == Rmw::Zenoh {
+            if let Some((plugin, _)) = settings.backed.first() {
+                return Err(Ros2Error::Settings(format!(
+                    "plugins.{plugin}.ros2: responses backed by a service run on rmw = \"dds\" \
+                     only for now"
+                )));
+            }
+        }
+        let mut services = Vec::new();
+        for (plugin, by) in &settings.backed {
+            let (_, service) = backed_response(settings, &types, plugin, by)?;
+            let name = settings.full_topic(by.service.as_deref().unwrap_or_default());
+            services.push(Arc::new(ServiceLink::new(plugin, name, service)));
+        }
         let (tap, queued) = bounded(QUEUE);
         Ok(Self {
             settings: settings.clone(),
             subscriptions,
             publications,
+            services,
             joined: None,
             queued: Some(queued),
             tap: Some(tap),
@@ -154,6 +172,18 @@ impl Ros2 {
         }
     }
 
+    /// Where each backed response's requests go: give each to the system's
+    /// builder ([`SystemBuilder::backing`](crate::SystemBuilder::backing)).
+    pub fn backings(&self) -> Vec<(String, Arc<dyn crate::plugin::Backing>)> {
+        self.services
+            .iter()
+            .map(|link| {
+                let backing: Arc<dyn crate::plugin::Backing> = link.clone();
+                (link.plugin.clone(), backing)
+            })
+            .collect()
+    }
+
     /// One line on what the node does, once started.
     pub fn summary(&self) -> String {
         let (name, domain) = match &self.joined {
@@ -164,8 +194,13 @@ impl Ros2 {
             Rmw::Zenoh => "rmw_zenoh",
             Rmw::Dds => "DDS",
         };
+        let services = match self.services.len() {
+            0 => String::new(),
+            n => format!(", {n} service client(s)"),
+        };
         format!(
-            "ros2: node {name} on {rmw}, domain {domain}: {} subscription(s), {} publication(s)",
+            "ros2: node {name} on {rmw}, domain {domain}: {} subscription(s), {} \
+             publication(s){services}",
             self.subscriptions.len(),
             self.publications.len()
         )
@@ -223,6 +258,9 @@ impl Ros2 {
         let checked_in = self.check_subscriptions(system)?;
         let outgoing = self.check_publications(system)?;
         let radar = system.handle();
+        for link in &self.services {
+            let _ = link.radar.set(radar.clone());
+        }
         let takers = self
             .subscriptions
             .iter()
@@ -404,6 +442,17 @@ impl Ros2 {
                 }
             };
             wires.push(Wire::Dds(writer));
+        }
+        for link in &self.services {
+            let (client, server) = node.client(&link.name, &link.service)?;
+            let requests = link.taken.lock().unwrap_or_else(|e| e.into_inner()).take();
+            let Some(requests) = requests else { continue };
+            let (link, stop) = (link.clone(), self.stop.clone());
+            let thread = std::thread::Builder::new()
+                .name("radar-ros2-service".into())
+                .spawn(move || super::services::serve_dds(client, server, link, requests, stop))
+                .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
+            self.threads.push(thread);
         }
         node.start(self.stop.clone())?;
         let name = format!("{}/{name}", settings.namespace.trim_end_matches('/'));

@@ -1,6 +1,7 @@
 //! The message definitions Radar knows out of the box: ROS 2 Jazzy's
 //! builtin_interfaces, std_msgs, geometry_msgs, sensor_msgs and nav_msgs,
-//! as `.msg` text under `msg/` (comments left out), embedded in the binary.
+//! and std_srvs's services, as `.msg` and `.srv` text under `msg/`
+//! (comments left out), embedded in the binary.
 
 /// `(pkg/msg/Name, .msg text)`, sorted by name.
 pub(super) const BUILTIN: &[(&str, &str)] = &[
@@ -387,5 +388,21 @@ pub(super) const BUILTIN: &[(&str, &str)] = &[
     (
         "std_msgs/msg/UInt8MultiArray",
         include_str!("msg/std_msgs/msg/UInt8MultiArray.msg"),
+    ),
+];
+
+/// `(pkg/srv/Name, .srv text)`, sorted by name: the services of std_srvs.
+pub(super) const BUILTIN_SERVICES: &[(&str, &str)] = &[
+    (
+        "std_srvs/srv/Empty",
+        include_str!("msg/std_srvs/srv/Empty.srv"),
+    ),
+    (
+        "std_srvs/srv/SetBool",
+        include_str!("msg/std_srvs/srv/SetBool.srv"),
+    ),
+    (
+        "std_srvs/srv/Trigger",
+        include_str!("msg/std_srvs/srv/Trigger.srv"),
     ),
 ];

@@ -15,19 +15,20 @@ use std::thread::JoinHandle;
 use futures::channel::oneshot;
 use futures::{FutureExt, StreamExt};
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
-use ros2_client::dds::{Context, Node, Publisher, Subscription};
+use ros2_client::dds::{Client, Context, Node, Publisher, ServiceMapping, Subscription};
 use ros2_client::qos::{Durability, History, QosProfile, Reliability, WhenFull};
-use ros2_client::{MessageTypeName, Name, NodeName, NodeOptions, ReadError};
+use ros2_client::{MessageTypeName, Name, NodeName, NodeOptions, ReadError, ServiceTypeName};
 
-use super::dds_cdr::{Encoded, Recode, Recoded};
+use super::dds_cdr::{Answered, Encoded, Recode, Recoded};
 use super::error::Ros2Error;
 use super::incoming::Taker;
 use super::settings::Qos;
-use super::types::Message;
+use super::types::{Message, Service};
 
 /// Radar's node on DDS, and the thread that takes its subscriptions.
 pub(super) struct DdsNode {
     node: Node,
+    name: NodeName,
     subscriptions: Vec<(Subscription<Recoded>, Recode)>,
     takers: Vec<Taker>,
     /// Stops the taking thread (dropped: stops it too).
@@ -65,10 +66,11 @@ impl DdsNode {
         let node_name = NodeName::new(namespace, name)
             .map_err(|e| Ros2Error::Settings(format!("[ros2] node `{name}`: {e}")))?;
         let node = context
-            .new_node(node_name, NodeOptions::new().enable_rosout(false))
+            .new_node(node_name.clone(), NodeOptions::new().enable_rosout(false))
             .map_err(|e| Ros2Error::Session(format!("DDS: cannot make node `{name}`: {e}")))?;
         Ok(Self {
             node,
+            name: node_name,
             subscriptions: Vec::new(),
             takers: Vec::new(),
             stop: None,
@@ -113,18 +115,49 @@ impl DdsNode {
             .map_err(|e| Ros2Error::Session(format!("DDS: publishing on `{topic}`: {e}")))
     }
 
+    /// A client of service `name` (its full name) of type `service`:
+    /// ROS 2's service QoS (reliable, volatile, keep last 10), the request
+    /// and reply mapping Fast DDS uses; with what tells whether a server is
+    /// there.
+    pub(super) fn client(
+        &mut self,
+        name: &str,
+        service: &Service,
+    ) -> Result<(Client<Encoded, Answered>, ServerSeen), Ros2Error> {
+        let full =
+            ros_name(name).map_err(|e| Ros2Error::Settings(format!("service `{name}`: {e}")))?;
+        let seen = ServerSeen {
+            participant: self._context.domain_participant(),
+            requests: full.to_dds_name("rq", &self.name, "Request"),
+            replies: full.to_dds_name("rr", &self.name, "Reply"),
+        };
+        let mut parts = service.name.split('/');
+        let (package, _, type_name) = (parts.next(), parts.next(), parts.next());
+        let type_name = ServiceTypeName::new(package.unwrap_or(""), type_name.unwrap_or(""));
+        let qos = profile(&Qos {
+            best_effort: false,
+            depth: 10,
+            transient_local: false,
+        });
+        self.node
+            .create_client::<Encoded, Answered>(
+                ServiceMapping::Enhanced,
+                &full,
+                &type_name,
+                qos.clone(),
+                qos,
+            )
+            .map(|client| (client, seen))
+            .map_err(|e| Ros2Error::Session(format!("DDS: a client of service `{name}`: {e}")))
+    }
+
     fn topic(
         &mut self,
         topic: &str,
         message: &Message,
         qos: &Qos,
     ) -> Result<ros2_client::dds::rustdds::Topic, Ros2Error> {
-        let (namespace, base) = match topic.rsplit_once('/') {
-            Some(("", base)) => ("/", base),
-            Some((namespace, base)) => (namespace, base),
-            None => ("/", topic),
-        };
-        let name = Name::new(namespace, base)
+        let name = ros_name(topic)
             .map_err(|e| Ros2Error::Settings(format!("[ros2] topic `{topic}`: {e}")))?;
         let mut parts = message.name.split('/');
         let (package, _, type_name) = (parts.next(), parts.next(), parts.next());
@@ -203,6 +236,40 @@ impl Drop for DdsNode {
             let _ = thread.join();
         }
     }
+}
+
+/// Whether DDS discovery sees a server of a service: someone reading its
+/// requests and someone writing its replies.
+pub(super) struct ServerSeen {
+    participant: ros2_client::dds::rustdds::DomainParticipant,
+    requests: String,
+    replies: String,
+}
+
+impl ServerSeen {
+    pub(super) fn now(&self) -> bool {
+        let reads = self
+            .participant
+            .discovered_readers()
+            .iter()
+            .any(|r| *r.subscription_topic_data.topic_name() == self.requests);
+        reads
+            && self
+                .participant
+                .discovered_writers()
+                .iter()
+                .any(|w| *w.publication_topic_data.topic_name() == self.replies)
+    }
+}
+
+/// A full topic or service name as ros2-client takes it.
+fn ros_name(full: &str) -> Result<Name, String> {
+    let (namespace, base) = match full.rsplit_once('/') {
+        Some(("", base)) => ("/", base),
+        Some((namespace, base)) => (namespace, base),
+        None => ("/", full),
+    };
+    Name::new(namespace, base).map_err(|e| e.to_string())
 }
 
 /// Where the node looks for peers, as ROS 2 nodes do:

@@ -46,7 +46,53 @@ pub fn read_as_dds(message: &Message, bytes: &[u8]) -> Result<Vec<u8>, CdrError>
 const CDR_LE: [u8; 4] = [0, 1, 0, 0];
 
 /// A message as `cdr::encode` made it (header included), to publish.
+#[derive(Clone)]
 pub(super) struct Encoded(pub(super) Vec<u8>);
+
+/// ros2-client's service client wants its request type readable too; Radar
+/// never reads its own requests back.
+impl<'de> de::Deserialize<'de> for Encoded {
+    fn deserialize<D: Deserializer<'de>>(_: D) -> Result<Self, D::Error> {
+        Err(de::Error::custom("Radar does not read its own requests"))
+    }
+}
+
+impl ros2_client::Message for Encoded {}
+impl ros2_client::Message for Answered {}
+
+thread_local! {
+    /// What [`Answered`] reads, on the thread that takes a service's
+    /// replies: ros2-client reads a reply as a plain `Deserialize` type,
+    /// which takes no seed of its own.
+    static REPLY: std::cell::RefCell<Option<Recode>> = const { std::cell::RefCell::new(None) };
+}
+
+/// A service's reply taken from DDS, as [`Recoded`] bytes: read with the
+/// [`Recode`] given to [`Answered::read_on_this_thread`].
+#[derive(Debug)]
+pub(super) struct Answered(pub(super) Vec<u8>);
+
+impl Answered {
+    /// Replies taken on this thread are of `message`.
+    pub(super) fn read_on_this_thread(message: Arc<Message>) {
+        REPLY.with(|r| *r.borrow_mut() = Some(Recode { message }));
+    }
+}
+
+impl<'de> de::Deserialize<'de> for Answered {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let seed = REPLY
+            .with(|r| r.borrow().clone())
+            .ok_or_else(|| de::Error::custom("no reply type on this thread"))?;
+        seed.deserialize(deserializer).map(|Recoded(b)| Answered(b))
+    }
+}
+
+impl Serialize for Answered {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        Encoded(self.0.clone()).serialize(serializer)
+    }
+}
 
 impl fmt::Debug for Encoded {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

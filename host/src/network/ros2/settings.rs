@@ -40,6 +40,72 @@ pub struct Ros2Settings {
     /// Signals out to topics.
     #[serde(default)]
     pub publish: Vec<Publish>,
+    /// The responses ROS 2 backs (`[plugins.X] ros2 = { service = ... }`),
+    /// by plugin: filled from the plugins' tables when the manifest is read.
+    #[serde(skip)]
+    pub backed: Vec<(String, BackedBy)>,
+}
+
+/// `[plugins.X] ros2 = { service = "/beep", type = "std_srvs/srv/SetBool" }`:
+/// a response with no component, backed by a ROS 2 service (`docs/ros2.md`).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BackedBy {
+    /// The service (`/beep`; relative names are in the node's namespace).
+    #[serde(default)]
+    pub service: Option<String>,
+    /// An action: not built yet, refused with a line that says so.
+    #[serde(default)]
+    pub action: Option<String>,
+    /// `pkg/srv/Name`.
+    #[serde(rename = "type")]
+    pub type_name: String,
+    /// How long a stopped activation waits for the answer, in milliseconds
+    /// (default 1000); then the plugin faults.
+    #[serde(default)]
+    pub cancel_ms: Option<u64>,
+    /// How long a request may wait for its answer at all, in milliseconds
+    /// (default: as long as it takes, as a ROS 2 service call); then the
+    /// plugin faults.
+    #[serde(default)]
+    pub timeout_ms: Option<u64>,
+}
+
+impl BackedBy {
+    /// What is wrong with it, if anything (`plugin`: whose it is).
+    pub fn validate(&self, plugin: &str) -> Result<(), String> {
+        let at = format!("plugins.{plugin}.ros2");
+        let service = match (&self.service, &self.action) {
+            (Some(service), None) => service,
+            (None, Some(_)) => {
+                return Err(format!(
+                    "{at}: responses backed by a ROS 2 action are not built yet; services are \
+                     (`service = \"/name\"`, docs/ros2.md)"
+                ))
+            }
+            _ => {
+                return Err(format!(
+                    "{at}: say `service = \"/name\"` (and `type = \"pkg/srv/Name\"`)"
+                ))
+            }
+        };
+        if !is_ros_name(service) || service.ends_with('/') {
+            return Err(format!(
+                "{at}: `{service}` is not a ROS 2 service name (letters, digits, `_` and `/`)"
+            ));
+        }
+        if self.timeout_ms == Some(0) {
+            return Err(format!(
+                "{at}: timeout_ms must be above 0 (leave it out to wait as long as it takes)"
+            ));
+        }
+        if self.cancel_ms == Some(0) {
+            return Err(format!(
+                "{at}: cancel_ms must be above 0 (leave it out for the default, 1000)"
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// ROS 2's middleware, as `RMW_IMPLEMENTATION` chooses it for a ROS 2 node.

@@ -7,7 +7,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use super::builtin::BUILTIN;
+use super::builtin::{BUILTIN, BUILTIN_SERVICES};
 use super::error::TypeError;
 use super::hash::rihs01;
 use super::msg::{self, Base, MessageDef, Primitive, Shape};
@@ -32,6 +32,19 @@ pub struct Message {
     pub defs: BTreeMap<String, MessageDef>,
 }
 
+/// A service type, ready for the wire: its request and its response.
+#[derive(Clone, Debug)]
+pub struct Service {
+    /// `pkg/srv/Name`.
+    pub name: String,
+    /// `RIHS01_…` of the service (its request, response and event).
+    pub hash: String,
+    /// `pkg/srv/Name_Request`.
+    pub request: Message,
+    /// `pkg/srv/Name_Response`.
+    pub response: Message,
+}
+
 impl MessageTypes {
     /// Definitions from `paths` before the built-in ones.
     pub fn new(paths: Vec<PathBuf>) -> Self {
@@ -49,6 +62,68 @@ impl MessageTypes {
         self.load_type(name).map_err(TypeError)
     }
 
+    /// Service type `name` (`pkg/srv/Name`): its `.srv` file split at
+    /// `---` into request and response, with everything they refer to.
+    pub fn load_service(&self, name: &str) -> Result<Service, TypeError> {
+        self.load_service_type(name).map_err(TypeError)
+    }
+
+    fn load_service_type(&self, name: &str) -> Result<Service, String> {
+        let parts: Vec<&str> = name.split('/').collect();
+        let (package, base) = match parts.as_slice() {
+            [package, "srv", base] if msg::is_type_name(&format!("{package}/msg/{base}")) => {
+                (*package, *base)
+            }
+            _ => {
+                return Err(format!(
+                    "`{name}` is not a service type (expected `package/srv/Name`, e.g. \
+                     `std_srvs/srv/SetBool`)"
+                ))
+            }
+        };
+        let text = self.service_text(name, package, base)?;
+        let mut lines = text.lines();
+        let request_text: Vec<&str> = lines.by_ref().take_while(|l| l.trim() != "---").collect();
+        let response_text: Vec<&str> = lines.collect();
+        if !text.lines().any(|l| l.trim() == "---") {
+            return Err(format!(
+                "{name}: a .srv file has a `---` line between request and response"
+            ));
+        }
+        let half = |suffix: &str, lines: &[&str]| {
+            let half_name = format!("{package}/srv/{base}_{suffix}");
+            let def = msg::parse(&half_name, &lines.join("\n"))?;
+            self.load_with(&half_name, def)
+        };
+        let request = half("Request", &request_text)?;
+        let response = half("Response", &response_text)?;
+        Ok(Service {
+            name: name.to_string(),
+            hash: service_hash(name, &request, &response),
+            request,
+            response,
+        })
+    }
+
+    fn service_text(&self, name: &str, package: &str, base: &str) -> Result<String, String> {
+        let file = format!("{base}.srv");
+        for dir in &self.paths {
+            for candidate in candidates(dir, package, "srv", &file) {
+                if candidate.is_file() {
+                    return std::fs::read_to_string(&candidate)
+                        .map_err(|e| format!("cannot read {}: {e}", candidate.display()));
+                }
+            }
+        }
+        match BUILTIN_SERVICES.binary_search_by(|(n, _)| (*n).cmp(name)) {
+            Ok(i) => Ok(BUILTIN_SERVICES[i].1.to_string()),
+            Err(_) => Err(format!(
+                "unknown service type `{name}`: not built in (add the folder holding \
+                 {package}/srv/{file} to [ros2] msg_paths)"
+            )),
+        }
+    }
+
     fn load_type(&self, name: &str) -> Result<Message, String> {
         if !msg::is_type_name(name) {
             return Err(format!(
@@ -56,8 +131,20 @@ impl MessageTypes {
                  `sensor_msgs/msg/Range`)"
             ));
         }
+        let def = self.definition(name)?;
+        self.load_with(name, def)
+    }
+
+    /// `root` (the definition of `name`) with every type it refers to.
+    fn load_with(&self, name: &str, root: MessageDef) -> Result<Message, String> {
         let mut defs = BTreeMap::new();
-        let mut stack = vec![name.to_string()];
+        let mut stack = Vec::new();
+        for field in &root.fields {
+            if let Base::Nested(nested) = &field.base {
+                stack.push(nested.clone());
+            }
+        }
+        defs.insert(name.to_string(), root);
         while let Some(next) = stack.pop() {
             if defs.contains_key(&next) {
                 continue;
@@ -91,7 +178,7 @@ impl MessageTypes {
             _ => return Err(format!("`{name}` is not a message type")),
         };
         for dir in &self.paths {
-            for candidate in candidates(dir, package, &file) {
+            for candidate in candidates(dir, package, "msg", &file) {
                 if candidate.is_file() {
                     let text = std::fs::read_to_string(&candidate)
                         .map_err(|e| format!("cannot read {}: {e}", candidate.display()))?;
@@ -146,14 +233,79 @@ fn refuse_cycles(
     Ok(())
 }
 
-/// `<dir>/<pkg>/msg/<Name>.msg` (a `share` folder), or `<dir>/msg/<Name>.msg`
-/// when `dir` is the package itself.
-fn candidates(dir: &Path, package: &str, file: &str) -> Vec<PathBuf> {
-    let mut found = vec![dir.join(package).join("msg").join(file)];
+/// `<dir>/<pkg>/<kind>/<file>` (a `share` folder), or `<dir>/<kind>/<file>`
+/// when `dir` is the package itself (`kind`: `msg`, `srv`).
+fn candidates(dir: &Path, package: &str, kind: &str, file: &str) -> Vec<PathBuf> {
+    let mut found = vec![dir.join(package).join(kind).join(file)];
     if dir.file_name().and_then(|n| n.to_str()) == Some(package) {
-        found.push(dir.join("msg").join(file));
+        found.push(dir.join(kind).join(file));
     }
     found
+}
+
+/// A service's RIHS01 hash: rosidl describes a service as a type with its
+/// request, its response and its event (`service_msgs`' envelope of both).
+fn service_hash(name: &str, request: &Message, response: &Message) -> String {
+    let nested = |field: &str, ty: String, shape: Shape| msg::Field {
+        name: field.to_string(),
+        base: Base::Nested(ty),
+        shape,
+    };
+    let plain = |field: &str, p: Primitive, shape: Shape| msg::Field {
+        name: field.to_string(),
+        base: Base::Primitive(p),
+        shape,
+    };
+    let mut defs = request.defs.clone();
+    defs.extend(response.defs.clone());
+    let event = format!("{name}_Event");
+    defs.insert(
+        name.to_string(),
+        MessageDef {
+            name: name.to_string(),
+            fields: vec![
+                nested("request_message", request.name.clone(), Shape::One),
+                nested("response_message", response.name.clone(), Shape::One),
+                nested("event_message", event.clone(), Shape::One),
+            ],
+        },
+    );
+    let info = "service_msgs/msg/ServiceEventInfo".to_string();
+    defs.insert(
+        event.clone(),
+        MessageDef {
+            name: event,
+            fields: vec![
+                nested("info", info.clone(), Shape::One),
+                nested("request", request.name.clone(), Shape::Bounded(1)),
+                nested("response", response.name.clone(), Shape::Bounded(1)),
+            ],
+        },
+    );
+    let time = "builtin_interfaces/msg/Time".to_string();
+    defs.insert(
+        info.clone(),
+        MessageDef {
+            name: info,
+            fields: vec![
+                plain("event_type", Primitive::U8, Shape::One),
+                nested("stamp", time.clone(), Shape::One),
+                plain("client_gid", Primitive::U8, Shape::Array(16)),
+                plain("sequence_number", Primitive::I64, Shape::One),
+            ],
+        },
+    );
+    defs.insert(
+        time.clone(),
+        MessageDef {
+            name: time,
+            fields: vec![
+                plain("sec", Primitive::I32, Shape::One),
+                plain("nanosec", Primitive::U32, Shape::One),
+            ],
+        },
+    );
+    rihs01(name, &defs)
 }
 
 impl Message {
@@ -258,5 +410,46 @@ mod tests {
         let e = types.load("nope").expect_err("is refused");
         assert!(e.0.contains("not a message type"), "{e}");
         let _ = std::fs::remove_dir_all(dir);
+    }
+
+    #[test]
+    fn services_split_into_request_and_response_with_rosidls_hash() {
+        let types = MessageTypes::default();
+        // The hashes rosidl wrote into std_srvs' SetBool.json, Trigger.json
+        // and Empty.json (Jazzy and Kilted).
+        for (name, hash, request, response) in [
+            (
+                "std_srvs/srv/SetBool",
+                "RIHS01_abe9e4bb6b41b40e6789712c00ec8871923e089af3f667a79992a428cff2da0a",
+                "record { data: bool }",
+                "record { success: bool, message: string }",
+            ),
+            (
+                "std_srvs/srv/Trigger",
+                "RIHS01_eeff2cd6fa5ad9d27cdf4dec64818317839b62f212a91e6b5304b634b2062c5f",
+                "record { structure-needs-at-least-one-member: u8 }",
+                "record { success: bool, message: string }",
+            ),
+            (
+                "std_srvs/srv/Empty",
+                "RIHS01_5888399dedec5ccc85ea6451949fd2c9f97bfdf963f9a588821639fcd31b5d19",
+                "record { structure-needs-at-least-one-member: u8 }",
+                "record { structure-needs-at-least-one-member: u8 }",
+            ),
+        ] {
+            let service = types
+                .load_service(name)
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(service.hash, hash, "{name}");
+            assert_eq!(service.request.payload_type().to_string(), request);
+            assert_eq!(service.response.payload_type().to_string(), response);
+            assert_eq!(service.request.name, format!("{name}_Request"));
+        }
+        let e = types
+            .load_service("std_srvs/msg/SetBool")
+            .expect_err("not a service");
+        assert!(e.0.contains("not a service type"), "{e}");
+        let e = types.load_service("my_srvs/srv/Nope").expect_err("unknown");
+        assert!(e.0.contains("msg_paths"), "{e}");
     }
 }

@@ -1,0 +1,274 @@
+//! Responses backed by ROS 2 services (`[plugins.X] ros2 = { service =
+//! "/beep", type = "std_srvs/srv/SetBool" }`, docs/ros2.md): the plugin
+//! has no component; its `start` takes the request, `exited` carries the
+//! reply (`crate::plugin::Backed` holds the rules). Here: the types that
+//! response gets from the `.srv` file, and the link that sends its requests
+//! on the middleware and hands each reply back to the run as an outside
+//! input (`Radar::answer`), recorded, so a replay needs no server.
+
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, OnceLock};
+use std::time::Duration;
+
+use crossbeam_channel::{unbounded, Receiver, RecvTimeoutError, Sender};
+use serde_json::Value as Json;
+
+use super::cdr;
+use super::error::Ros2Error;
+use super::msg::EMPTY_MEMBER;
+use super::settings::{BackedBy, Ros2Settings};
+use super::types::{Message, MessageTypes, Service};
+use crate::plugin::{Answer, Backed, Backing};
+use crate::system::Radar;
+
+/// What a backed response asks of its client's thread.
+pub(super) enum ToClient {
+    /// Send request `call` (its CDR bytes).
+    Call(u64, Vec<u8>),
+    /// Call `call` is no longer waited for: not sent if not yet sent.
+    Abandon(u64),
+}
+
+/// Response `plugin`'s backing by `by`: its types from the service's
+/// `.srv` (`types`), no link yet (a replay, a scenario: answers come from
+/// inputs). A type that does not load is refused, naming the plugin.
+pub fn backed_response(
+    settings: &Ros2Settings,
+    types: &MessageTypes,
+    plugin: &str,
+    by: &BackedBy,
+) -> Result<(Backed, Service), Ros2Error> {
+    let service = types
+        .load_service(&by.type_name)
+        .map_err(|e| Ros2Error::Settings(format!("plugins.{plugin}.ros2: {e}")))?;
+    let name = settings.full_topic(by.service.as_deref().unwrap_or_default());
+    let mut backed = Backed::new(
+        format!("ROS 2 service {name} ({})", service.name),
+        carried(&service.request),
+        carried(&service.response),
+    );
+    if let Some(ms) = by.cancel_ms {
+        backed = backed.cancel_after(Duration::from_millis(ms));
+    }
+    if let Some(ms) = by.timeout_ms {
+        backed = backed.timeout_after(Duration::from_millis(ms));
+    }
+    Ok((backed, service))
+}
+
+/// What a payload of `message` carries: nothing for a message with no
+/// fields (ROS 2 gives it one placeholder byte), else its record.
+fn carried(message: &Message) -> Option<crate::payload::PayloadType> {
+    let fields = &message.def().fields;
+    let empty = fields.len() == 1 && fields[0].name == EMPTY_MEMBER;
+    (!empty).then(|| message.payload_type())
+}
+
+/// The link between a backed response and its service's client on the
+/// middleware: requests go out through a channel to the client's thread,
+/// replies come back through [`ServiceLink::answer`].
+pub(super) struct ServiceLink {
+    pub plugin: String,
+    /// The service's full name.
+    pub name: String,
+    pub service: Service,
+    requests: Sender<ToClient>,
+    /// Taken by the client's thread when the bridge starts.
+    pub taken: Mutex<Option<Receiver<ToClient>>>,
+    /// The run, once it is built.
+    pub radar: OnceLock<Radar>,
+}
+
+impl ServiceLink {
+    pub(super) fn new(plugin: &str, name: String, service: Service) -> Self {
+        let (requests, taken) = unbounded();
+        Self {
+            plugin: plugin.to_string(),
+            name,
+            service,
+            requests,
+            taken: Mutex::new(Some(taken)),
+            radar: OnceLock::new(),
+        }
+    }
+
+    /// Hands call `call`'s reply (its CDR bytes) or failure to the run.
+    pub(super) fn answer(&self, call: u64, reply: Result<Vec<u8>, String>) {
+        let answer = match reply {
+            Ok(bytes) => match cdr::decode(&self.service.response, &bytes) {
+                Ok(json) => Answer::Reply(json),
+                Err(e) => Answer::Failed(format!("the reply does not read: {e}")),
+            },
+            Err(why) => Answer::Failed(why),
+        };
+        if let Some(radar) = self.radar.get() {
+            // A run that has ended takes no more answers.
+            let _ = radar.answer(&self.plugin, call, answer);
+        }
+    }
+}
+
+impl Backing for ServiceLink {
+    fn call(&self, call: u64, request: Json) -> Result<(), String> {
+        let request = if carried(&self.service.request).is_none() {
+            Json::Object(Default::default())
+        } else {
+            request
+        };
+        let bytes = cdr::encode(&self.service.request, &request)
+            .map_err(|e| format!("the request does not encode: {e}"))?;
+        self.requests
+            .send(ToClient::Call(call, bytes))
+            .map_err(|_| "the ROS 2 node has stopped".to_string())
+    }
+
+    fn abandon(&self, call: u64) {
+        let _ = self.requests.send(ToClient::Abandon(call));
+    }
+}
+
+/// Keeps calls waiting for replies, by the middleware's id for each
+/// request: a reply to an id it does not hold (another client's, or one
+/// given up) is not this link's.
+pub(super) struct Pending<Id: Ord> {
+    calls: BTreeMap<Id, u64>,
+}
+
+impl<Id: Ord> Pending<Id> {
+    pub(super) fn new() -> Self {
+        Self {
+            calls: BTreeMap::new(),
+        }
+    }
+    pub(super) fn sent(&mut self, id: Id, call: u64) {
+        self.calls.insert(id, call);
+    }
+    pub(super) fn replied(&mut self, id: &Id) -> Option<u64> {
+        self.calls.remove(id)
+    }
+    pub(super) fn latest(&self) -> Option<u64> {
+        self.calls.values().max().copied()
+    }
+    pub(super) fn forget(&mut self, call: u64) {
+        self.calls.retain(|_, c| *c != call);
+    }
+    /// Every call under way, given up.
+    pub(super) fn drain(&mut self) -> Vec<u64> {
+        std::mem::take(&mut self.calls).into_values().collect()
+    }
+    pub(super) fn is_empty(&self) -> bool {
+        self.calls.is_empty()
+    }
+}
+
+/// How long a request waits for DDS discovery to show a server before it
+/// fails: a system starting beside its servers sees them within this.
+const DISCOVERY: Duration = Duration::from_secs(2);
+
+/// How often a client with calls under way looks whether its server is
+/// still there.
+const LOOK: Duration = Duration::from_millis(50);
+
+/// DDS: the client's thread. A request goes out once discovery shows a
+/// server (DDS keeps nothing for a reader that matches later), and fails
+/// if none shows within [`DISCOVERY`]; a server that goes while a call
+/// waits fails the call. Replies are taken as they come, until `stop`.
+#[cfg(feature = "dds")]
+pub(super) fn serve_dds(
+    client: ros2_client::dds::Client<super::dds_cdr::Encoded, super::dds_cdr::Answered>,
+    server: super::dds::ServerSeen,
+    link: Arc<ServiceLink>,
+    requests: Receiver<ToClient>,
+    stop: Arc<AtomicBool>,
+) {
+    use std::collections::VecDeque;
+    use std::time::Instant;
+
+    use super::dds_cdr::{Answered, Encoded};
+    Answered::read_on_this_thread(Arc::new(link.service.response.clone()));
+    let mut pending = Pending::new();
+    let mut unsent: VecDeque<(u64, Vec<u8>, Instant)> = VecDeque::new();
+    let mut looked: Option<(Instant, bool)> = None;
+    while !stop.load(Ordering::Relaxed) {
+        // While a reply is due, look for it every millisecond.
+        let wait = if pending.is_empty() && unsent.is_empty() {
+            Duration::from_millis(100)
+        } else {
+            Duration::from_millis(1)
+        };
+        match requests.recv_timeout(wait) {
+            Ok(ToClient::Call(call, bytes)) => unsent.push_back((call, bytes, Instant::now())),
+            Ok(ToClient::Abandon(call)) => {
+                unsent.retain(|(c, _, _)| *c != call);
+                pending.forget(call);
+            }
+            Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => break,
+        }
+        if !(pending.is_empty() && unsent.is_empty()) {
+            let seen = match looked {
+                Some((at, seen)) if at.elapsed() < LOOK => seen,
+                _ => {
+                    let seen = server.now();
+                    looked = Some((Instant::now(), seen));
+                    seen
+                }
+            };
+            if seen {
+                while let Some((call, bytes, _)) = unsent.pop_front() {
+                    match client.send_request(Encoded(bytes)) {
+                        Ok(id) => pending.sent(id, call),
+                        Err(e) => link.answer(call, Err(format!("the request was not sent: {e}"))),
+                    }
+                }
+            } else {
+                for call in pending.drain() {
+                    link.answer(
+                        call,
+                        Err(format!(
+                            "the server of {} went away before it answered (DDS no longer \
+                             sees it)",
+                            link.name
+                        )),
+                    );
+                }
+                while unsent
+                    .front()
+                    .is_some_and(|(_, _, at)| at.elapsed() >= DISCOVERY)
+                {
+                    if let Some((call, _, _)) = unsent.pop_front() {
+                        link.answer(
+                            call,
+                            Err(format!(
+                                "no server of {} ({}) on DDS after {} s",
+                                link.name,
+                                link.service.name,
+                                DISCOVERY.as_secs()
+                            )),
+                        );
+                    }
+                }
+            }
+        }
+        loop {
+            match client.receive_response() {
+                Ok(Some((id, Answered(bytes)))) => {
+                    if let Some(call) = pending.replied(&id) {
+                        link.answer(call, Ok(bytes));
+                    }
+                }
+                Ok(None) => break,
+                // A reply that does not read names no request it can be
+                // matched with: it is the latest call's.
+                Err(e) => {
+                    if let Some(call) = pending.latest() {
+                        pending.forget(call);
+                        link.answer(call, Err(format!("the reply does not read: {e}")));
+                    }
+                    break;
+                }
+            }
+        }
+    }
+}
