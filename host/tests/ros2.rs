@@ -761,3 +761,54 @@ fn ros2_show_wit_prints_records_that_paste_into_a_world_as_they_are() {
         .collect();
     assert!(world.contains(&indented), "{indented}");
 }
+
+#[test]
+fn a_response_backed_by_a_zenoh_ros2_sdk_service_calls_it_and_exits_with_the_reply() {
+    let python = python();
+    let run = Running::start(
+        |ep| {
+            format!(
+                "[plugins.Beep]\nros2 = {{ service = \"/beep\", type = \"std_srvs/srv/SetBool\" }}\n\n\
+                 [ros2]\nnode = \"radar_beeper\"\nlisten = [\"{ep}\"]\n"
+            )
+        },
+        &[
+            "--clock",
+            "real",
+            "--for",
+            "8s",
+            "--inject",
+            r#"3s:Beep.start={"data":true}"#,
+            "--inject",
+            r#"5s:Beep.start={"data":false}"#,
+        ],
+    );
+    let server = Client::start(
+        &python,
+        "service_server.py",
+        &["--port", &run.port.to_string(), "--count", "2"],
+    );
+    assert_eq!(server.line(Duration::from_secs(20)), "ready");
+    let (ok, requests, stderr) = server.finish();
+    assert!(ok, "{stderr}");
+    assert_eq!(requests, [r#"{"data": true}"#, r#"{"data": false}"#]);
+    let (out, dir) = run.finish(Duration::from_secs(30));
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let (trace, _) = lawful_trace(&dir.path().join("trace.jsonl"));
+    let exited: Vec<&str> = trace
+        .lines()
+        .filter(|l| l.contains(r#""plugin":"Beep","signal":"exited""#))
+        .collect();
+    assert_eq!(exited.len(), 2, "{trace}");
+    assert!(
+        exited[0].contains(r#""payload":{"message":"beeped 1","success":true}"#),
+        "{trace}"
+    );
+    assert!(
+        exited[1].contains(r#""payload":{"message":"beeped 2","success":false}"#),
+        "{trace}"
+    );
+    // The recording replays with neither ROS nor the network.
+    let inputs = dir.path().join("inputs.jsonl");
+    replays_to_the_same_writes_and_signals(&dir.path().join("radar.toml"), &inputs, &trace);
+}

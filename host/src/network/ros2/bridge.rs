@@ -125,14 +125,6 @@ impl Ros2 {
                     .map_err(Ros2Error::Settings)?,
             });
         }
-        if settings.rmw == Rmw::Zenoh {
-            if let Some((plugin, _)) = settings.backed.first() {
-                return Err(Ros2Error::Settings(format!(
-                    "plugins.{plugin}.ros2: responses backed by a service run on rmw = \"dds\" \
-                     only for now"
-                )));
-            }
-        }
         let mut services = Vec::new();
         for (plugin, by) in &settings.backed {
             let (_, service) = backed_response(settings, &types, plugin, by)?;
@@ -393,6 +385,33 @@ impl Ros2 {
                 gid: node.gid(entity),
                 sequence: 0,
             });
+            entity += 1;
+        }
+        for link in &self.services {
+            let service = &link.service;
+            let qos = Qos::parse(None, None, None).map_err(Ros2Error::Settings)?;
+            let token = node.endpoint_token(
+                Endpoint::ServiceClient,
+                entity,
+                &link.name,
+                &service.name,
+                &service.hash,
+                &qos,
+            );
+            self.tokens
+                .push(liveliness.declare_token(token).wait().map_err(declare)?);
+            let key = graph::topic_key(node.domain, &link.name, &service.name, &service.hash);
+            let requests = link.taken.lock().unwrap_or_else(|e| e.into_inner()).take();
+            let Some(requests) = requests else { continue };
+            let (session, gid) = (session.clone(), node.gid(entity));
+            let (link, stop) = (link.clone(), self.stop.clone());
+            let thread = std::thread::Builder::new()
+                .name("radar-ros2-service".into())
+                .spawn(move || {
+                    super::services::serve_zenoh(session, key, gid, link, requests, stop)
+                })
+                .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
+            self.threads.push(thread);
             entity += 1;
         }
         let name = format!("{}/{}", node.namespace.trim_end_matches('/'), node.name);

@@ -50,11 +50,12 @@ pub struct Node {
     pub name: String,
 }
 
-/// A publisher (`MP`) or a subscription (`MS`).
+/// A publisher (`MP`), a subscription (`MS`) or a service client (`SC`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Endpoint {
     Publisher,
     Subscription,
+    ServiceClient,
 }
 
 impl Node {
@@ -92,6 +93,7 @@ impl Node {
             match kind {
                 Endpoint::Publisher => "MP",
                 Endpoint::Subscription => "MS",
+                Endpoint::ServiceClient => "SC",
             },
             mangle(&self.namespace),
             mangle(&self.name),

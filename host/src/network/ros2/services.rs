@@ -6,13 +6,14 @@
 //! on the middleware and hands each reply back to the run as an outside
 //! input (`Radar::answer`), recorded, so a replay needs no server.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Duration;
 
 use crossbeam_channel::{unbounded, Receiver, RecvTimeoutError, Sender};
 use serde_json::Value as Json;
+use zenoh::Wait;
 
 use super::cdr;
 use super::error::Ros2Error;
@@ -22,13 +23,9 @@ use super::types::{Message, MessageTypes, Service};
 use crate::plugin::{Answer, Backed, Backing};
 use crate::system::Radar;
 
-/// What a backed response asks of its client's thread.
-pub(super) enum ToClient {
-    /// Send request `call` (its CDR bytes).
-    Call(u64, Vec<u8>),
-    /// Call `call` is no longer waited for: not sent if not yet sent.
-    Abandon(u64),
-}
+/// A request for the client's thread: the call's number and its CDR
+/// bytes.
+pub(super) type ToClient = (u64, Vec<u8>);
 
 /// Response `plugin`'s backing by `by`: its types from the service's
 /// `.srv` (`types`), no link yet (a replay, a scenario: answers come from
@@ -78,6 +75,8 @@ pub(super) struct ServiceLink {
     pub taken: Mutex<Option<Receiver<ToClient>>>,
     /// The run, once it is built.
     pub radar: OnceLock<Radar>,
+    /// Calls no longer waited for: not sent if not sent yet, not retried.
+    abandoned: Mutex<BTreeSet<u64>>,
 }
 
 impl ServiceLink {
@@ -90,7 +89,16 @@ impl ServiceLink {
             requests,
             taken: Mutex::new(Some(taken)),
             radar: OnceLock::new(),
+            abandoned: Mutex::default(),
         }
+    }
+
+    /// Whether call `call` is no longer waited for.
+    pub(super) fn abandoned(&self, call: u64) -> bool {
+        self.abandoned
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .contains(&call)
     }
 
     /// Hands call `call`'s reply (its CDR bytes) or failure to the run.
@@ -119,12 +127,15 @@ impl Backing for ServiceLink {
         let bytes = cdr::encode(&self.service.request, &request)
             .map_err(|e| format!("the request does not encode: {e}"))?;
         self.requests
-            .send(ToClient::Call(call, bytes))
+            .send((call, bytes))
             .map_err(|_| "the ROS 2 node has stopped".to_string())
     }
 
     fn abandon(&self, call: u64) {
-        let _ = self.requests.send(ToClient::Abandon(call));
+        self.abandoned
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .insert(call);
     }
 }
 
@@ -198,14 +209,11 @@ pub(super) fn serve_dds(
             Duration::from_millis(1)
         };
         match requests.recv_timeout(wait) {
-            Ok(ToClient::Call(call, bytes)) => unsent.push_back((call, bytes, Instant::now())),
-            Ok(ToClient::Abandon(call)) => {
-                unsent.retain(|(c, _, _)| *c != call);
-                pending.forget(call);
-            }
+            Ok((call, bytes)) => unsent.push_back((call, bytes, Instant::now())),
             Err(RecvTimeoutError::Timeout) => {}
             Err(RecvTimeoutError::Disconnected) => break,
         }
+        unsent.retain(|(call, _, _)| !link.abandoned(*call));
         if !(pending.is_empty() && unsent.is_empty()) {
             let seen = match looked {
                 Some((at, seen)) if at.elapsed() < LOOK => seen,
@@ -271,4 +279,110 @@ pub(super) fn serve_dds(
             }
         }
     }
+}
+
+/// rmw_zenoh: the client's thread. Each request is a Zenoh query of the
+/// service's key expression (payload: the CDR request; attachment:
+/// sequence number, time, the client's GID, as rmw_zenoh sends them),
+/// answered by the server's queryable. A query that ends with no reply
+/// reached no server: within [`DISCOVERY`] of the call it is asked again
+/// (the server may not be discovered yet), then the call fails.
+pub(super) fn serve_zenoh(
+    session: zenoh::Session,
+    key: String,
+    gid: [u8; 16],
+    link: Arc<ServiceLink>,
+    requests: Receiver<ToClient>,
+    stop: Arc<AtomicBool>,
+) {
+    let sequence = Arc::new(std::sync::atomic::AtomicI64::new(0));
+    while !stop.load(Ordering::Relaxed) {
+        let (call, bytes) = match requests.recv_timeout(Duration::from_millis(100)) {
+            Ok(request) => request,
+            Err(RecvTimeoutError::Timeout) => continue,
+            Err(RecvTimeoutError::Disconnected) => break,
+        };
+        let (session, key, link, stop, sequence) = (
+            session.clone(),
+            key.clone(),
+            link.clone(),
+            stop.clone(),
+            sequence.clone(),
+        );
+        // One thread a call (an activation makes one at a time): the query
+        // waits for its reply there.
+        let _ = std::thread::Builder::new()
+            .name("radar-ros2-call".into())
+            .spawn(move || {
+                let began = std::time::Instant::now();
+                loop {
+                    let number = sequence.fetch_add(1, Ordering::Relaxed) + 1;
+                    let attachment = super::graph::attachment(number, wall_ns(), &gid);
+                    let replies = session
+                        .get(&key)
+                        .payload(bytes.clone())
+                        .attachment(attachment)
+                        .target(zenoh::query::QueryTarget::AllComplete)
+                        .consolidation(zenoh::query::ConsolidationMode::None)
+                        .timeout(Duration::from_secs(24 * 3600))
+                        .wait();
+                    let replies = match replies {
+                        Ok(replies) => replies,
+                        Err(e) => {
+                            link.answer(call, Err(format!("the request was not sent: {e}")));
+                            return;
+                        }
+                    };
+                    // The reply, or the query's end with none (`None`).
+                    let reply = loop {
+                        match replies.recv_timeout(Duration::from_millis(100)) {
+                            Ok(Some(reply)) => break Some(reply),
+                            Ok(None) if stop.load(Ordering::Relaxed) => return,
+                            Ok(None) => {}
+                            Err(_) => break None,
+                        }
+                    };
+                    match reply.ok_or(()) {
+                        Ok(reply) => {
+                            let answer = match reply.result() {
+                                Ok(sample) => Ok(sample.payload().to_bytes().into_owned()),
+                                Err(e) => Err(format!(
+                                    "the server answered with an error: {}",
+                                    String::from_utf8_lossy(&e.payload().to_bytes())
+                                )),
+                            };
+                            link.answer(call, answer);
+                            return;
+                        }
+                        Err(_)
+                            if began.elapsed() < DISCOVERY
+                                && !stop.load(Ordering::Relaxed)
+                                && !link.abandoned(call) =>
+                        {
+                            std::thread::sleep(LOOK);
+                        }
+                        Err(_) => {
+                            if !link.abandoned(call) {
+                                link.answer(
+                                    call,
+                                    Err(format!(
+                                        "no server of {} ({}) answered on rmw_zenoh",
+                                        link.name, link.service.name
+                                    )),
+                                );
+                            }
+                            return;
+                        }
+                    }
+                }
+            });
+    }
+}
+
+/// Nanoseconds since the epoch, as rmw_zenoh stamps a request.
+fn wall_ns() -> i64 {
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap_or_default();
+    i64::try_from(now.as_nanos()).unwrap_or(i64::MAX)
 }
