@@ -45,6 +45,7 @@ pub use error::RadarError;
 pub use payload::{Payload, PayloadType};
 pub use plugin::{
     on_first_compile, Agents, Answer, Backed, Backing, FaultKind, InjectedFault, Limits,
+    ScriptedAnswer,
 };
 pub use ports::{
     Busy, ConnectionOverview, Mode, Overview, PluginOverview, PluginState, SwapPolicy,

@@ -55,6 +55,16 @@ pub enum Answer {
     Failed(String),
 }
 
+/// One answer of a server a test stands in for (a scenario's
+/// `[[server]]`): what it answers, this long after the request.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ScriptedAnswer {
+    /// How long after the request.
+    pub after: Duration,
+    /// The answer; `None`: it never answers.
+    pub answer: Option<Answer>,
+}
+
 /// A response backed by a server (see the module docs).
 #[derive(Clone)]
 pub struct Backed {
@@ -74,6 +84,9 @@ pub struct Backed {
     /// Where requests go: none in a replay or a scenario, where answers
     /// come from inputs.
     pub(crate) link: Option<Arc<dyn Backing>>,
+    /// A server stood in for: its answers, request by request (the last
+    /// one for every request after).
+    pub(crate) script: Option<Arc<[ScriptedAnswer]>>,
     pub(crate) answers: Arc<Answers>,
 }
 
@@ -92,6 +105,7 @@ impl Backed {
             cancel: DEFAULT_CANCEL,
             timeout: None,
             link: None,
+            script: None,
             answers: Arc::default(),
         }
     }
@@ -100,6 +114,19 @@ impl Backed {
     pub fn link(mut self, link: Arc<dyn Backing>) -> Self {
         self.link = Some(link);
         self
+    }
+
+    /// A server stood in for: request `n` gets `answers[n - 1]` (the last
+    /// one once they run out), as the scheduler's own timer, so the run
+    /// is the same every time and needs no inputs.
+    pub fn scripted(mut self, answers: Vec<ScriptedAnswer>) -> Self {
+        self.script = Some(answers.into());
+        self
+    }
+
+    /// What each reply must fit (`None`: a reply that says nothing).
+    pub fn reply_type(&self) -> Option<&PayloadType> {
+        self.reply.as_ref()
     }
 
     /// How long a stopped activation waits for its answer (`cancel_ms`).
@@ -227,6 +254,14 @@ impl BackedInstance {
             let at = self.base.now().saturating_add(duration_nanos(t));
             (Box::pin(self.base.sleep_until(at, None)), t)
         });
+        // A server stood in for answers on the scheduler's own clock.
+        let scripted = self.backed.script.as_ref().and_then(|script| {
+            let index = usize::try_from(call - 1).unwrap_or(usize::MAX);
+            let entry = script.get(index).or_else(|| script.last())?;
+            let answer = entry.answer.clone()?;
+            let at = self.base.now().saturating_add(duration_nanos(entry.after));
+            Some((Box::pin(self.base.sleep_until(at, None)), answer))
+        });
         let answer = AnswerWait {
             answers: &answers,
             stop: &self.stop,
@@ -234,6 +269,7 @@ impl BackedInstance {
             cancel: duration_nanos(self.backed.cancel),
             deadline: None,
             timeout,
+            scripted,
         }
         .await;
         answers.end();
@@ -266,6 +302,8 @@ struct AnswerWait<'a> {
     deadline: Option<Pin<Box<Sleep>>>,
     /// The request's own bound, if it has one.
     timeout: Option<(Pin<Box<Sleep>>, Duration)>,
+    /// A stood-in server's answer, and when it comes.
+    scripted: Option<(Pin<Box<Sleep>>, Answer)>,
 }
 
 impl Future for AnswerWait<'_> {
@@ -278,6 +316,11 @@ impl Future for AnswerWait<'_> {
                 return Poll::Ready(Ok(answer));
             }
             waiting.waker = Some(cx.waker().clone());
+        }
+        if let Some((at, answer)) = self.scripted.as_mut() {
+            if at.as_mut().poll(cx).is_ready() {
+                return Poll::Ready(Ok(answer.clone()));
+            }
         }
         match self.stop.get() {
             Some(StopReason::Fault) => {

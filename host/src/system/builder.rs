@@ -70,6 +70,8 @@ pub struct SystemBuilder {
     manifest: Option<PathBuf>,
     /// Where backed responses' requests go, by plugin.
     backings: BTreeMap<String, Arc<dyn crate::plugin::Backing>>,
+    /// Servers stood in for, by backed response.
+    stand_ins: BTreeMap<String, Vec<crate::plugin::ScriptedAnswer>>,
 }
 
 impl Default for SystemBuilder {
@@ -102,6 +104,7 @@ impl Default for SystemBuilder {
             recorded: BTreeMap::new(),
             manifest: None,
             backings: BTreeMap::new(),
+            stand_ins: BTreeMap::new(),
         }
     }
 }
@@ -149,6 +152,18 @@ impl SystemBuilder {
         link: Arc<dyn crate::plugin::Backing>,
     ) -> Self {
         self.backings.insert(plugin.into(), link);
+        self
+    }
+
+    /// Stands in for backed response `plugin`'s server (a scenario's
+    /// `[[server]]`, `docs/testing.md`): request `n` gets `answers[n - 1]`,
+    /// the last one once they run out; no request leaves the run.
+    pub fn stand_in(
+        mut self,
+        plugin: impl Into<String>,
+        answers: Vec<crate::plugin::ScriptedAnswer>,
+    ) -> Self {
+        self.stand_ins.insert(plugin.into(), answers);
         self
     }
 
@@ -582,7 +597,10 @@ impl SystemBuilder {
                 Source::Bytes(bytes) => loader.load_bytes(&p.name, bytes)?,
                 Source::Backed(backed) => {
                     let mut backed = backed.clone();
-                    if let Some(link) = self.backings.remove(&p.name) {
+                    if let Some(answers) = self.stand_ins.remove(&p.name) {
+                        check_stand_in(&p.name, &backed, &answers)?;
+                        backed = backed.scripted(answers);
+                    } else if let Some(link) = self.backings.remove(&p.name) {
                         backed = backed.link(link);
                     }
                     PluginCode::backed(backed)
@@ -647,6 +665,7 @@ impl SystemBuilder {
             .keys()
             .chain(fuel_rates.keys())
             .chain(self.backings.keys())
+            .chain(self.stand_ins.keys())
             .next()
         {
             return Err(RadarError::UnknownPlugin {
@@ -774,3 +793,26 @@ pub const DEFAULT_TRACE_LIMIT: usize = 1_000_000;
 /// How many bytes of records [`RunReport::trace`](crate::RunReport::trace) keeps by default (see
 /// [`SystemBuilder::trace_bytes`](crate::SystemBuilder::trace_bytes)).
 pub const DEFAULT_TRACE_BYTES: usize = 256 << 20;
+
+/// A stood-in server's replies must fit the response's reply type.
+fn check_stand_in(
+    plugin: &str,
+    backed: &crate::plugin::Backed,
+    answers: &[crate::plugin::ScriptedAnswer],
+) -> Result<(), RadarError> {
+    for (i, scripted) in answers.iter().enumerate() {
+        let (Some(crate::plugin::Answer::Reply(json)), Some(ty)) =
+            (&scripted.answer, backed.reply_type())
+        else {
+            continue;
+        };
+        crate::payload::json_to_val(json, ty).map_err(|e| RadarError::BadSetting {
+            plugin: plugin.to_string(),
+            cause: format!(
+                "the stand-in server's answer {} does not fit the reply {ty}: {e}",
+                i + 1
+            ),
+        })?;
+    }
+    Ok(())
+}

@@ -72,6 +72,8 @@ pub struct Scenario {
     expectations: Expectations,
     /// The run as written: its inputs, faults and compute.
     spec: RunSpec,
+    /// Servers stood in for, by backed response.
+    servers: BTreeMap<String, Vec<crate::plugin::ScriptedAnswer>>,
     agents: Option<Agents>,
     /// What its last run said of its components, when it is made from a
     /// recording: which ran, and which changed since.
@@ -208,6 +210,13 @@ impl Scenario {
                 .map_err(|e| fail(format!("{SETTINGS}: {e}")))?;
             faults.entry(table.plugin.clone()).or_default().push(fault);
         }
+        let mut servers = BTreeMap::new();
+        for server in &settings.server {
+            let answers = server
+                .answers()
+                .map_err(|e| fail(format!("{SETTINGS}: {e}")))?;
+            servers.insert(server.plugin.clone(), answers);
+        }
         let spec = RunSpec {
             inputs,
             faults,
@@ -227,6 +236,7 @@ impl Scenario {
             comparison,
             expectations,
             spec,
+            servers,
             agents: None,
             note: std::sync::Mutex::new(None),
         })
@@ -301,6 +311,9 @@ impl Scenario {
         }
         if let Some(agents) = &self.agents {
             builder = builder.agents(agents.clone());
+        }
+        for (plugin, answers) in &self.servers {
+            builder = builder.stand_in(plugin, answers.clone());
         }
         let builder = self.manifest.add_to(builder).inputs(&spec.inputs);
         let system = builder.build().map_err(|e| e.to_string())?;

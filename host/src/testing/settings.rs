@@ -35,6 +35,9 @@ pub struct Settings {
     /// Faults injected into every run, at given calls.
     #[serde(default)]
     pub fault: Vec<FaultSettings>,
+    /// Servers stood in for: the answers a backed response's requests get.
+    #[serde(default)]
+    pub server: Vec<ServerSettings>,
     /// `radar test --simulate`: what a seed varies and injects.
     #[serde(default)]
     pub simulate: SimulateSettings,
@@ -109,6 +112,71 @@ impl From<FuelForm> for FuelSettings {
                 rates,
             },
         }
+    }
+}
+
+/// A `[[server]]` table: the server of a response ROS 2 backs, stood in
+/// for (`docs/testing.md#server`).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ServerSettings {
+    /// The backed response.
+    pub plugin: String,
+    /// Request by request, what the server answers (the last one for every
+    /// request after).
+    pub answers: Vec<AnswerSettings>,
+}
+
+/// One answer of a `[[server]]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AnswerSettings {
+    /// How long after the request (`"300ms"`; default at once).
+    pub after: Option<String>,
+    /// The reply, as the response's `exited` carries it.
+    pub reply: Option<toml::Value>,
+    /// The request fails, and this says why (the plugin faults).
+    pub fail: Option<String>,
+    /// The server never answers.
+    #[serde(default)]
+    pub never: bool,
+}
+
+impl ServerSettings {
+    /// The answers, checked.
+    pub fn answers(&self) -> Result<Vec<crate::plugin::ScriptedAnswer>, String> {
+        use crate::plugin::{Answer, ScriptedAnswer};
+        let at = format!("[[server]] of {}", self.plugin);
+        if self.answers.is_empty() {
+            return Err(format!("{at}: say its `answers`"));
+        }
+        self.answers
+            .iter()
+            .enumerate()
+            .map(|(i, a)| {
+                let after = match &a.after {
+                    Some(text) => parse_duration(text)
+                        .map_err(|e| format!("{at}: answer {}: after: {e}", i + 1))?,
+                    None => Duration::ZERO,
+                };
+                let answer = match (&a.reply, &a.fail, a.never) {
+                    (Some(reply), None, false) => Some(Answer::Reply(
+                        serde_json::to_value(reply)
+                            .map_err(|e| format!("{at}: answer {}: reply: {e}", i + 1))?,
+                    )),
+                    (None, Some(why), false) => Some(Answer::Failed(why.clone())),
+                    (None, None, true) => None,
+                    _ => {
+                        return Err(format!(
+                            "{at}: answer {}: say one of `reply = {{ ... }}`, `fail = \"why\"` \
+                             or `never = true`",
+                            i + 1
+                        ))
+                    }
+                };
+                Ok(ScriptedAnswer { after, answer })
+            })
+            .collect()
     }
 }
 

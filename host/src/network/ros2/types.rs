@@ -118,8 +118,9 @@ impl MessageTypes {
         match BUILTIN_SERVICES.binary_search_by(|(n, _)| (*n).cmp(name)) {
             Ok(i) => Ok(BUILTIN_SERVICES[i].1.to_string()),
             Err(_) => Err(format!(
-                "unknown service type `{name}`: not built in (add the folder holding \
-                 {package}/srv/{file} to [ros2] msg_paths)"
+                "unknown service type `{name}`{}: not built in (add the folder holding \
+                 {package}/srv/{file} to [ros2] msg_paths)",
+                crate::suggest::hint(name, BUILTIN_SERVICES.iter().map(|(n, _)| *n))
             )),
         }
     }
