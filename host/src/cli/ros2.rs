@@ -23,12 +23,13 @@ pub struct Ros2Args {
 
 #[derive(Subcommand)]
 enum Ros2Command {
-    /// Lists the built-in message types.
+    /// Lists the built-in message and service types.
     Types,
     /// Shows a type: its RIHS01 hash, its key expression, its fields, and
     /// its WIT records, ready to paste into a plugin's interface.
     Show {
-        /// `pkg/msg/Name`, e.g. `sensor_msgs/msg/Range`.
+        /// `pkg/msg/Name`, e.g. `sensor_msgs/msg/Range`, or a service,
+        /// `pkg/srv/Name`.
         type_name: String,
         /// Prints only the WIT records, to paste into a plugin's interface.
         #[arg(long)]
@@ -57,9 +58,12 @@ pub fn ros2(args: Ros2Args) -> Result<()> {
     let types = MessageTypes::new(args.msg_paths);
     match args.command {
         Ros2Command::Types => {
-            for name in MessageTypes::builtin_names() {
+            for name in MessageTypes::builtin_names().chain(MessageTypes::builtin_service_names()) {
                 say(format_args!("{name}"));
             }
+        }
+        Ros2Command::Show { type_name, wit } if type_name.contains("/srv/") => {
+            show_service(&types, &type_name, wit)?;
         }
         Ros2Command::Show { type_name, wit } => {
             let message = types.load(&type_name).map_err(anyhow::Error::msg)?;
@@ -105,5 +109,42 @@ pub fn ros2(args: Ros2Args) -> Result<()> {
             say(format_args!("{value}"));
         }
     }
+    Ok(())
+}
+
+/// `radar ros2 show pkg/srv/Name`: the service's hash and key, its request
+/// and reply, and their WIT records (what a response the service backs
+/// takes in `start` and carries in `exited`).
+fn show_service(types: &MessageTypes, name: &str, wit: bool) -> Result<()> {
+    let service = types.load_service(name).map_err(anyhow::Error::msg)?;
+    let records = format!(
+        "{}{}",
+        service.request.wit_definitions(),
+        service.response.wit_definitions()
+    );
+    if wit {
+        print!("{records}");
+        return Ok(());
+    }
+    say(format_args!("{}", service.name));
+    say(format_args!("  hash  {}", service.hash));
+    say(format_args!(
+        "  key   <domain>/<service>/{}/{}",
+        radar::network::ros2::dds_type(&service.name),
+        service.hash
+    ));
+    for (half, message) in [("request", &service.request), ("reply", &service.response)] {
+        say(format_args!("  {half}"));
+        for field in &message.def().fields {
+            say(format_args!("    field {field} {}", field.name));
+        }
+    }
+    say(format_args!(
+        "\n// start takes the request and exited carries the reply of a response the \
+         service backs\n// (`ros2 = {{ service = ..., type = \"{}\" }}`); as WIT (`--wit` \
+         prints this alone):",
+        service.name
+    ));
+    print!("{records}");
     Ok(())
 }

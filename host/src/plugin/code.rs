@@ -108,8 +108,10 @@ pub(super) fn export_index(
 
 impl PluginCode {
     /// A response backed by a server: its slots' types are the server's
-    /// request and reply; its version, what backs it.
-    pub(crate) fn backed(backed: super::backed::Backed) -> Self {
+    /// request and reply; its version, what backs it. Its calls are counted
+    /// from 1 in each system built (a `Backed` may be used for several).
+    pub(crate) fn backed(mut backed: super::backed::Backed) -> Self {
+        backed.answers = Arc::default();
         let version = version_of(
             format!("{}\n{:?}\n{:?}", backed.label, backed.request, backed.reply).as_bytes(),
         );

@@ -160,10 +160,11 @@ impl ServerSettings {
                     None => Duration::ZERO,
                 };
                 let answer = match (&a.reply, &a.fail, a.never) {
-                    (Some(reply), None, false) => Some(Answer::Reply(
-                        serde_json::to_value(reply)
-                            .map_err(|e| format!("{at}: answer {}: reply: {e}", i + 1))?,
-                    )),
+                    (Some(reply), None, false) => {
+                        Some(Answer::Reply(serde_json::to_value(reply).map_err(|e| {
+                            format!("{at}: answer {}: reply: {e}", i + 1)
+                        })?))
+                    }
                     (None, Some(why), false) => Some(Answer::Failed(why.clone())),
                     (None, None, true) => None,
                     _ => {

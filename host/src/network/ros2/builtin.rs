@@ -1,10 +1,24 @@
 //! The message definitions Radar knows out of the box: ROS 2 Jazzy's
 //! builtin_interfaces, std_msgs, geometry_msgs, sensor_msgs and nav_msgs,
-//! and std_srvs's services, as `.msg` and `.srv` text under `msg/`
-//! (comments left out), embedded in the binary.
+//! std_srvs's services, action_msgs and unique_identifier_msgs (what
+//! every action uses) and test_msgs' Fibonacci action, as `.msg`, `.srv`
+//! and `.action` text under `msg/` (comments left out), embedded in the
+//! binary.
 
 /// `(pkg/msg/Name, .msg text)`, sorted by name.
 pub(super) const BUILTIN: &[(&str, &str)] = &[
+    (
+        "action_msgs/msg/GoalInfo",
+        include_str!("msg/action_msgs/msg/GoalInfo.msg"),
+    ),
+    (
+        "action_msgs/msg/GoalStatus",
+        include_str!("msg/action_msgs/msg/GoalStatus.msg"),
+    ),
+    (
+        "action_msgs/msg/GoalStatusArray",
+        include_str!("msg/action_msgs/msg/GoalStatusArray.msg"),
+    ),
     (
         "builtin_interfaces/msg/Duration",
         include_str!("msg/builtin_interfaces/msg/Duration.msg"),
@@ -389,10 +403,19 @@ pub(super) const BUILTIN: &[(&str, &str)] = &[
         "std_msgs/msg/UInt8MultiArray",
         include_str!("msg/std_msgs/msg/UInt8MultiArray.msg"),
     ),
+    (
+        "unique_identifier_msgs/msg/UUID",
+        include_str!("msg/unique_identifier_msgs/msg/UUID.msg"),
+    ),
 ];
 
-/// `(pkg/srv/Name, .srv text)`, sorted by name: the services of std_srvs.
+/// `(pkg/srv/Name, .srv text)`, sorted by name: the services of std_srvs,
+/// and action_msgs' CancelGoal (every action's cancel).
 pub(super) const BUILTIN_SERVICES: &[(&str, &str)] = &[
+    (
+        "action_msgs/srv/CancelGoal",
+        include_str!("msg/action_msgs/srv/CancelGoal.srv"),
+    ),
     (
         "std_srvs/srv/Empty",
         include_str!("msg/std_srvs/srv/Empty.srv"),
@@ -406,3 +429,10 @@ pub(super) const BUILTIN_SERVICES: &[(&str, &str)] = &[
         include_str!("msg/std_srvs/srv/Trigger.srv"),
     ),
 ];
+
+/// `(pkg/action/Name, .action text)`, sorted by name: test_msgs' Fibonacci,
+/// the action ROS 2's own tests and tutorials use.
+pub(super) const BUILTIN_ACTIONS: &[(&str, &str)] = &[(
+    "test_msgs/action/Fibonacci",
+    include_str!("msg/test_msgs/action/Fibonacci.action"),
+)];

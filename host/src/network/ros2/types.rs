@@ -7,7 +7,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use super::builtin::{BUILTIN, BUILTIN_SERVICES};
+use super::builtin::{BUILTIN, BUILTIN_ACTIONS, BUILTIN_SERVICES};
 use super::error::TypeError;
 use super::hash::rihs01;
 use super::msg::{self, Base, MessageDef, Primitive, Shape};
@@ -45,6 +45,29 @@ pub struct Service {
     pub response: Message,
 }
 
+/// An action type, ready for the wire: its goal, result and feedback, and
+/// the services and message an action client and server exchange them
+/// through.
+#[derive(Clone, Debug)]
+pub struct Action {
+    /// `pkg/action/Name`.
+    pub name: String,
+    /// `RIHS01_…` of the action.
+    pub hash: String,
+    /// `pkg/action/Name_Goal`.
+    pub goal: Message,
+    /// `pkg/action/Name_Result`.
+    pub result: Message,
+    /// `pkg/action/Name_Feedback`.
+    pub feedback: Message,
+    /// `pkg/action/Name_SendGoal`: `{goal_id, goal}` → `{accepted, stamp}`.
+    pub send_goal: Service,
+    /// `pkg/action/Name_GetResult`: `{goal_id}` → `{status, result}`.
+    pub get_result: Service,
+    /// `pkg/action/Name_FeedbackMessage`: `{goal_id, feedback}`.
+    pub feedback_message: Message,
+}
+
 impl MessageTypes {
     /// Definitions from `paths` before the built-in ones.
     pub fn new(paths: Vec<PathBuf>) -> Self {
@@ -54,6 +77,11 @@ impl MessageTypes {
     /// Every built-in type's name.
     pub fn builtin_names() -> impl Iterator<Item = &'static str> {
         BUILTIN.iter().map(|(name, _)| *name)
+    }
+
+    /// Every built-in service type's name.
+    pub fn builtin_service_names() -> impl Iterator<Item = &'static str> {
+        BUILTIN_SERVICES.iter().map(|(name, _)| *name)
     }
 
     /// Type `name` (`pkg/msg/Name`) with everything it refers to; the
@@ -105,24 +133,177 @@ impl MessageTypes {
         })
     }
 
-    fn service_text(&self, name: &str, package: &str, base: &str) -> Result<String, String> {
-        let file = format!("{base}.srv");
+    /// Action type `name` (`pkg/action/Name`): its `.action` file split at
+    /// its `---` lines into goal, result and feedback, with the services
+    /// and the feedback message rosidl makes of them.
+    pub fn load_action(&self, name: &str) -> Result<Action, TypeError> {
+        self.load_action_type(name).map_err(TypeError)
+    }
+
+    fn load_action_type(&self, name: &str) -> Result<Action, String> {
+        let parts: Vec<&str> = name.split('/').collect();
+        let (package, base) = match parts.as_slice() {
+            [package, "action", base] if msg::is_type_name(&format!("{package}/msg/{base}")) => {
+                (*package, *base)
+            }
+            _ => {
+                return Err(format!(
+                    "`{name}` is not an action type (expected `package/action/Name`, e.g. \
+                     `test_msgs/action/Fibonacci`)"
+                ))
+            }
+        };
+        let text = self.interface_text(name, package, base, "action", BUILTIN_ACTIONS)?;
+        let mut thirds = vec![Vec::new()];
+        for line in text.lines() {
+            if line.trim() == "---" {
+                thirds.push(Vec::new());
+            } else if let Some(third) = thirds.last_mut() {
+                third.push(line);
+            }
+        }
+        let [goal, result, feedback] = thirds.as_slice() else {
+            return Err(format!(
+                "{name}: an .action file has two `---` lines, between goal, result and feedback"
+            ));
+        };
+        let part = |suffix: &str, lines: &[&str]| {
+            let part_name = format!("{package}/action/{base}_{suffix}");
+            let def = msg::parse(&part_name, &lines.join("\n"))?;
+            self.load_with(&part_name, def)
+        };
+        let (goal, result, feedback) = (
+            part("Goal", goal)?,
+            part("Result", result)?,
+            part("Feedback", feedback)?,
+        );
+        let field = |name: &str, base: Base| msg::Field {
+            name: name.to_string(),
+            base,
+            shape: Shape::One,
+        };
+        let nested = |name: &str, ty: &str| field(name, Base::Nested(ty.to_string()));
+        let uuid = "unique_identifier_msgs/msg/UUID";
+        let mut known = goal.defs.clone();
+        known.extend(result.defs.clone());
+        known.extend(feedback.defs.clone());
+        let message = |suffix: &str, fields: Vec<msg::Field>| {
+            let full = format!("{package}/action/{base}_{suffix}");
+            let def = MessageDef {
+                name: full.clone(),
+                fields,
+            };
+            self.load_beside(&full, def, known.clone()).map(|mut m| {
+                // Only what the message refers to.
+                let used = referred(&full, &m.defs);
+                m.defs.retain(|name, _| used.contains(name));
+                m.hash = rihs01(&full, &m.defs);
+                m
+            })
+        };
+        let service = |suffix: &str, request: Message, response: Message| {
+            let full = format!("{package}/action/{base}_{suffix}");
+            Service {
+                hash: service_hash(&full, &request, &response),
+                name: full,
+                request,
+                response,
+            }
+        };
+        let send_goal = service(
+            "SendGoal",
+            message(
+                "SendGoal_Request",
+                vec![nested("goal_id", uuid), nested("goal", &goal.name)],
+            )?,
+            message(
+                "SendGoal_Response",
+                vec![
+                    field("accepted", Base::Primitive(Primitive::Bool)),
+                    nested("stamp", "builtin_interfaces/msg/Time"),
+                ],
+            )?,
+        );
+        let get_result = service(
+            "GetResult",
+            message("GetResult_Request", vec![nested("goal_id", uuid)])?,
+            message(
+                "GetResult_Response",
+                vec![
+                    field("status", Base::Primitive(Primitive::I8)),
+                    nested("result", &result.name),
+                ],
+            )?,
+        );
+        let feedback_message = message(
+            "FeedbackMessage",
+            vec![nested("goal_id", uuid), nested("feedback", &feedback.name)],
+        )?;
+        let mut defs = BTreeMap::new();
+        for m in [&goal, &result, &feedback, &feedback_message] {
+            defs.extend(m.defs.clone());
+        }
+        for s in [&send_goal, &get_result] {
+            defs.extend(service_defs(&s.name, &s.request, &s.response));
+        }
+        defs.insert(
+            name.to_string(),
+            MessageDef {
+                name: name.to_string(),
+                fields: vec![
+                    nested("goal", &goal.name),
+                    nested("result", &result.name),
+                    nested("feedback", &feedback.name),
+                    nested("send_goal_service", &send_goal.name),
+                    nested("get_result_service", &get_result.name),
+                    nested("feedback_message", &feedback_message.name),
+                ],
+            },
+        );
+        Ok(Action {
+            name: name.to_string(),
+            hash: rihs01(name, &defs),
+            goal,
+            result,
+            feedback,
+            send_goal,
+            get_result,
+            feedback_message,
+        })
+    }
+
+    /// The text of an interface file: `<pkg>/<kind>/<base>.<kind>` under
+    /// `msg_paths`, else among `builtin`.
+    fn interface_text(
+        &self,
+        name: &str,
+        package: &str,
+        base: &str,
+        kind: &str,
+        builtin: &[(&str, &str)],
+    ) -> Result<String, String> {
+        let file = format!("{base}.{kind}");
         for dir in &self.paths {
-            for candidate in candidates(dir, package, "srv", &file) {
+            for candidate in candidates(dir, package, kind, &file) {
                 if candidate.is_file() {
                     return std::fs::read_to_string(&candidate)
                         .map_err(|e| format!("cannot read {}: {e}", candidate.display()));
                 }
             }
         }
-        match BUILTIN_SERVICES.binary_search_by(|(n, _)| (*n).cmp(name)) {
-            Ok(i) => Ok(BUILTIN_SERVICES[i].1.to_string()),
+        match builtin.binary_search_by(|(n, _)| (*n).cmp(name)) {
+            Ok(i) => Ok(builtin[i].1.to_string()),
             Err(_) => Err(format!(
-                "unknown service type `{name}`{}: not built in (add the folder holding \
-                 {package}/srv/{file} to [ros2] msg_paths)",
-                crate::suggest::hint(name, BUILTIN_SERVICES.iter().map(|(n, _)| *n))
+                "unknown {} type `{name}`{}: not built in (add the folder holding \
+                 {package}/{kind}/{file} to [ros2] msg_paths)",
+                if kind == "srv" { "service" } else { kind },
+                crate::suggest::hint(name, builtin.iter().map(|(n, _)| *n))
             )),
         }
+    }
+
+    fn service_text(&self, name: &str, package: &str, base: &str) -> Result<String, String> {
+        self.interface_text(name, package, base, "srv", BUILTIN_SERVICES)
     }
 
     fn load_type(&self, name: &str) -> Result<Message, String> {
@@ -138,7 +319,18 @@ impl MessageTypes {
 
     /// `root` (the definition of `name`) with every type it refers to.
     fn load_with(&self, name: &str, root: MessageDef) -> Result<Message, String> {
-        let mut defs = BTreeMap::new();
+        self.load_beside(name, root, BTreeMap::new())
+    }
+
+    /// As [`MessageTypes::load_with`], where `known` already holds some of
+    /// the types it refers to (the parts of an action).
+    fn load_beside(
+        &self,
+        name: &str,
+        root: MessageDef,
+        known: BTreeMap<String, MessageDef>,
+    ) -> Result<Message, String> {
+        let mut defs = known;
         let mut stack = Vec::new();
         for field in &root.fields {
             if let Base::Nested(nested) = &field.base {
@@ -210,6 +402,27 @@ impl MessageTypes {
     }
 }
 
+/// `name` and every type it refers to, through any number of others.
+fn referred(name: &str, defs: &BTreeMap<String, MessageDef>) -> std::collections::BTreeSet<String> {
+    let mut seen = std::collections::BTreeSet::new();
+    let mut stack = vec![name.to_string()];
+    while let Some(next) = stack.pop() {
+        if !seen.insert(next.clone()) {
+            continue;
+        }
+        for field in defs
+            .get(&next)
+            .map(|d| d.fields.as_slice())
+            .unwrap_or_default()
+        {
+            if let Base::Nested(nested) = &field.base {
+                stack.push(nested.clone());
+            }
+        }
+    }
+    seen
+}
+
 /// A type that contains itself, through any number of others, has no
 /// finite form: refused, naming the loop.
 fn refuse_cycles(
@@ -247,6 +460,11 @@ fn candidates(dir: &Path, package: &str, kind: &str, file: &str) -> Vec<PathBuf>
 /// A service's RIHS01 hash: rosidl describes a service as a type with its
 /// request, its response and its event (`service_msgs`' envelope of both).
 fn service_hash(name: &str, request: &Message, response: &Message) -> String {
+    rihs01(name, &service_defs(name, request, response))
+}
+
+/// The service as rosidl describes it, with every type it refers to.
+fn service_defs(name: &str, request: &Message, response: &Message) -> BTreeMap<String, MessageDef> {
     let nested = |field: &str, ty: String, shape: Shape| msg::Field {
         name: field.to_string(),
         base: Base::Nested(ty),
@@ -306,7 +524,7 @@ fn service_hash(name: &str, request: &Message, response: &Message) -> String {
             ],
         },
     );
-    rihs01(name, &defs)
+    defs
 }
 
 impl Message {
@@ -452,5 +670,77 @@ mod tests {
         assert!(e.0.contains("not a service type"), "{e}");
         let e = types.load_service("my_srvs/srv/Nope").expect_err("unknown");
         assert!(e.0.contains("msg_paths"), "{e}");
+    }
+
+    #[test]
+    fn actions_split_into_goal_result_and_feedback_with_rosidls_hashes() {
+        let types = MessageTypes::default();
+        let action = types
+            .load_action("test_msgs/action/Fibonacci")
+            .expect("loads");
+        // The hashes rosidl wrote into test_msgs' Fibonacci.json (Kilted).
+        let expected = [
+            (
+                &action.hash,
+                "RIHS01_be9273e3557225044b4a040811112491f7079326e3a573f83258b0b4c30bd069",
+            ),
+            (
+                &action.goal.hash,
+                "RIHS01_e58ef5a8f4f039ab522a740823547c460b1d5aed8031c8b7825d33d345d90df8",
+            ),
+            (
+                &action.result.hash,
+                "RIHS01_0774b095467813c6904d475498b5486b7ebd4cda6a4569f97e8de8c862689049",
+            ),
+            (
+                &action.feedback.hash,
+                "RIHS01_7d1110f2efa019ad5ad8ad2244db98d862f39dc9fae8c976814b0065fa2f32d5",
+            ),
+            (
+                &action.send_goal.hash,
+                "RIHS01_d807633803e38e164276573cd97e9fbd71e109c290bbf4cc312a0a1c9da7bbd9",
+            ),
+            (
+                &action.send_goal.request.hash,
+                "RIHS01_dfe75c73dc2c090cbc8fd8c45039bfa279d16aa6aadd348f812c6adad26e669e",
+            ),
+            (
+                &action.send_goal.response.hash,
+                "RIHS01_1e7e84f7edf1fb020d9e51c7842bceef4cbdbd847f354125f3227cf4f314a683",
+            ),
+            (
+                &action.get_result.hash,
+                "RIHS01_5d30fdeb21d20e117aa5f36c7b4f0b6874f1a8cf7a9c038d58f1156c5737b209",
+            ),
+            (
+                &action.get_result.response.hash,
+                "RIHS01_ef88159d47a3d21d9bf4bec690cf668939d9542db28a9cfd77dbcd97eaf1add2",
+            ),
+            (
+                &action.feedback_message.hash,
+                "RIHS01_37487bae8cea358366b97003c1ef1ca7ce7c08df36f9e8cca496624226aee64e",
+            ),
+        ];
+        for (ours, theirs) in expected {
+            assert_eq!(ours, theirs);
+        }
+        assert_eq!(
+            action.send_goal.request.payload_type().to_string(),
+            "record { goal-id: record { uuid: list<u8> }, goal: record { order: s32 } }"
+        );
+        let e = types
+            .load_action("test_msgs/action/Fibonaci")
+            .expect_err("unknown");
+        assert!(
+            e.0.contains("did you mean `test_msgs/action/Fibonacci`"),
+            "{e}"
+        );
+        let cancel = types
+            .load_service("action_msgs/srv/CancelGoal")
+            .expect("every action's cancel is built in");
+        assert!(cancel
+            .response
+            .defs
+            .contains_key("action_msgs/msg/GoalInfo"));
     }
 }
