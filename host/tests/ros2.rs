@@ -24,7 +24,7 @@ fn root() -> PathBuf {
 
 /// The Python that has zenoh-ros2-sdk and rosbags, installed by the
 /// project's own set-up script.
-fn python() -> String {
+pub(crate) fn python() -> String {
     let out = Command::new(root().join("tests/clients/ros2/setup"))
         .output()
         .expect("setup runs");
@@ -111,16 +111,16 @@ fn obstacle_manifest(endpoint: &str, extra: &str) -> String {
 }
 
 /// `radar run` in another process, ready once it has joined the graph.
-struct Running {
+pub(crate) struct Running {
     child: Child,
     dir: tempfile::TempDir,
     endpoint: String,
-    port: u16,
+    pub(crate) port: u16,
     _lines: Receiver<String>,
 }
 
 impl Running {
-    fn start(manifest: impl Fn(&str) -> String, args: &[&str]) -> Self {
+    pub(crate) fn start(manifest: impl Fn(&str) -> String, args: &[&str]) -> Self {
         let dir = tempfile::tempdir().expect("temp dir");
         let port = free_port();
         let endpoint = format!("tcp/127.0.0.1:{port}");
@@ -158,7 +158,7 @@ impl Running {
     }
 
     /// Waits for the run to end by itself (at most `limit`).
-    fn finish(mut self, limit: Duration) -> (Output, tempfile::TempDir) {
+    pub(crate) fn finish(mut self, limit: Duration) -> (Output, tempfile::TempDir) {
         let out = wait_within(&mut self.child, limit);
         let dir = std::mem::replace(&mut self.dir, tempfile::tempdir().expect("temp dir"));
         (out, dir)
@@ -319,13 +319,13 @@ fn a_malformed_message_is_dropped_with_a_record_and_the_run_goes_on() {
 
 /// A ROS 2 client script started against `port`, its stdout read line by
 /// line.
-struct Client {
+pub(crate) struct Client {
     child: Child,
     lines: Receiver<String>,
 }
 
 impl Client {
-    fn start(python: &str, name: &str, args: &[&str]) -> Self {
+    pub(crate) fn start(python: &str, name: &str, args: &[&str]) -> Self {
         let mut child = Command::new(python)
             .arg(script(name))
             .args(args)
@@ -339,7 +339,7 @@ impl Client {
     }
 
     /// The next line, within `limit`.
-    fn line(&self, limit: Duration) -> String {
+    pub(crate) fn line(&self, limit: Duration) -> String {
         self.lines
             .recv_timeout(limit)
             .unwrap_or_else(|_| panic!("no line within {limit:?}"))
@@ -347,7 +347,7 @@ impl Client {
 
     /// Waits for the client to end (it bounds itself): its status, the
     /// lines not read yet, and its stderr.
-    fn finish(mut self) -> (bool, Vec<String>, String) {
+    pub(crate) fn finish(mut self) -> (bool, Vec<String>, String) {
         let status = self.child.wait().expect("status");
         let mut stderr = String::new();
         if let Some(mut pipe) = self.child.stderr.take() {
@@ -760,55 +760,4 @@ fn ros2_show_wit_prints_records_that_paste_into_a_world_as_they_are() {
         })
         .collect();
     assert!(world.contains(&indented), "{indented}");
-}
-
-#[test]
-fn a_response_backed_by_a_zenoh_ros2_sdk_service_calls_it_and_exits_with_the_reply() {
-    let python = python();
-    let run = Running::start(
-        |ep| {
-            format!(
-                "[plugins.Beep]\nros2 = {{ service = \"/beep\", type = \"std_srvs/srv/SetBool\" }}\n\n\
-                 [ros2]\nnode = \"radar_beeper\"\nlisten = [\"{ep}\"]\n"
-            )
-        },
-        &[
-            "--clock",
-            "real",
-            "--for",
-            "8s",
-            "--inject",
-            r#"3s:Beep.start={"data":true}"#,
-            "--inject",
-            r#"5s:Beep.start={"data":false}"#,
-        ],
-    );
-    let server = Client::start(
-        &python,
-        "service_server.py",
-        &["--port", &run.port.to_string(), "--count", "2"],
-    );
-    assert_eq!(server.line(Duration::from_secs(20)), "ready");
-    let (ok, requests, stderr) = server.finish();
-    assert!(ok, "{stderr}");
-    assert_eq!(requests, [r#"{"data": true}"#, r#"{"data": false}"#]);
-    let (out, dir) = run.finish(Duration::from_secs(30));
-    assert!(out.status.success(), "{}", text(&out.stderr));
-    let (trace, _) = lawful_trace(&dir.path().join("trace.jsonl"));
-    let exited: Vec<&str> = trace
-        .lines()
-        .filter(|l| l.contains(r#""plugin":"Beep","signal":"exited""#))
-        .collect();
-    assert_eq!(exited.len(), 2, "{trace}");
-    assert!(
-        exited[0].contains(r#""payload":{"message":"beeped 1","success":true}"#),
-        "{trace}"
-    );
-    assert!(
-        exited[1].contains(r#""payload":{"message":"beeped 2","success":false}"#),
-        "{trace}"
-    );
-    // The recording replays with neither ROS nor the network.
-    let inputs = dir.path().join("inputs.jsonl");
-    replays_to_the_same_writes_and_signals(&dir.path().join("radar.toml"), &inputs, &trace);
 }

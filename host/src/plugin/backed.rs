@@ -124,9 +124,20 @@ impl Backed {
         self
     }
 
-    /// What each reply must fit (`None`: a reply that says nothing).
-    pub fn reply_type(&self) -> Option<&PayloadType> {
-        self.reply.as_ref()
+    /// Whether a stood-in server's replies fit the reply's type; else
+    /// which does not, and why.
+    pub(crate) fn check(&self, answers: &[ScriptedAnswer]) -> Result<(), String> {
+        for (i, scripted) in answers.iter().enumerate() {
+            if let (Some(Answer::Reply(json)), Some(ty)) = (&scripted.answer, &self.reply) {
+                json_to_val(json, ty).map_err(|e| {
+                    format!(
+                        "the stand-in server's answer {} does not fit the reply {ty}: {e}",
+                        i + 1
+                    )
+                })?;
+            }
+        }
+        Ok(())
     }
 
     /// How long a stopped activation waits for its answer (`cancel_ms`).

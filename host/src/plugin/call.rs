@@ -69,10 +69,15 @@ pub(crate) enum Export {
     Restore = 5,
 }
 
+/// The functions Radar calls, in the order of [`Export`] (and of
+/// `PluginCode::exports`).
+pub(super) const EXPORTS: [&str; 6] =
+    ["check", "start", "interrupt", "exit", "snapshot", "restore"];
+
 impl Export {
     /// The export's name.
     pub(crate) fn name(self) -> &'static str {
-        super::code::EXPORTS[self as usize]
+        EXPORTS[self as usize]
     }
 
     /// The export named `name`.

@@ -53,7 +53,7 @@ pub(crate) struct PluginCode {
     pub(crate) backed: Option<super::backed::Backed>,
     /// The blackboard entries it reads and writes.
     pub board: Arc<[BoardPort]>,
-    /// Where each of [`EXPORTS`] is, resolved once at load.
+    /// Where each of [`super::call::EXPORTS`] is, resolved once at load.
     pub(super) exports: Arc<[Option<ComponentExportIndex>; 6]>,
     /// The component's own version, and the script a development runtime
     /// runs, if this is one (see [`crate::script`]).
@@ -78,10 +78,6 @@ impl PluginCode {
         code
     }
 }
-
-/// The functions Radar calls, in the order of `PluginCode::exports`.
-pub(super) const EXPORTS: [&str; 6] =
-    ["check", "start", "interrupt", "exit", "snapshot", "restore"];
 
 /// Whether an exported instance is the interface a plugin may put its
 /// functions in instead of the world's top level: `slots`, or an interface

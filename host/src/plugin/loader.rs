@@ -14,7 +14,8 @@ use wasmtime::component::{types, Component, Linker};
 use wasmtime::{Config, Engine};
 
 use super::cache::{cache_budget, compiling, load_artifact, prune_cache, write_atomically};
-use super::code::{export_index, is_slots_interface, PluginCode, EXPORTS};
+use super::call::EXPORTS;
+use super::code::{export_index, is_slots_interface, PluginCode};
 use super::store::PluginCtx;
 use super::world::validate;
 use crate::capability::{board, shared_types, signals};

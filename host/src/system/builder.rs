@@ -598,7 +598,12 @@ impl SystemBuilder {
                 Source::Backed(backed) => {
                     let mut backed = backed.clone();
                     if let Some(answers) = self.stand_ins.remove(&p.name) {
-                        check_stand_in(&p.name, &backed, &answers)?;
+                        backed
+                            .check(&answers)
+                            .map_err(|cause| RadarError::BadSetting {
+                                plugin: p.name.clone(),
+                                cause,
+                            })?;
                         backed = backed.scripted(answers);
                     } else if let Some(link) = self.backings.remove(&p.name) {
                         backed = backed.link(link);
@@ -793,26 +798,3 @@ pub const DEFAULT_TRACE_LIMIT: usize = 1_000_000;
 /// How many bytes of records [`RunReport::trace`](crate::RunReport::trace) keeps by default (see
 /// [`SystemBuilder::trace_bytes`](crate::SystemBuilder::trace_bytes)).
 pub const DEFAULT_TRACE_BYTES: usize = 256 << 20;
-
-/// A stood-in server's replies must fit the response's reply type.
-fn check_stand_in(
-    plugin: &str,
-    backed: &crate::plugin::Backed,
-    answers: &[crate::plugin::ScriptedAnswer],
-) -> Result<(), RadarError> {
-    for (i, scripted) in answers.iter().enumerate() {
-        let (Some(crate::plugin::Answer::Reply(json)), Some(ty)) =
-            (&scripted.answer, backed.reply_type())
-        else {
-            continue;
-        };
-        crate::payload::json_to_val(json, ty).map_err(|e| RadarError::BadSetting {
-            plugin: plugin.to_string(),
-            cause: format!(
-                "the stand-in server's answer {} does not fit the reply {ty}: {e}",
-                i + 1
-            ),
-        })?;
-    }
-    Ok(())
-}

@@ -2,8 +2,9 @@
 
     fixtures.py TYPE...   (e.g. sensor_msgs/msg/Range)
     fixtures.py --all     (every type of builtin_interfaces, std_msgs,
-                           geometry_msgs, sensor_msgs, nav_msgs in rosbags'
-                           ROS 2 Jazzy store)
+                           geometry_msgs, sensor_msgs, nav_msgs,
+                           unique_identifier_msgs and action_msgs in
+                           rosbags' ROS 2 Jazzy store)
 
 For each type prints one JSON line {"type", "hash" (RIHS01, from rosbags),
 "value" (Radar JSON), "le", "be" (hex of the CDR encoding with its 4-byte
