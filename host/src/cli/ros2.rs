@@ -23,13 +23,13 @@ pub struct Ros2Args {
 
 #[derive(Subcommand)]
 enum Ros2Command {
-    /// Lists the built-in message and service types.
+    /// Lists the built-in message, service and action types.
     Types,
     /// Shows a type: its RIHS01 hash, its key expression, its fields, and
     /// its WIT records, ready to paste into a plugin's interface.
     Show {
-        /// `pkg/msg/Name`, e.g. `sensor_msgs/msg/Range`, or a service,
-        /// `pkg/srv/Name`.
+        /// `pkg/msg/Name`, e.g. `sensor_msgs/msg/Range`, a service,
+        /// `pkg/srv/Name`, or an action, `pkg/action/Name`.
         type_name: String,
         /// Prints only the WIT records, to paste into a plugin's interface.
         #[arg(long)]
@@ -58,12 +58,18 @@ pub fn ros2(args: Ros2Args) -> Result<()> {
     let types = MessageTypes::new(args.msg_paths);
     match args.command {
         Ros2Command::Types => {
-            for name in MessageTypes::builtin_names().chain(MessageTypes::builtin_service_names()) {
+            let names = MessageTypes::builtin_names()
+                .chain(MessageTypes::builtin_service_names())
+                .chain(MessageTypes::builtin_action_names());
+            for name in names {
                 say(format_args!("{name}"));
             }
         }
         Ros2Command::Show { type_name, wit } if type_name.contains("/srv/") => {
             show_service(&types, &type_name, wit)?;
+        }
+        Ros2Command::Show { type_name, wit } if type_name.contains("/action/") => {
+            show_action(&types, &type_name, wit)?;
         }
         Ros2Command::Show { type_name, wit } => {
             let message = types.load(&type_name).map_err(anyhow::Error::msg)?;
@@ -145,6 +151,33 @@ fn show_service(types: &MessageTypes, name: &str, wit: bool) -> Result<()> {
          prints this alone):",
         service.name
     ));
+    print!("{records}");
+    Ok(())
+}
+
+/// `radar ros2 show pkg/action/Name`: the action's hash, its goal, result
+/// and feedback, and their WIT records.
+fn show_action(types: &MessageTypes, name: &str, wit: bool) -> Result<()> {
+    let action = types.load_action(name).map_err(anyhow::Error::msg)?;
+    let parts = [
+        ("goal", &action.goal),
+        ("result", &action.result),
+        ("feedback", &action.feedback),
+    ];
+    let records: String = parts.iter().map(|(_, m)| m.wit_definitions()).collect();
+    if wit {
+        print!("{records}");
+        return Ok(());
+    }
+    say(format_args!("{}", action.name));
+    say(format_args!("  hash  {}", action.hash));
+    for (part, message) in parts {
+        say(format_args!("  {part}"));
+        for field in &message.def().fields {
+            say(format_args!("    field {field} {}", field.name));
+        }
+    }
+    say(format_args!("\n// As WIT (`--wit` prints this alone):"));
     print!("{records}");
     Ok(())
 }

@@ -84,6 +84,11 @@ impl MessageTypes {
         BUILTIN_SERVICES.iter().map(|(name, _)| *name)
     }
 
+    /// Every built-in action type's name.
+    pub fn builtin_action_names() -> impl Iterator<Item = &'static str> {
+        BUILTIN_ACTIONS.iter().map(|(name, _)| *name)
+    }
+
     /// Type `name` (`pkg/msg/Name`) with everything it refers to; the
     /// error names the type that is missing or cannot be read.
     pub fn load(&self, name: &str) -> Result<Message, TypeError> {
