@@ -102,27 +102,11 @@ impl MessageTypes {
     }
 
     fn load_service_type(&self, name: &str) -> Result<Service, String> {
-        let parts: Vec<&str> = name.split('/').collect();
-        let (package, base) = match parts.as_slice() {
-            [package, "srv", base] if msg::is_type_name(&format!("{package}/msg/{base}")) => {
-                (*package, *base)
-            }
-            _ => {
-                return Err(format!(
-                    "`{name}` is not a service type (expected `package/srv/Name`, e.g. \
-                     `std_srvs/srv/SetBool`)"
-                ))
-            }
-        };
+        let (package, base) = interface_name(name, "srv", "a service", "std_srvs/srv/SetBool")?;
         let text = self.service_text(name, package, base)?;
-        let mut lines = text.lines();
-        let request_text: Vec<&str> = lines.by_ref().take_while(|l| l.trim() != "---").collect();
-        let response_text: Vec<&str> = lines.collect();
-        if !text.lines().any(|l| l.trim() == "---") {
-            return Err(format!(
-                "{name}: a .srv file has a `---` line between request and response"
-            ));
-        }
+        let [request_text, response_text] = sections(&text).try_into().map_err(|_| {
+            format!("{name}: a .srv file has one `---` line, between request and response")
+        })?;
         let half = |suffix: &str, lines: &[&str]| {
             let half_name = format!("{package}/srv/{base}_{suffix}");
             let def = msg::parse(&half_name, &lines.join("\n"))?;
@@ -146,41 +130,23 @@ impl MessageTypes {
     }
 
     fn load_action_type(&self, name: &str) -> Result<Action, String> {
-        let parts: Vec<&str> = name.split('/').collect();
-        let (package, base) = match parts.as_slice() {
-            [package, "action", base] if msg::is_type_name(&format!("{package}/msg/{base}")) => {
-                (*package, *base)
-            }
-            _ => {
-                return Err(format!(
-                    "`{name}` is not an action type (expected `package/action/Name`, e.g. \
-                     `test_msgs/action/Fibonacci`)"
-                ))
-            }
-        };
+        let (package, base) =
+            interface_name(name, "action", "an action", "test_msgs/action/Fibonacci")?;
         let text = self.interface_text(name, package, base, "action", BUILTIN_ACTIONS)?;
-        let mut thirds = vec![Vec::new()];
-        for line in text.lines() {
-            if line.trim() == "---" {
-                thirds.push(Vec::new());
-            } else if let Some(third) = thirds.last_mut() {
-                third.push(line);
-            }
-        }
-        let [goal, result, feedback] = thirds.as_slice() else {
-            return Err(format!(
+        let [goal, result, feedback] = sections(&text).try_into().map_err(|_| {
+            format!(
                 "{name}: an .action file has two `---` lines, between goal, result and feedback"
-            ));
-        };
+            )
+        })?;
         let part = |suffix: &str, lines: &[&str]| {
             let part_name = format!("{package}/action/{base}_{suffix}");
             let def = msg::parse(&part_name, &lines.join("\n"))?;
             self.load_with(&part_name, def)
         };
         let (goal, result, feedback) = (
-            part("Goal", goal)?,
-            part("Result", result)?,
-            part("Feedback", feedback)?,
+            part("Goal", &goal)?,
+            part("Result", &result)?,
+            part("Feedback", &feedback)?,
         );
         let field = |name: &str, base: Base| msg::Field {
             name: name.to_string(),
@@ -405,6 +371,38 @@ impl MessageTypes {
             )),
         }
     }
+}
+
+/// `pkg/<kind>/Name` as its package and its name, or an error that says
+/// what was expected (`what`: `a service`; `example`: a type of the kind).
+fn interface_name<'a>(
+    name: &'a str,
+    kind: &str,
+    what: &str,
+    example: &str,
+) -> Result<(&'a str, &'a str), String> {
+    let parts: Vec<&str> = name.split('/').collect();
+    match parts.as_slice() {
+        [package, k, base] if *k == kind && msg::is_type_name(&format!("{package}/msg/{base}")) => {
+            Ok((package, base))
+        }
+        _ => Err(format!(
+            "`{name}` is not {what} type (expected `package/{kind}/Name`, e.g. `{example}`)"
+        )),
+    }
+}
+
+/// An interface file's lines, in the sections its `---` lines part.
+fn sections(text: &str) -> Vec<Vec<&str>> {
+    let mut sections = vec![Vec::new()];
+    for line in text.lines() {
+        if line.trim() == "---" {
+            sections.push(Vec::new());
+        } else if let Some(section) = sections.last_mut() {
+            section.push(line);
+        }
+    }
+    sections
 }
 
 /// `name` and every type it refers to, through any number of others.
