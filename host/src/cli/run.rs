@@ -440,6 +440,14 @@ pub fn run(args: RunArgs) -> Result<()> {
                 let mut bridge = Ros2::open(settings, manifest.dir())?;
                 builder = builder.trace_to(bridge.tap());
                 for (plugin, link) in bridge.backings() {
+                    if args.clock == ClockKind::Virtual {
+                        // Its server answers in real time, and its bounds
+                        // (`cancel_ms`, `timeout_ms`) would pass in none.
+                        anyhow::bail!(
+                            "plugin `{plugin}` is backed by a ROS 2 service, which answers in \
+                             real time: run with --clock real"
+                        );
+                    }
                     builder = builder.backing(plugin, link);
                 }
                 ros2 = Some(bridge);

@@ -253,9 +253,17 @@ impl BackedInstance {
         let request = params.first().map_or(Json::Null, val_to_json);
         let answers = self.backed.answers.clone();
         let call = answers.begin();
+        // Whatever ends the wait (an answer, a fault, the call dropped as
+        // the run ends), nothing waits for this call any more; a request
+        // the link has not sent yet is not sent.
+        let mut waiting = CallGuard {
+            answers: &answers,
+            link: self.backed.link.as_deref(),
+            call,
+            answered: false,
+        };
         if let Some(link) = &self.backed.link {
             if let Err(why) = link.call(call, request) {
-                answers.end();
                 return Err(Fault::new(format!(
                     "{label}: request {call} not sent: {why}"
                 )));
@@ -283,12 +291,8 @@ impl BackedInstance {
             scripted,
         }
         .await;
-        answers.end();
-        if answer.is_err() {
-            if let Some(link) = &self.backed.link {
-                link.abandon(call);
-            }
-        }
+        waiting.answered = answer.is_ok();
+        drop(waiting);
         match answer {
             Ok(Answer::Reply(json)) => match &self.backed.reply {
                 Some(reply) => json_to_val(&json, reply)
@@ -298,6 +302,26 @@ impl BackedInstance {
             },
             Ok(Answer::Failed(why)) => Err(Fault::new(format!("{label}: request {call}: {why}"))),
             Err(cause) => Err(Fault::new(format!("{label}: request {call}: {cause}"))),
+        }
+    }
+}
+
+/// A call under way: when it ends, nothing waits for it any more, and a
+/// call that ended without its answer is abandoned at its link.
+struct CallGuard<'a> {
+    answers: &'a Answers,
+    link: Option<&'a dyn Backing>,
+    call: u64,
+    answered: bool,
+}
+
+impl Drop for CallGuard<'_> {
+    fn drop(&mut self) {
+        self.answers.end();
+        if !self.answered {
+            if let Some(link) = self.link {
+                link.abandon(self.call);
+            }
         }
     }
 }

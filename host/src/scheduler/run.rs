@@ -298,9 +298,13 @@ impl Scheduler {
                     .trace
                     .inputs
                     .as_mut()
-                    .map(|recorder| match &entry.def.origin {
-                        Some(path) => recorder.component(&Origin::File(path.clone()), &version),
-                        None => recorder.component_bytes(&entry.def.code.bytes, &version),
+                    .and_then(|recorder| match &entry.def.origin {
+                        Some(path) => {
+                            Some(recorder.component(&Origin::File(path.clone()), &version))
+                        }
+                        // A response backed by a server has no component to keep.
+                        None if entry.def.code.backed.is_some() => None,
+                        None => Some(recorder.component_bytes(&entry.def.code.bytes, &version)),
                     });
                 st.record_input(Input::Plugin {
                     plugin,

@@ -23,7 +23,9 @@ use crate::clock::ClockKind;
 use crate::error::RadarError;
 use crate::limiter::MemoryBudget;
 use crate::plugin::remote::Remote;
-use crate::plugin::{default_cache_dir, Agents, InjectedFault, Limits, Loader, PluginCode};
+use crate::plugin::{
+    default_cache_dir, Agents, Backing, InjectedFault, Limits, Loader, PluginCode, ScriptedAnswer,
+};
 use crate::ports::{Mode, SwapPolicy};
 use crate::scheduler::board::BoardUser;
 use crate::scheduler::{LinkSpec, LinkTarget, Place, PluginDef, StaticInput, StaticWhat};
@@ -69,9 +71,9 @@ pub struct SystemBuilder {
     /// The manifest the system comes from, named in a recording.
     manifest: Option<PathBuf>,
     /// Where backed responses' requests go, by plugin.
-    backings: BTreeMap<String, Arc<dyn crate::plugin::Backing>>,
+    backings: BTreeMap<String, Arc<dyn Backing>>,
     /// Servers stood in for, by backed response.
-    stand_ins: BTreeMap<String, Vec<crate::plugin::ScriptedAnswer>>,
+    stand_ins: BTreeMap<String, Vec<ScriptedAnswer>>,
 }
 
 impl Default for SystemBuilder {
@@ -143,26 +145,16 @@ impl SystemBuilder {
         })
     }
 
-    /// Sends backed response `plugin`'s requests to `link` (a ROS 2
-    /// node's client, `docs/ros2.md`); without one its answers come only
-    /// from inputs (a replay, a scenario).
-    pub fn backing(
-        mut self,
-        plugin: impl Into<String>,
-        link: Arc<dyn crate::plugin::Backing>,
-    ) -> Self {
+    /// Sends backed response `plugin`'s requests to `link` (a ROS 2 node's
+    /// client); without one its answers come only from inputs.
+    pub fn backing(mut self, plugin: impl Into<String>, link: Arc<dyn Backing>) -> Self {
         self.backings.insert(plugin.into(), link);
         self
     }
 
     /// Stands in for backed response `plugin`'s server (a scenario's
-    /// `[[server]]`, `docs/testing.md`): request `n` gets `answers[n - 1]`,
-    /// the last one once they run out; no request leaves the run.
-    pub fn stand_in(
-        mut self,
-        plugin: impl Into<String>,
-        answers: Vec<crate::plugin::ScriptedAnswer>,
-    ) -> Self {
+    /// `[[server]]`): request `n` gets `answers[n - 1]`, the last one after.
+    pub fn stand_in(mut self, plugin: impl Into<String>, answers: Vec<ScriptedAnswer>) -> Self {
         self.stand_ins.insert(plugin.into(), answers);
         self
     }
@@ -664,15 +656,19 @@ impl SystemBuilder {
                 name: p.name,
             });
         }
-        // A fault, a rate or a backing for a plugin the system does not
-        // have (or that is not backed).
-        if let Some(name) = faults
-            .keys()
-            .chain(fuel_rates.keys())
-            .chain(self.backings.keys())
-            .chain(self.stand_ins.keys())
-            .next()
-        {
+        // A backing or a stand-in left: for a plugin with a component.
+        let backs = self.backings.keys().chain(self.stand_ins.keys());
+        if let Some(name) = backs.clone().find(|n| defs.iter().any(|d| &d.name == *n)) {
+            return Err(RadarError::BadSetting {
+                plugin: name.clone(),
+                cause: "it has a component, and only a response with none (`ros2 = { service \
+                        = ... }`) has a server to stand in for or a backing"
+                    .into(),
+            });
+        }
+        // A fault, a rate, a backing or a stand-in for a plugin the system
+        // does not have.
+        if let Some(name) = faults.keys().chain(fuel_rates.keys()).chain(backs).next() {
             return Err(RadarError::UnknownPlugin {
                 name: name.clone(),
                 hint: crate::suggest::hint(name, defs.iter().map(|d| d.name.as_str())),

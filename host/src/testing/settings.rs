@@ -117,7 +117,7 @@ impl From<FuelForm> for FuelSettings {
 
 /// A `[[server]]` table: the server of a response ROS 2 backs, stood in
 /// for (`docs/testing.md#server`).
-#[derive(Clone, Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct ServerSettings {
     /// The backed response.
@@ -128,17 +128,20 @@ pub struct ServerSettings {
 }
 
 /// One answer of a `[[server]]`.
-#[derive(Clone, Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct AnswerSettings {
     /// How long after the request (`"300ms"`; default at once).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub after: Option<String>,
     /// The reply, as the response's `exited` carries it.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub reply: Option<toml::Value>,
     /// The request fails, and this says why (the plugin faults).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub fail: Option<String>,
     /// The server never answers.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub never: bool,
 }
 

@@ -401,6 +401,8 @@ impl Ros2 {
             self.tokens
                 .push(liveliness.declare_token(token).wait().map_err(declare)?);
             let key = graph::topic_key(node.domain, &link.name, &service.name, &service.hash);
+            let servers =
+                graph::server_tokens(node.domain, &link.name, &service.name, &service.hash);
             let requests = link.taken.lock().unwrap_or_else(|e| e.into_inner()).take();
             let Some(requests) = requests else { continue };
             let (session, gid) = (session.clone(), node.gid(entity));
@@ -408,7 +410,7 @@ impl Ros2 {
             let thread = std::thread::Builder::new()
                 .name("radar-ros2-service".into())
                 .spawn(move || {
-                    super::services::serve_zenoh(session, key, gid, link, requests, stop)
+                    super::services::serve_zenoh(session, key, servers, gid, link, requests, stop)
                 })
                 .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
             self.threads.push(thread);

@@ -30,6 +30,16 @@ pub fn topic_key(domain: u32, topic: &str, type_name: &str, hash: &str) -> Strin
     )
 }
 
+/// The key expression that matches the liveliness token of every server
+/// (`SS`) of `service` of this type and hash, whatever node holds it.
+pub fn server_tokens(domain: u32, service: &str, type_name: &str, hash: &str) -> String {
+    format!(
+        "{ADMIN_SPACE}/{domain}/*/*/*/SS/*/*/*/{}/{}/{hash}/*",
+        mangle(service),
+        dds_type(type_name)
+    )
+}
+
 /// A name with its slashes as `%`, as a single chunk of a key expression
 /// (`/` alone is `%`).
 fn mangle(name: &str) -> String {

@@ -158,8 +158,12 @@ impl<Id: Ord> Pending<Id> {
     pub(super) fn replied(&mut self, id: &Id) -> Option<u64> {
         self.calls.remove(id)
     }
-    pub(super) fn latest(&self) -> Option<u64> {
-        self.calls.values().max().copied()
+    /// The call under way, if exactly one is.
+    pub(super) fn only(&self) -> Option<u64> {
+        match self.calls.values().collect::<Vec<_>>().as_slice() {
+            [call] => Some(**call),
+            _ => None,
+        }
     }
     pub(super) fn forget(&mut self, call: u64) {
         self.calls.retain(|_, c| *c != call);
@@ -214,6 +218,7 @@ pub(super) fn serve_dds(
             Err(RecvTimeoutError::Disconnected) => break,
         }
         unsent.retain(|(call, _, _)| !link.abandoned(*call));
+        pending.calls.retain(|_, call| !link.abandoned(*call));
         if !(pending.is_empty() && unsent.is_empty()) {
             let seen = match looked {
                 Some((at, seen)) if at.elapsed() < LOOK => seen,
@@ -268,9 +273,10 @@ pub(super) fn serve_dds(
                 }
                 Ok(None) => break,
                 // A reply that does not read names no request it can be
-                // matched with: it is the latest call's.
+                // matched with: it fails the call only when one is under
+                // way (an activation makes one at a time).
                 Err(e) => {
-                    if let Some(call) = pending.latest() {
+                    if let Some(call) = pending.only() {
                         pending.forget(call);
                         link.answer(call, Err(format!("the reply does not read: {e}")));
                     }
@@ -284,98 +290,141 @@ pub(super) fn serve_dds(
 /// rmw_zenoh: the client's thread. Each request is a Zenoh query of the
 /// service's key expression (payload: the CDR request; attachment:
 /// sequence number, time, the client's GID, as rmw_zenoh sends them),
-/// answered by the server's queryable. A query that ends with no reply
-/// reached no server: within [`DISCOVERY`] of the call it is asked again
-/// (the server may not be discovered yet), then the call fails.
+/// answered by the server's queryable, on a thread of its own. A request
+/// goes out once a server's liveliness token is seen, and fails if none
+/// shows within [`DISCOVERY`]; a query that ends with no reply means the
+/// server went. A call given up is dropped (its query with it).
 pub(super) fn serve_zenoh(
     session: zenoh::Session,
     key: String,
+    servers: String,
     gid: [u8; 16],
     link: Arc<ServiceLink>,
     requests: Receiver<ToClient>,
     stop: Arc<AtomicBool>,
 ) {
     let sequence = Arc::new(std::sync::atomic::AtomicI64::new(0));
+    let mut calls: Vec<std::thread::JoinHandle<()>> = Vec::new();
     while !stop.load(Ordering::Relaxed) {
+        calls.retain(|c| !c.is_finished());
         let (call, bytes) = match requests.recv_timeout(Duration::from_millis(100)) {
             Ok(request) => request,
             Err(RecvTimeoutError::Timeout) => continue,
             Err(RecvTimeoutError::Disconnected) => break,
         };
-        let (session, key, link, stop, sequence) = (
-            session.clone(),
-            key.clone(),
-            link.clone(),
-            stop.clone(),
-            sequence.clone(),
-        );
-        // One thread a call (an activation makes one at a time): the query
-        // waits for its reply there.
-        let _ = std::thread::Builder::new()
+        let query = ZenohCall {
+            session: session.clone(),
+            key: key.clone(),
+            servers: servers.clone(),
+            gid,
+            link: link.clone(),
+            stop: stop.clone(),
+            sequence: sequence.clone(),
+        };
+        match std::thread::Builder::new()
             .name("radar-ros2-call".into())
-            .spawn(move || {
-                let began = std::time::Instant::now();
-                loop {
-                    let number = sequence.fetch_add(1, Ordering::Relaxed) + 1;
-                    let attachment = super::graph::attachment(number, wall_ns(), &gid);
-                    let replies = session
-                        .get(&key)
-                        .payload(bytes.clone())
-                        .attachment(attachment)
-                        .target(zenoh::query::QueryTarget::AllComplete)
-                        .consolidation(zenoh::query::ConsolidationMode::None)
-                        .timeout(Duration::from_secs(24 * 3600))
-                        .wait();
-                    let replies = match replies {
-                        Ok(replies) => replies,
-                        Err(e) => {
-                            link.answer(call, Err(format!("the request was not sent: {e}")));
-                            return;
-                        }
-                    };
-                    // The reply, or the query's end with none (`None`).
-                    let reply = loop {
-                        match replies.recv_timeout(Duration::from_millis(100)) {
-                            Ok(Some(reply)) => break Some(reply),
-                            Ok(None) if stop.load(Ordering::Relaxed) => return,
-                            Ok(None) => {}
-                            Err(_) => break None,
-                        }
-                    };
-                    match reply.ok_or(()) {
-                        Ok(reply) => {
-                            let answer = match reply.result() {
-                                Ok(sample) => Ok(sample.payload().to_bytes().into_owned()),
-                                Err(e) => Err(format!(
-                                    "the server answered with an error: {}",
-                                    String::from_utf8_lossy(&e.payload().to_bytes())
-                                )),
-                            };
-                            link.answer(call, answer);
-                            return;
-                        }
-                        Err(_)
-                            if began.elapsed() < DISCOVERY
-                                && !stop.load(Ordering::Relaxed)
-                                && !link.abandoned(call) =>
-                        {
-                            std::thread::sleep(LOOK);
-                        }
-                        Err(_) => {
-                            if !link.abandoned(call) {
-                                link.answer(
-                                    call,
-                                    Err(format!(
-                                        "no server of {} ({}) answered on rmw_zenoh",
-                                        link.name, link.service.name
-                                    )),
-                                );
-                            }
-                            return;
-                        }
-                    }
-                }
-            });
+            .spawn(move || query.run(call, bytes))
+        {
+            Ok(thread) => calls.push(thread),
+            Err(e) => link.answer(call, Err(format!("cannot start a thread: {e}"))),
+        }
+    }
+    for call in calls {
+        let _ = call.join();
+    }
+}
+
+/// One call on rmw_zenoh (see [`serve_zenoh`]).
+struct ZenohCall {
+    session: zenoh::Session,
+    key: String,
+    servers: String,
+    gid: [u8; 16],
+    link: Arc<ServiceLink>,
+    stop: Arc<AtomicBool>,
+    sequence: Arc<std::sync::atomic::AtomicI64>,
+}
+
+impl ZenohCall {
+    /// Whether the call is no longer wanted (given up, or the run ends).
+    fn ended(&self, call: u64) -> bool {
+        self.stop.load(Ordering::Relaxed) || self.link.abandoned(call)
+    }
+
+    /// Whether a server's liveliness token is there now.
+    fn server_seen(&self) -> bool {
+        let Ok(replies) = self
+            .session
+            .liveliness()
+            .get(&self.servers)
+            .timeout(Duration::from_millis(500))
+            .wait()
+        else {
+            return false;
+        };
+        replies.recv().is_ok()
+    }
+
+    fn run(self, call: u64, bytes: Vec<u8>) {
+        let link = &self.link;
+        let began = std::time::Instant::now();
+        while !self.server_seen() {
+            if self.ended(call) {
+                return;
+            }
+            if began.elapsed() >= DISCOVERY {
+                link.answer(
+                    call,
+                    Err(format!(
+                        "no server of {} ({}) on rmw_zenoh after {} s",
+                        link.name,
+                        link.service.name,
+                        DISCOVERY.as_secs()
+                    )),
+                );
+                return;
+            }
+            std::thread::sleep(LOOK);
+        }
+        let number = self.sequence.fetch_add(1, Ordering::Relaxed) + 1;
+        let attachment = super::graph::attachment(number, wall_ns(), &self.gid);
+        let replies = self
+            .session
+            .get(&self.key)
+            .payload(bytes)
+            .attachment(attachment)
+            .target(zenoh::query::QueryTarget::AllComplete)
+            .consolidation(zenoh::query::ConsolidationMode::None)
+            .timeout(Duration::from_secs(24 * 3600))
+            .wait();
+        let replies = match replies {
+            Ok(replies) => replies,
+            Err(e) => {
+                link.answer(call, Err(format!("the request was not sent: {e}")));
+                return;
+            }
+        };
+        // The reply, or the query's end with none.
+        let reply = loop {
+            match replies.recv_timeout(Duration::from_millis(100)) {
+                Ok(Some(reply)) => break Some(reply),
+                Ok(None) if self.ended(call) => return,
+                Ok(None) => {}
+                Err(_) => break None,
+            }
+        };
+        let answer = match reply.map(|r| r.into_result()) {
+            Some(Ok(sample)) => Ok(sample.payload().to_bytes().into_owned()),
+            Some(Err(e)) => Err(format!(
+                "the server answered with an error: {}",
+                String::from_utf8_lossy(&e.payload().to_bytes())
+            )),
+            None => Err(format!(
+                "the server of {} went away before it answered (its query ended with no reply)",
+                link.name
+            )),
+        };
+        link.answer(call, answer);
     }
 }
 

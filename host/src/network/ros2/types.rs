@@ -1,4 +1,5 @@
-//! Where message definitions come from, and what each becomes for Radar:
+//! Where message, service and action definitions come from (`.msg`,
+//! `.srv`, `.action`), and what each becomes for Radar:
 //! the definitions built in ([`super::builtin`]) and those in the
 //! manifest's `[ros2] msg_paths`, a type with every type it refers to, its
 //! RIHS01 hash, and the WIT type its values take on the blackboard and in

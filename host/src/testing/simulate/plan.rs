@@ -96,11 +96,12 @@ pub struct Plan {
 pub const BROKEN_BUILD: &[u8] = b"radar: a broken build, not a WebAssembly component\n";
 
 /// Whether an input moves with jitter (the lines a recording adds about
-/// itself do not).
+/// itself do not, nor a server's answer, which no jitter may put before
+/// its request).
 pub(super) fn moves(input: &Input) -> bool {
     !matches!(
         input,
-        Input::Recording { .. } | Input::Plugin { .. } | Input::End { .. }
+        Input::Recording { .. } | Input::Plugin { .. } | Input::End { .. } | Input::Answer { .. }
     )
 }
 

@@ -333,6 +333,12 @@ fn settings_text(sim: &Simulation, plan: &Plan, spec: &RunSpec) -> Result<String
     if !faults.is_empty() {
         out.insert("fault".into(), toml::Value::Array(faults));
     }
+    // A stood-in server's answers are no inputs: the shrunk case keeps it.
+    if !settings.server.is_empty() {
+        let servers = toml::Value::try_from(&settings.server)
+            .map_err(|e| format!("the [[server]] tables: {e}"))?;
+        out.insert("server".into(), servers);
+    }
     let expect = &settings.expect;
     if !expect.is_empty() {
         let list = |l: &[String]| {
