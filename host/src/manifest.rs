@@ -471,8 +471,9 @@ impl Manifest {
                 if entry.wasm.as_os_str().is_empty() {
                     return Err(format!(
                         "plugins.{name}: say its component (`wasm = \"...\"`), or the ROS 2 \
-                         service that backs it (`ros2 = {{ service = \"/name\", type = \
-                         \"pkg/srv/Name\" }}`)"
+                         service or action that backs it (`ros2 = {{ service = \"/name\", type \
+                         = \"pkg/srv/Name\" }}`, `ros2 = {{ action = \"/name\", type = \
+                         \"pkg/action/Name\" }}`)"
                     ));
                 }
                 continue;
@@ -491,7 +492,7 @@ impl Manifest {
             ];
             if let Some((_, key)) = component_keys.iter().find(|(set, _)| *set) {
                 return Err(format!(
-                    "plugins.{name}: `{key}` goes with a component, and a ROS 2 service backs \
+                    "plugins.{name}: `{key}` goes with a component, and ROS 2 backs \
                      this response (leave `{key}` out, or `ros2` for a component)"
                 ));
             }

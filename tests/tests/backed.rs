@@ -37,6 +37,8 @@ fn answer(at_s: f64, call: u64, reply: Option<Json>, failed: Option<&str>) -> Ti
             call,
             reply,
             failed: failed.map(String::from),
+            accepted: false,
+            feedback: None,
         },
     )
 }

@@ -13,6 +13,7 @@
 mod common;
 
 mod backed;
+mod backed_actions;
 mod bad_input;
 mod board;
 mod board_in_languages;

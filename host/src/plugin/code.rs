@@ -108,15 +108,17 @@ impl PluginCode {
     /// from 1 in each system built (a `Backed` may be used for several).
     pub(crate) fn backed(mut backed: super::backed::Backed) -> Self {
         backed.answers = Arc::default();
-        let version = version_of(
-            format!("{}\n{:?}\n{:?}", backed.label, backed.request, backed.reply).as_bytes(),
-        );
+        let mut what = format!("{}\n{:?}\n{:?}", backed.label, backed.request, backed.reply);
+        if let Some(feedback) = &backed.feedback {
+            what.push_str(&format!("\n{feedback:?}"));
+        }
+        let version = version_of(what.as_bytes());
         PluginCode {
             kind: Kind::Response {
                 start_param: backed.request.clone(),
                 start_result: backed.reply.clone(),
                 interrupt_param: None,
-                signals: Arc::new([]),
+                signals: backed.signals().into(),
             },
             version: version.clone(),
             pre: None,

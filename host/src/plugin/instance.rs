@@ -438,6 +438,15 @@ impl Drop for Settling<'_> {
 }
 
 impl PluginInstance {
+    /// A response backed by an action makes progress while `start` runs
+    /// (accepted, feedback): where the scheduler takes it, to emit it.
+    pub(crate) fn progress(&self) -> Option<Arc<super::backed::Answers>> {
+        match &self.inner {
+            Inner::Backed(backed) => backed.progress(),
+            _ => None,
+        }
+    }
+
     fn has(&self, export: Export) -> bool {
         match &self.inner {
             Inner::Local(local) => local.has(export),

@@ -24,6 +24,7 @@ mod store;
 mod world;
 
 pub use backed::{Answer, Backed, Backing, ScriptedAnswer};
+pub(crate) use backed::{Answers, Progress};
 pub(crate) use cache::default_cache_dir;
 pub use cache::on_first_compile;
 pub(crate) use code::{version_of, Kind, PluginCode};

@@ -10,9 +10,9 @@ use serde_json::Value as Json;
 use super::state::{Activation, Core, Lifecycle, Phase, State};
 use super::versions::Transition;
 use crate::clock::{ClockKind, StopReason};
-use crate::payload::trace_json;
-use crate::plugin::{Fault, Kind, PluginInstance};
-use crate::ports::{Signal, Slot};
+use crate::payload::{trace_json, Shared};
+use crate::plugin::{Answers, Fault, Kind, PluginInstance, Progress};
+use crate::ports::{Signal, SignalName, Slot};
 use crate::trace::Entry;
 
 impl Core {
@@ -233,6 +233,7 @@ pub(super) fn exit_begins_after(st: &mut State, pid: usize, after: &'static str)
         queued: None,
         after: Some(after.into()),
         ran: None,
+        awaits: None,
     });
 }
 
@@ -245,6 +246,19 @@ pub(super) fn slot_begin(
     connection: Option<u64>,
     queued: Option<u64>,
 ) {
+    slot_begin_awaiting(st, pid, slot, connection, queued, false);
+}
+
+/// As [`slot_begin`]; `accepted`: a start whose `started` waits for its
+/// action's server to accept the goal.
+fn slot_begin_awaiting(
+    st: &mut State,
+    pid: usize,
+    slot: Slot,
+    connection: Option<u64>,
+    queued: Option<u64>,
+    accepted: bool,
+) {
     if !st.trace.tracing() {
         return;
     }
@@ -256,7 +270,41 @@ pub(super) fn slot_begin(
         queued,
         after: None,
         ran: None,
+        awaits: accepted.then(|| "accepted".into()),
     });
+}
+
+/// Runs `call` (an action-backed response's `start`), emitting the
+/// progress it makes as it makes it: `started` when the goal is accepted,
+/// `feedback` for each feedback.
+async fn with_progress<F: std::future::Future>(
+    core: &Core,
+    pid: usize,
+    answers: &Answers,
+    started: Shared,
+    call: F,
+) -> F::Output {
+    let mut call = std::pin::pin!(call);
+    std::future::poll_fn(|cx| {
+        let out = call.as_mut().poll(cx);
+        let made = answers.take_progress();
+        if !made.is_empty() {
+            core.with(|st| {
+                for progress in made {
+                    match progress {
+                        Progress::Accepted => st.emit(pid, Signal::Started, started.clone()),
+                        Progress::Feedback(payload) => st.emit(
+                            pid,
+                            Signal::Named(SignalName::intern("feedback")),
+                            payload.map(Arc::new),
+                        ),
+                    }
+                }
+            });
+        }
+        out
+    })
+    .await
 }
 
 pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
@@ -318,6 +366,8 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
                 Kind::Event { .. } => (false, false, false),
             });
         let payload = request.payload.clone().filter(|_| takes_payload);
+        // An action's `started` waits for the server to accept the goal.
+        let progress = inst.progress();
         core.with(|st| {
             st.set_phase(pid, Phase::Running);
             st.plugins[pid].activation = Some(Activation {
@@ -325,10 +375,34 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
                 payload: request.payload.clone(),
                 until: request.until,
             });
-            slot_begin(st, pid, Slot::Start, Some(request.via), queued);
-            st.emit(pid, Signal::Started, payload.clone());
+            slot_begin_awaiting(
+                st,
+                pid,
+                Slot::Start,
+                Some(request.via),
+                queued,
+                progress.is_some(),
+            );
+            if progress.is_none() {
+                st.emit(pid, Signal::Started, payload.clone());
+            }
         });
-        let outcome = inst.start(payload, has_result).await;
+        let outcome = match &progress {
+            None => inst.start(payload, has_result).await,
+            // Boxed: the rare path pays an allocation, not every actor's
+            // future its size.
+            Some(answers) => {
+                let started = payload.clone();
+                Box::pin(with_progress(
+                    &core,
+                    pid,
+                    answers,
+                    started,
+                    inst.start(payload, has_result),
+                ))
+                .await
+            }
+        };
         // Stopped by the bound of a stop of the run, not by its own fault
         // (the stop may have been asked for while the call held the
         // scheduler's thread: it begins now).

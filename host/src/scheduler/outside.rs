@@ -108,15 +108,14 @@ impl State {
     /// An answer nothing waits for any more (its activation was stopped
     /// and gave up on it) is said in the trace and left out.
     pub(super) fn answer(&mut self, plugin: &str, call: u64, answer: Answer) {
-        let (reply, failed) = match &answer {
-            Answer::Reply(json) => (Some(json.clone()), None),
-            Answer::Failed(why) => (None, Some(why.clone())),
-        };
+        let (reply, failed, accepted, feedback) = answer.fields();
         self.record_input(Input::Answer {
             plugin: plugin.to_string(),
             call,
             reply,
             failed,
+            accepted,
+            feedback,
         });
         let Some(pid) = self.by_name.get(plugin).copied() else {
             return;
@@ -165,6 +164,7 @@ impl State {
                 queued: None,
                 after: Some("node-lost".into()),
                 ran: Some((exit.began, exit.ended)),
+                awaits: None,
             });
             for line in exit.logs {
                 self.record(Entry::Log {

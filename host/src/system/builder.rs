@@ -375,15 +375,19 @@ impl SystemBuilder {
                     call,
                     reply,
                     failed,
+                    accepted,
+                    feedback,
                 } => StaticWhat::Answer {
                     plugin: plugin.clone(),
                     call: *call,
-                    answer: match (reply, failed) {
-                        (Some(reply), _) => crate::plugin::Answer::Reply(reply.clone()),
-                        (None, failed) => crate::plugin::Answer::Failed(
-                            failed.clone().unwrap_or_else(|| "no reply".into()),
-                        ),
-                    },
+                    // `inputs::parse` has checked it says one thing.
+                    answer: crate::plugin::Answer::from_fields(
+                        reply.clone(),
+                        failed.clone(),
+                        *accepted,
+                        feedback.clone(),
+                    )
+                    .unwrap_or_else(crate::plugin::Answer::Failed),
                 },
                 Input::Refused {
                     command,
@@ -590,15 +594,17 @@ impl SystemBuilder {
                 Source::Backed(backed) => {
                     let mut backed = backed.clone();
                     if let Some(answers) = self.stand_ins.remove(&p.name) {
+                        backed = backed.scripted(answers);
+                    } else if let Some(link) = self.backings.remove(&p.name) {
+                        backed = backed.link(link);
+                    }
+                    if let Some(script) = backed.script.clone() {
                         backed
-                            .check(&answers)
+                            .check(&script)
                             .map_err(|cause| RadarError::BadSetting {
                                 plugin: p.name.clone(),
                                 cause,
                             })?;
-                        backed = backed.scripted(answers);
-                    } else if let Some(link) = self.backings.remove(&p.name) {
-                        backed = backed.link(link);
                     }
                     PluginCode::backed(backed)
                 }

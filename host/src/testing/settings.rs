@@ -143,6 +143,33 @@ pub struct AnswerSettings {
     /// The server never answers.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub never: bool,
+    /// An action's server: when it accepts the goal (default at once).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub accept: Option<String>,
+    /// An action's server: its feedback, each at its time.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub feedback: Vec<FeedbackSettings>,
+    /// An action's server: the goal succeeds at `after` with this result.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub result: Option<toml::Value>,
+    /// An action's server: the goal ends at `after` with this status,
+    /// `aborted` or `canceled`, or is `rejected` then.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub status: Option<String>,
+    /// An action's server: how long after a cancel it ends the goal as
+    /// `canceled` (default at once; `"never"`: it does not answer).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cancel: Option<String>,
+}
+
+/// One feedback of a stood-in action server.
+#[derive(Clone, Debug, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct FeedbackSettings {
+    /// How long after the goal.
+    pub after: String,
+    /// The feedback, as the response's `feedback` signal carries it.
+    pub value: toml::Value,
 }
 
 impl ServerSettings {
@@ -162,23 +189,85 @@ impl ServerSettings {
                         .map_err(|e| format!("{at}: answer {}: after: {e}", i + 1))?,
                     None => Duration::ZERO,
                 };
-                let answer = match (&a.reply, &a.fail, a.never) {
-                    (Some(reply), None, false) => {
-                        Some(Answer::Reply(serde_json::to_value(reply).map_err(|e| {
-                            format!("{at}: answer {}: reply: {e}", i + 1)
-                        })?))
+                let this = |what: &str, e: String| format!("{at}: answer {}: {what}: {e}", i + 1);
+                let json = |what: &str, value: &toml::Value| {
+                    serde_json::to_value(value).map_err(|e| this(what, e.to_string()))
+                };
+                let time = |what: &str, text: &str| {
+                    parse_duration(text).map_err(|e| this(what, e.to_string()))
+                };
+                let mut rejected = false;
+                let answer = match (&a.reply, &a.result, &a.status, &a.fail, a.never) {
+                    (Some(reply), None, None, None, false) => {
+                        Some(Answer::Reply(json("reply", reply)?))
                     }
-                    (None, Some(why), false) => Some(Answer::Failed(why.clone())),
-                    (None, None, true) => None,
+                    (None, Some(result), None, None, false) => Some(Answer::Reply(
+                        serde_json::json!({ "ok": json("result", result)? }),
+                    )),
+                    (None, None, Some(status), None, false) => match status.as_str() {
+                        "aborted" | "canceled" | "rejected" => {
+                            rejected = status == "rejected";
+                            Some(Answer::Reply(serde_json::json!({ "err": status })))
+                        }
+                        other => {
+                            return Err(this(
+                                "status",
+                                format!("`{other}`: expected aborted, canceled or rejected"),
+                            ))
+                        }
+                    },
+                    (None, None, None, Some(why), false) => Some(Answer::Failed(why.clone())),
+                    (None, None, None, None, true) => None,
                     _ => {
                         return Err(format!(
-                            "{at}: answer {}: say one of `reply = {{ ... }}`, `fail = \"why\"` \
-                             or `never = true`",
+                            "{at}: answer {}: say one of `reply = {{ ... }}` (a service), \
+                             `result = {{ ... }}` or `status = \"aborted\"` (an action), \
+                             `fail = \"why\"` or `never = true`",
                             i + 1
                         ))
                     }
                 };
-                Ok(ScriptedAnswer { after, answer })
+                let action = a.result.is_some()
+                    || a.status.is_some()
+                    || a.accept.is_some()
+                    || !a.feedback.is_empty()
+                    || a.cancel.is_some();
+                if action && a.reply.is_some() {
+                    return Err(this(
+                        "reply",
+                        "a service's; an action's server gives `result` or `status`".into(),
+                    ));
+                }
+                let feedback = a
+                    .feedback
+                    .iter()
+                    .map(|f| {
+                        Ok((
+                            time("feedback after", &f.after)?,
+                            json("feedback", &f.value)?,
+                        ))
+                    })
+                    .collect::<Result<Vec<_>, String>>()?;
+                let accepted = match &a.accept {
+                    Some(_) if rejected => {
+                        return Err(this("accept", "a rejected goal is not accepted".into()))
+                    }
+                    Some(text) => Some(time("accept", text)?),
+                    None => None,
+                };
+                let cancelled = match a.cancel.as_deref() {
+                    Some("never") => None,
+                    Some(text) => Some(time("cancel", text)?),
+                    None => Some(Duration::ZERO),
+                };
+                Ok(ScriptedAnswer {
+                    after,
+                    answer,
+                    accepted,
+                    rejected,
+                    feedback,
+                    cancelled,
+                })
             })
             .collect()
     }

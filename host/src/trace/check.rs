@@ -201,6 +201,8 @@ struct Checker {
     active_events: HashSet<String>,
     /// The signal the next record must be, as a slot has just begun.
     announce: Option<(String, &'static str)>,
+    /// Responses whose activation has not emitted `started` yet.
+    started_owed: HashSet<String>,
 }
 
 fn plugin_of(label: &str) -> &str {
@@ -435,11 +437,19 @@ impl Checker {
                 slot,
                 connection,
                 after,
+                awaits,
                 ..
             } => match after.as_deref() {
                 Some("fault") if slot == "exit" => self.exit_after_fault(plugin),
                 Some("node-lost") if slot == "exit" => self.exit_reported(plugin),
-                _ => self.slot_begin(plugin, slot, *connection),
+                _ => {
+                    self.slot_begin(plugin, slot, *connection);
+                    if slot == "start" && awaits.is_some() {
+                        // An action's `started` comes when its server
+                        // accepts the goal, if it does.
+                        self.announce = None;
+                    }
+                }
             },
             Entry::SlotEnd {
                 plugin,
@@ -537,6 +547,12 @@ impl Checker {
             }
             "started" => {
                 self.expect_step(plugin, &[Step::Starting], "started");
+                if !self.started_owed.remove(plugin) {
+                    self.fail(
+                        "activation",
+                        format!("{plugin}.started emitted twice in one activation"),
+                    );
+                }
             }
             "interrupted" => {
                 self.expect_step(plugin, &[Step::Interrupting], "interrupted");
@@ -569,6 +585,7 @@ impl Checker {
                 self.settle_start(plugin, connection, "began");
                 self.set_step(plugin, Step::Starting);
                 self.announce = Some((plugin.to_string(), "started"));
+                self.started_owed.insert(plugin.to_string());
             }
             "interrupt" => {
                 self.expect_step(plugin, &[Step::StartEnded], "interrupt");
@@ -636,6 +653,10 @@ impl Checker {
                 },
             );
             return;
+        }
+        if slot == "start" {
+            // A goal its server rejected never started.
+            self.started_owed.remove(plugin);
         }
         let trapped = outcome == "trapped";
         let (during, next) = match slot {

@@ -168,7 +168,8 @@ pub enum Input {
         exits: Vec<ReportedExit>,
     },
     /// A server answered a request of a response it backs (a ROS 2
-    /// service, `docs/ros2.md`): the reply, or why there is none.
+    /// service or action, `docs/ros2.md`): the reply, or why there is
+    /// none; an action's acceptance of the goal, or a feedback.
     Answer {
         /// The backed response.
         plugin: String,
@@ -180,6 +181,12 @@ pub enum Input {
         /// Why there is no reply.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         failed: Option<String>,
+        /// An action's server accepted the goal.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        accepted: bool,
+        /// An action's feedback, as JSON.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        feedback: Option<Json>,
     },
     /// The run was stopped (a signal, `radar ctl stop`, `Radar::stop`)
     /// while responses ran: their exits ran before it ended
@@ -277,6 +284,29 @@ pub fn parse(text: &str, dir: &Path) -> Result<Vec<TimedInput>, ParseError> {
                 return Err(ParseError {
                     line: *line,
                     cause: format!("swap policy `{policy}`: expected drain or restart"),
+                });
+            }
+        }
+        if let Input::Answer {
+            reply,
+            failed,
+            accepted,
+            feedback,
+            ..
+        } = &input.input
+        {
+            let said = [
+                reply.is_some(),
+                failed.is_some(),
+                *accepted,
+                feedback.is_some(),
+            ];
+            if said.iter().filter(|s| **s).count() != 1 {
+                return Err(ParseError {
+                    line: *line,
+                    cause: "an answer has exactly one of `reply`, `failed`, `accepted` and \
+                            `feedback`"
+                        .into(),
                 });
             }
         }

@@ -102,6 +102,11 @@ pub enum Entry {
         /// kept it, the exit began and ended on the agent.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         ran: Option<(u64, u64)>,
+        /// For the `start` of a response backed by a ROS 2 action:
+        /// `accepted`, its `started` is emitted when the server accepts the
+        /// goal (a rejected goal has none), not as the slot begins.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        awaits: Option<Name>,
     },
     /// A slot finished: `completed`, `interrupted` or `trapped`.
     SlotEnd {

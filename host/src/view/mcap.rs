@@ -239,6 +239,7 @@ fn schema(kind: &str) -> String {
             ("connection", integer),
             ("queued", integer),
             ("after", string),
+            ("awaits", string),
         ],
         "slot-end" => &[("plugin", string), ("slot", string), ("outcome", string)],
         "board-write" => &[("entry", string), ("by", string), ("value", any)],

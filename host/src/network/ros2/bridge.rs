@@ -20,6 +20,7 @@ use zenoh::handlers::RingChannel;
 use zenoh::qos::CongestionControl;
 use zenoh::{Session, Wait};
 
+use super::actions::ActionLink;
 use super::cdr;
 #[cfg(feature = "dds")]
 use super::dds::{DdsNode, DdsPublisher};
@@ -28,7 +29,7 @@ use super::fit::{self, FieldPath};
 use super::graph::{self, Endpoint, Node};
 use super::incoming::{zenoh_sender, Taker};
 use super::outgoing::{has_header, publish, Outgoing, Tap, Wire};
-use super::services::{backed_response, ServiceLink};
+use super::services::{backed_response, Server, ServiceLink};
 use super::settings::{Qos, Rmw, Ros2Settings};
 use super::types::{Message, MessageTypes};
 use crate::network::{session, Network};
@@ -71,6 +72,8 @@ pub struct Ros2 {
     publications: Vec<Publication>,
     /// The responses backed by services: each one's client.
     services: Vec<Arc<ServiceLink>>,
+    /// The responses backed by actions: each one's client.
+    actions: Vec<Arc<ActionLink>>,
     /// Emissions the tap queued, taken by the publishing thread.
     queued: Option<Receiver<(usize, Json)>>,
     tap: Option<Sender<(usize, Json)>>,
@@ -126,10 +129,23 @@ impl Ros2 {
             });
         }
         let mut services = Vec::new();
+        let mut actions = Vec::new();
         for (plugin, by) in &settings.backed {
-            let (_, service) = backed_response(settings, &types, plugin, by)?;
-            let name = settings.full_topic(by.service.as_deref().unwrap_or_default());
-            services.push(Arc::new(ServiceLink::new(plugin, name, service)));
+            let name = settings.full_topic(by.name());
+            match backed_response(settings, &types, plugin, by)?.1 {
+                Server::Service(service) => {
+                    services.push(Arc::new(ServiceLink::new(plugin, name, service)))
+                }
+                Server::Action(_) if settings.rmw == Rmw::Zenoh => {
+                    return Err(Ros2Error::Settings(format!(
+                        "plugins.{plugin}.ros2: a response backed by an action runs on DDS \
+                         (`[ros2] rmw = \"dds\"`); on rmw_zenoh it is not built yet"
+                    )))
+                }
+                Server::Action(action) => {
+                    actions.push(Arc::new(ActionLink::new(plugin, name, action)))
+                }
+            }
         }
         let (tap, queued) = bounded(QUEUE);
         Ok(Self {
@@ -137,6 +153,7 @@ impl Ros2 {
             subscriptions,
             publications,
             services,
+            actions,
             joined: None,
             queued: Some(queued),
             tap: Some(tap),
@@ -167,13 +184,15 @@ impl Ros2 {
     /// Where each backed response's requests go: give each to the system's
     /// builder ([`SystemBuilder::backing`](crate::SystemBuilder::backing)).
     pub fn backings(&self) -> Vec<(String, Arc<dyn crate::plugin::Backing>)> {
-        self.services
-            .iter()
-            .map(|link| {
-                let backing: Arc<dyn crate::plugin::Backing> = link.clone();
-                (link.plugin.clone(), backing)
-            })
-            .collect()
+        let services = self.services.iter().map(|link| {
+            let backing: Arc<dyn crate::plugin::Backing> = link.clone();
+            (link.plugin.clone(), backing)
+        });
+        let actions = self.actions.iter().map(|link| {
+            let backing: Arc<dyn crate::plugin::Backing> = link.clone();
+            (link.plugin.clone(), backing)
+        });
+        services.chain(actions).collect()
     }
 
     /// One line on what the node does, once started.
@@ -186,10 +205,13 @@ impl Ros2 {
             Rmw::Zenoh => "rmw_zenoh",
             Rmw::Dds => "DDS",
         };
-        let services = match self.services.len() {
+        let mut services = match self.services.len() {
             0 => String::new(),
             n => format!(", {n} service client(s)"),
         };
+        if !self.actions.is_empty() {
+            services.push_str(&format!(", {} action client(s)", self.actions.len()));
+        }
         format!(
             "ros2: node {name} on {rmw}, domain {domain}: {} subscription(s), {} \
              publication(s){services}",
@@ -251,6 +273,9 @@ impl Ros2 {
         let outgoing = self.check_publications(system)?;
         let radar = system.handle();
         for link in &self.services {
+            let _ = link.radar.set(radar.clone());
+        }
+        for link in &self.actions {
             let _ = link.radar.set(radar.clone());
         }
         let takers = self
@@ -472,6 +497,17 @@ impl Ros2 {
             let thread = std::thread::Builder::new()
                 .name("radar-ros2-service".into())
                 .spawn(move || super::services::serve_dds(client, server, link, requests, stop))
+                .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
+            self.threads.push(thread);
+        }
+        for link in &self.actions {
+            let (client, server) = node.action_client(&link.name, &link.action)?;
+            let orders = link.taken.lock().unwrap_or_else(|e| e.into_inner()).take();
+            let Some(orders) = orders else { continue };
+            let (link, stop) = (link.clone(), self.stop.clone());
+            let thread = std::thread::Builder::new()
+                .name("radar-ros2-action".into())
+                .spawn(move || super::actions::serve_dds(client, server, link, orders, stop))
                 .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
             self.threads.push(thread);
         }

@@ -14,16 +14,19 @@ use std::thread::JoinHandle;
 
 use futures::channel::oneshot;
 use futures::{FutureExt, StreamExt};
+use ros2_client::action::{ActionClient, ActionClientQosPolicies};
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::dds::{Client, Context, Node, Publisher, ServiceMapping, Subscription};
 use ros2_client::qos::{Durability, History, QosProfile, Reliability, WhenFull};
-use ros2_client::{MessageTypeName, Name, NodeName, NodeOptions, ReadError, ServiceTypeName};
+use ros2_client::{
+    ActionTypeName, MessageTypeName, Name, NodeName, NodeOptions, ReadError, ServiceTypeName,
+};
 
 use super::dds_cdr::{Answered, Encoded, Recode, Recoded};
 use super::error::Ros2Error;
 use super::incoming::Taker;
 use super::settings::Qos;
-use super::types::{Message, Service};
+use super::types::{Action, Message, Service};
 
 /// Radar's node on DDS, and the thread that takes its subscriptions.
 pub(super) struct DdsNode {
@@ -149,6 +152,55 @@ impl DdsNode {
             )
             .map(|client| (client, seen))
             .map_err(|e| Ros2Error::Session(format!("DDS: a client of service `{name}`: {e}")))
+    }
+
+    /// A client of action `name` (its full name) of type `action`: its
+    /// three services, feedback and status as an rclpy action client makes
+    /// them; with what tells whether a server is there (one that reads
+    /// goals and answers them).
+    pub(super) fn action_client(
+        &mut self,
+        name: &str,
+        action: &Action,
+    ) -> Result<(ActionClient<Encoded, Answered, Answered>, ServerSeen), Ros2Error> {
+        let full =
+            ros_name(name).map_err(|e| Ros2Error::Settings(format!("action `{name}`: {e}")))?;
+        let goals = ros_name(&format!("{name}/_action/send_goal"))
+            .map_err(|e| Ros2Error::Settings(format!("action `{name}`: {e}")))?;
+        let seen = ServerSeen {
+            participant: self._context.domain_participant(),
+            requests: goals.to_dds_name("rq", &self.name, "Request"),
+            replies: goals.to_dds_name("rr", &self.name, "Reply"),
+        };
+        let mut parts = action.name.split('/');
+        let (package, _, type_name) = (parts.next(), parts.next(), parts.next());
+        let type_name = ActionTypeName::new(package.unwrap_or(""), type_name.unwrap_or(""));
+        let service = profile(&Qos {
+            best_effort: false,
+            depth: 10,
+            transient_local: false,
+        });
+        let status = profile(&Qos {
+            best_effort: false,
+            depth: 1,
+            transient_local: true,
+        });
+        let qos = ActionClientQosPolicies {
+            goal_service: service.clone(),
+            result_service: service.clone(),
+            cancel_service: service.clone(),
+            feedback_subscription: service,
+            status_subscription: status,
+        };
+        self.node
+            .create_action_client::<Encoded, Answered, Answered>(
+                ServiceMapping::Enhanced,
+                &full,
+                &type_name,
+                qos,
+            )
+            .map(|client| (client, seen))
+            .map_err(|e| Ros2Error::Session(format!("DDS: a client of action `{name}`: {e}")))
     }
 
     fn topic(

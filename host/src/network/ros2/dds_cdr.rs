@@ -69,7 +69,7 @@ thread_local! {
 
 /// A service's reply taken from DDS, as [`Recoded`] bytes: read with the
 /// [`Recode`] given to [`Answered::read_on_this_thread`].
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub(super) struct Answered(pub(super) Vec<u8>);
 
 impl Answered {

@@ -12,6 +12,7 @@
 //! its publishing (`outgoing`); on DDS, the node (`dds`) and the bytes
 //! through RustDDS's CDR (`dds_cdr`).
 
+mod actions;
 mod bridge;
 mod builtin;
 pub mod cdr;
@@ -36,6 +37,6 @@ pub use bridge::Ros2;
 pub use dds_cdr::read_as_dds;
 pub use error::{CdrError, Ros2Error, TypeError};
 pub use graph::dds_type;
-pub use services::backed_response;
+pub use services::{backed_response, Server};
 pub use settings::{BackedBy, Publish, Qos, Rmw, Ros2Settings, Subscribe};
-pub use types::{wit_name, Message, MessageTypes, Service};
+pub use types::{wit_name, Action, Message, MessageTypes, Service};

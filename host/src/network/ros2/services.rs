@@ -27,36 +27,57 @@ use crate::system::Radar;
 /// bytes.
 pub(super) type ToClient = (u64, Vec<u8>);
 
+/// What backs a response: a service or an action, with its types.
+pub enum Server {
+    /// A ROS 2 service.
+    Service(Service),
+    /// A ROS 2 action.
+    Action(super::types::Action),
+}
+
 /// Response `plugin`'s backing by `by`: its types from the service's
-/// `.srv` (`types`), no link yet (a replay, a scenario: answers come from
-/// inputs). A type that does not load is refused, naming the plugin.
+/// `.srv` or the action's `.action` (`types`), no link yet (a replay, a
+/// scenario: answers come from inputs). A type that does not load is
+/// refused, naming the plugin.
 pub fn backed_response(
     settings: &Ros2Settings,
     types: &MessageTypes,
     plugin: &str,
     by: &BackedBy,
-) -> Result<(Backed, Service), Ros2Error> {
-    let service = types
-        .load_service(&by.type_name)
-        .map_err(|e| Ros2Error::Settings(format!("plugins.{plugin}.ros2: {e}")))?;
-    let name = settings.full_topic(by.service.as_deref().unwrap_or_default());
-    let mut backed = Backed::new(
-        format!("ROS 2 service {name} ({})", service.name),
-        carried(&service.request),
-        carried(&service.response),
-    );
+) -> Result<(Backed, Server), Ros2Error> {
+    let refused =
+        |e: super::error::TypeError| Ros2Error::Settings(format!("plugins.{plugin}.ros2: {e}"));
+    let name = settings.full_topic(by.name());
+    let (mut backed, server) = if by.action.is_some() {
+        let action = types.load_action(&by.type_name).map_err(refused)?;
+        let backed = Backed::action(
+            format!("ROS 2 action {name} ({})", action.name),
+            carried(&action.goal),
+            carried(&action.result),
+            carried(&action.feedback),
+        );
+        (backed, Server::Action(action))
+    } else {
+        let service = types.load_service(&by.type_name).map_err(refused)?;
+        let backed = Backed::new(
+            format!("ROS 2 service {name} ({})", service.name),
+            carried(&service.request),
+            carried(&service.response),
+        );
+        (backed, Server::Service(service))
+    };
     if let Some(ms) = by.cancel_ms {
         backed = backed.cancel_after(Duration::from_millis(ms));
     }
     if let Some(ms) = by.timeout_ms {
         backed = backed.timeout_after(Duration::from_millis(ms));
     }
-    Ok((backed, service))
+    Ok((backed, server))
 }
 
 /// What a payload of `message` carries: nothing for a message with no
 /// fields (ROS 2 gives it one placeholder byte), else its record.
-fn carried(message: &Message) -> Option<crate::payload::PayloadType> {
+pub(super) fn carried(message: &Message) -> Option<crate::payload::PayloadType> {
     let fields = &message.def().fields;
     let empty = fields.len() == 1 && fields[0].name == EMPTY_MEMBER;
     (!empty).then(|| message.payload_type())
@@ -179,11 +200,11 @@ impl<Id: Ord> Pending<Id> {
 
 /// How long a request waits for DDS discovery to show a server before it
 /// fails: a system starting beside its servers sees them within this.
-const DISCOVERY: Duration = Duration::from_secs(2);
+pub(super) const DISCOVERY: Duration = Duration::from_secs(2);
 
 /// How often a client with calls under way looks whether its server is
 /// still there.
-const LOOK: Duration = Duration::from_millis(50);
+pub(super) const LOOK: Duration = Duration::from_millis(50);
 
 /// DDS: the client's thread. A request goes out once discovery shows a
 /// server (DDS keeps nothing for a reader that matches later), and fails

@@ -46,22 +46,25 @@ pub struct Ros2Settings {
     pub backed: Vec<(String, BackedBy)>,
 }
 
-/// `[plugins.X] ros2 = { service = "/beep", type = "std_srvs/srv/SetBool" }`:
-/// a response with no component, backed by a ROS 2 service (`docs/ros2.md`).
+/// `[plugins.X] ros2 = { service = "/beep", type = "std_srvs/srv/SetBool" }`
+/// or `{ action = "/dock", type = "test_msgs/action/Fibonacci" }`: a
+/// response with no component, backed by a ROS 2 service or action
+/// (`docs/ros2.md`).
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BackedBy {
     /// The service (`/beep`; relative names are in the node's namespace).
     #[serde(default)]
     pub service: Option<String>,
-    /// An action: not built yet, refused with a line that says so.
+    /// The action (`/dock`), instead of a service.
     #[serde(default)]
     pub action: Option<String>,
-    /// `pkg/srv/Name`.
+    /// `pkg/srv/Name` or `pkg/action/Name`.
     #[serde(rename = "type")]
     pub type_name: String,
-    /// How long a stopped activation waits for the answer, in milliseconds
-    /// (default 1000); then the plugin faults.
+    /// How long a stopped activation waits for the answer (an action: for
+    /// the goal to end once asked to cancel), in milliseconds (default
+    /// 1000); then the plugin faults.
     #[serde(default)]
     pub cancel_ms: Option<u64>,
     /// How long a request may wait for its answer at all, in milliseconds
@@ -72,26 +75,30 @@ pub struct BackedBy {
 }
 
 impl BackedBy {
+    /// The service's or action's name.
+    pub fn name(&self) -> &str {
+        self.service
+            .as_deref()
+            .or(self.action.as_deref())
+            .unwrap_or_default()
+    }
+
     /// What is wrong with it, if anything (`plugin`: whose it is).
     pub fn validate(&self, plugin: &str) -> Result<(), String> {
         let at = format!("plugins.{plugin}.ros2");
-        let service = match (&self.service, &self.action) {
-            (Some(service), None) => service,
-            (None, Some(_)) => {
-                return Err(format!(
-                    "{at}: responses backed by a ROS 2 action are not built yet; services are \
-                     (`service = \"/name\"`, docs/ros2.md)"
-                ))
-            }
+        let (name, what) = match (&self.service, &self.action) {
+            (Some(service), None) => (service, "service"),
+            (None, Some(action)) => (action, "action"),
             _ => {
                 return Err(format!(
-                    "{at}: say `service = \"/name\"` (and `type = \"pkg/srv/Name\"`)"
+                    "{at}: say `service = \"/name\"` (and `type = \"pkg/srv/Name\"`) or \
+                     `action = \"/name\"` (and `type = \"pkg/action/Name\"`)"
                 ))
             }
         };
-        if !is_ros_name(service) || service.ends_with('/') {
+        if !is_ros_name(name) || name.ends_with('/') {
             return Err(format!(
-                "{at}: `{service}` is not a ROS 2 service name (letters, digits, `_` and `/`)"
+                "{at}: `{name}` is not a ROS 2 {what} name (letters, digits, `_` and `/`)"
             ));
         }
         if self.timeout_ms == Some(0) {
