@@ -445,3 +445,107 @@ fn service_beside_rclpy(python: &str, distro: &str) {
     // come from it.
     super::ros2::replays_to_the_same_writes_and_signals(Path::new(&manifest), &inputs, &trace_text);
 }
+
+/// A response backed by an rclpy `test_msgs/action/Fibonacci` server.
+const FIBONACCI: &str = r#"
+[plugins.Fib]
+ros2 = { action = "/fib", type = "test_msgs/action/Fibonacci", cancel_ms = 2000 }
+
+[ros2]
+rmw = "dds"
+node = "radar_counter"
+"#;
+
+#[test]
+fn a_response_backed_by_an_rclpy_action_is_accepted_gets_feedback_and_is_cancelled() {
+    each_distro(rclpy_in_namespace, action_beside_rclpy);
+}
+
+fn action_beside_rclpy(python: &str, distro: &str) {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let manifest = write_manifest(dir.path(), FIBONACCI);
+    let trace = dir.path().join("trace.jsonl");
+    let inputs = dir.path().join("inputs.jsonl");
+    // A goal that succeeds, one interrupted half-way (cancelled), one the
+    // server rejects (order above 40).
+    let report = drive(
+        python,
+        "action.py",
+        &[
+            "--goals",
+            "3",
+            "--step",
+            "0.1",
+            "--radar-node",
+            "radar_counter",
+        ],
+        &manifest,
+        &[
+            "--inject",
+            r#"3s:Fib.start={"order":5}"#,
+            "--inject",
+            r#"5s:Fib.start={"order":30}"#,
+            "--inject",
+            "5.5s:Fib.interrupt",
+            "--inject",
+            r#"9s:Fib.start={"order":41}"#,
+            "--record",
+            inputs.to_str().expect("utf-8"),
+        ],
+        &trace,
+    );
+    assert_eq!(
+        report["goals"],
+        serde_json::json!([
+            {"order": 5, "ended": "succeeded"},
+            {"order": 30, "ended": "canceled"},
+            {"order": 41, "ended": "rejected"},
+        ]),
+        "{distro}: {report:#}"
+    );
+    assert_eq!(report["cancels"], 1, "{distro}: {report:#}");
+    assert_eq!(
+        report["actions"]["/fib"],
+        serde_json::json!(["test_msgs/action/Fibonacci"]),
+        "{distro}: {report:#}"
+    );
+    let (trace_text, records) = lawful_trace(&trace);
+    let signals = |name: &str| -> Vec<(u64, Json)> {
+        records
+            .iter()
+            .filter_map(|r| match &r.entry {
+                radar::trace::Entry::Signal {
+                    plugin,
+                    signal,
+                    payload,
+                    ..
+                } if &**plugin == "Fib" && &**signal == name => Some((r.t, payload.clone())),
+                _ => None,
+            })
+            .collect()
+    };
+    // Two goals accepted (started), the third rejected.
+    assert_eq!(signals("started").len(), 2, "{distro}: {trace_text}");
+    // Feedback as the server worked: the first goal's four steps, then
+    // the second's until the cancel.
+    let feedback = signals("feedback");
+    assert!(feedback.len() >= 5, "{distro}: {trace_text}");
+    assert_eq!(
+        feedback[0].1,
+        serde_json::json!({"sequence": [0, 1, 1]}),
+        "{distro}: {trace_text}"
+    );
+    let exited: Vec<Json> = signals("exited").into_iter().map(|(_, p)| p).collect();
+    assert_eq!(
+        exited,
+        [
+            serde_json::json!({"ok": {"sequence": [0, 1, 1, 2, 3, 5]}}),
+            serde_json::json!({"err": "canceled"}),
+            serde_json::json!({"err": "rejected"}),
+        ],
+        "{distro}: {trace_text}"
+    );
+    assert_eq!(signals("interrupted").len(), 1, "{distro}: {trace_text}");
+    // The recording replays with neither ROS nor the network.
+    super::ros2::replays_to_the_same_writes_and_signals(Path::new(&manifest), &inputs, &trace_text);
+}

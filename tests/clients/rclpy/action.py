@@ -1,0 +1,117 @@
+"""A test_msgs/action/Fibonacci server at /fib written with rclpy (ROS 2's
+own Python client library, on Fast DDS), beside a Radar system whose
+response `Fib` is backed by that action (docs/ros2.md).
+
+    action.py [--timeout S] [--goals N] [--step S] [--radar-node NAME]
+              -- RADAR_COMMAND...
+
+Starts the server, then RADAR_COMMAND (a `radar run`). Each goal of order
+n is worked through in n steps of `--step` seconds, with the sequence so
+far as feedback after each; a goal of order above 40 is rejected; a
+cancel is accepted and ends the goal as canceled at its next step. Once N
+goals have ended (or the timeout) and Radar's run has ended by itself, it
+prints one JSON object: each goal's order and how it ended, the cancels
+asked for, the actions in ROS 2's graph and Radar's exit code and stderr.
+Run it inside a private network namespace (tests/clients/rclpy/netns): DDS
+discovers by multicast.
+"""
+
+import argparse
+import json
+import threading
+import time
+
+import radar_run
+
+import rclpy
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.action import get_action_names_and_types
+from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.executors import MultiThreadedExecutor
+from rclpy.node import Node
+from test_msgs.action import Fibonacci
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--timeout", type=float, default=30.0)
+    parser.add_argument("--goals", type=int, default=2)
+    parser.add_argument("--step", type=float, default=0.1)
+    parser.add_argument("--radar-node", default="radar")
+    parser.add_argument("radar", nargs=argparse.REMAINDER)
+    args = parser.parse_args()
+    command = args.radar[1:] if args.radar[:1] == ["--"] else args.radar
+
+    rclpy.init()
+    node = Node("fibonacci_server")
+    report = {"goals": [], "cancels": 0}
+    lock = threading.Lock()
+
+    def on_goal(goal):
+        if goal.order > 40:
+            with lock:
+                report["goals"].append({"order": goal.order, "ended": "rejected"})
+            return GoalResponse.REJECT
+        return GoalResponse.ACCEPT
+
+    def on_cancel(_handle):
+        with lock:
+            report["cancels"] += 1
+        return CancelResponse.ACCEPT
+
+    def execute(handle):
+        sequence = [0, 1]
+        result = Fibonacci.Result()
+        for _ in range(1, handle.request.order):
+            time.sleep(args.step)
+            if handle.is_cancel_requested:
+                handle.canceled()
+                result.sequence = sequence
+                with lock:
+                    report["goals"].append({"order": handle.request.order, "ended": "canceled"})
+                return result
+            sequence.append(sequence[-1] + sequence[-2])
+            feedback = Fibonacci.Feedback()
+            feedback.sequence = sequence
+            handle.publish_feedback(feedback)
+        handle.succeed()
+        result.sequence = sequence
+        with lock:
+            report["goals"].append({"order": handle.request.order, "ended": "succeeded"})
+        return result
+
+    ActionServer(
+        node,
+        Fibonacci,
+        "/fib",
+        execute_callback=execute,
+        goal_callback=on_goal,
+        cancel_callback=on_cancel,
+        callback_group=ReentrantCallbackGroup(),
+    )
+    executor = MultiThreadedExecutor()
+    executor.add_node(node)
+    radar, joined = radar_run.start(command)
+    report["joined"] = joined
+    if joined is None:
+        report["radar_stderr"] = "".join(radar.stderr_lines)
+        print(json.dumps(report))
+        return 1
+    began = time.time()
+    while time.time() - began < args.timeout:
+        with lock:
+            if len(report["goals"]) >= args.goals:
+                break
+        executor.spin_once(timeout_sec=0.1)
+    # A moment for the last result to go out, and for the graph.
+    settle = time.time() + 1.0
+    while time.time() < settle:
+        executor.spin_once(timeout_sec=0.1)
+    report["actions"] = dict(get_action_names_and_types(node))
+    executor.shutdown()
+    radar_run.report_at_end(radar, node, report, args.timeout + 30)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
