@@ -590,9 +590,7 @@ impl AnswerWait<'_> {
     /// The stood-in server's answers due now.
     fn scripted(&mut self, cx: &mut Context<'_>) -> Taken {
         let mut due = Vec::new();
-        let Some(script) = self.scripted.as_mut() else {
-            return None;
-        };
+        let script = self.scripted.as_mut()?;
         if script
             .accepted
             .as_mut()

@@ -143,7 +143,7 @@ impl Ros2 {
                     )))
                 }
                 Server::Action(action) => {
-                    actions.push(Arc::new(ActionLink::new(plugin, name, action)))
+                    actions.push(Arc::new(ActionLink::new(plugin, name, *action)))
                 }
             }
         }

@@ -31,8 +31,8 @@ pub(super) type ToClient = (u64, Vec<u8>);
 pub enum Server {
     /// A ROS 2 service.
     Service(Service),
-    /// A ROS 2 action.
-    Action(super::types::Action),
+    /// A ROS 2 action (boxed: it holds three messages and two services).
+    Action(Box<super::types::Action>),
 }
 
 /// Response `plugin`'s backing by `by`: its types from the service's
@@ -56,7 +56,7 @@ pub fn backed_response(
             carried(&action.result),
             carried(&action.feedback),
         );
-        (backed, Server::Action(action))
+        (backed, Server::Action(Box::new(action)))
     } else {
         let service = types.load_service(&by.type_name).map_err(refused)?;
         let backed = Backed::new(
