@@ -26,9 +26,9 @@ use crate::plugin::remote::Remote;
 use crate::plugin::{
     default_cache_dir, Agents, Backing, InjectedFault, Limits, Loader, PluginCode, ScriptedAnswer,
 };
-use crate::ports::{Mode, SwapPolicy};
+use crate::ports::SwapPolicy;
 use crate::scheduler::board::BoardUser;
-use crate::scheduler::{LinkSpec, LinkTarget, Place, PluginDef, StaticInput, StaticWhat};
+use crate::scheduler::{Place, PluginDef, StaticInput, StaticWhat};
 use crate::trace::inputs::{self, Input, InputRecorder, TimedInput};
 use crate::trace::TraceSink;
 use crate::watchdog::RunWatch;
@@ -320,84 +320,6 @@ impl SystemBuilder {
                 early_at_most,
             });
             let what = match input {
-                Input::Inject { to, payload } => StaticWhat::Inject {
-                    to: to.clone(),
-                    payload: payload.clone(),
-                },
-                Input::BoardWrite { entry, value, by } => StaticWhat::Write {
-                    entry: entry.clone(),
-                    value: value.clone(),
-                    by: by.clone(),
-                },
-                Input::Swap {
-                    plugin,
-                    wasm,
-                    policy,
-                    ..
-                } => StaticWhat::Swap {
-                    plugin: plugin.clone(),
-                    path: PathBuf::from(wasm),
-                    policy: if policy == "restart" {
-                        SwapPolicy::Restart
-                    } else {
-                        SwapPolicy::Drain
-                    },
-                    code: None,
-                },
-                Input::Connect {
-                    from,
-                    to,
-                    mode,
-                    busy,
-                    until,
-                } => {
-                    let mode = mode.parse().unwrap_or(Mode::Whenever);
-                    let busy = busy.parse().unwrap_or_default();
-                    StaticWhat::Connect(LinkSpec {
-                        from: from.clone(),
-                        to: LinkTarget::Slot(to.clone()),
-                        mode,
-                        busy,
-                        min_interval: None,
-                        until: until.clone(),
-                    })
-                }
-                Input::Disconnect { id } => StaticWhat::Disconnect(*id),
-                Input::Reset { plugin } => StaticWhat::Reset(plugin.clone()),
-                Input::NodeLost { node } => StaticWhat::NodeLost(node.clone()),
-                Input::NodeBack { node } => StaticWhat::NodeBack(node.clone()),
-                Input::Stop { why } => StaticWhat::Stop(why.clone()),
-                Input::AgentExits { node, exits } => {
-                    StaticWhat::AgentExits(node.clone(), exits.clone())
-                }
-                Input::Answer {
-                    plugin,
-                    call,
-                    reply,
-                    failed,
-                    accepted,
-                    feedback,
-                } => StaticWhat::Answer {
-                    plugin: plugin.clone(),
-                    call: *call,
-                    // `inputs::parse` has checked it says one thing.
-                    answer: crate::plugin::Answer::from_fields(
-                        reply.clone(),
-                        failed.clone(),
-                        *accepted,
-                        feedback.clone(),
-                    )
-                    .unwrap_or_else(crate::plugin::Answer::Failed),
-                },
-                Input::Refused {
-                    command,
-                    from,
-                    reason,
-                } => StaticWhat::Refused {
-                    command: command.clone(),
-                    from: from.clone(),
-                    reason: reason.clone(),
-                },
                 Input::End {
                     digest: Some(digest),
                     ..
@@ -414,7 +336,10 @@ impl SystemBuilder {
                         .insert(plugin.clone(), (version.clone(), wasm.clone()));
                     continue;
                 }
-                Input::Recording { .. } | Input::Plugin { .. } | Input::End { .. } => continue,
+                input => match super::replayed::static_what(input) {
+                    Some(what) => what,
+                    None => continue,
+                },
             };
             self = self.input(at, place, what);
         }

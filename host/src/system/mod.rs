@@ -53,6 +53,7 @@ mod deliberative;
 mod handle;
 mod link;
 mod parts;
+mod replayed;
 mod run;
 
 pub use builder::{SystemBuilder, DEFAULT_TRACE_BYTES, DEFAULT_TRACE_LIMIT};
