@@ -467,13 +467,15 @@ fn action_beside_rclpy(python: &str, distro: &str) {
     let trace = dir.path().join("trace.jsonl");
     let inputs = dir.path().join("inputs.jsonl");
     // A goal that succeeds, one interrupted half-way (cancelled), one the
-    // server rejects (order above 40).
+    // server rejects (order above 40), one still running when `--for` ends
+    // the run where it is (no exit runs, but the node cancels the goal
+    // before it goes: no goal of Radar's is left running).
     let report = drive(
         python,
         "action.py",
         &[
             "--goals",
-            "3",
+            "4",
             "--step",
             "0.1",
             "--radar-node",
@@ -489,6 +491,8 @@ fn action_beside_rclpy(python: &str, distro: &str) {
             "5.5s:Fib.interrupt",
             "--inject",
             r#"9s:Fib.start={"order":41}"#,
+            "--inject",
+            r#"17s:Fib.start={"order":40}"#,
             "--record",
             inputs.to_str().expect("utf-8"),
         ],
@@ -500,12 +504,13 @@ fn action_beside_rclpy(python: &str, distro: &str) {
             {"order": 5, "ended": "succeeded"},
             {"order": 30, "ended": "canceled"},
             {"order": 41, "ended": "rejected"},
+            {"order": 40, "ended": "canceled"},
         ]),
         "{distro}: {report:#}"
     );
-    assert_eq!(report["cancels"], 1, "{distro}: {report:#}");
+    assert_eq!(report["cancels"], 2, "{distro}: {report:#}");
     assert_eq!(
-        report["actions"]["/fib"],
+        report["radar_action_clients"]["/fib"],
         serde_json::json!(["test_msgs/action/Fibonacci"]),
         "{distro}: {report:#}"
     );
@@ -524,8 +529,8 @@ fn action_beside_rclpy(python: &str, distro: &str) {
             })
             .collect()
     };
-    // Two goals accepted (started), the third rejected.
-    assert_eq!(signals("started").len(), 2, "{distro}: {trace_text}");
+    // Three goals accepted (started), one rejected.
+    assert_eq!(signals("started").len(), 3, "{distro}: {trace_text}");
     // Feedback as the server worked: the first goal's four steps, then
     // the second's until the cancel.
     let feedback = signals("feedback");

@@ -252,3 +252,70 @@ fn a_feedback_that_does_not_fit_is_refused_by_the_stand_in_check() {
         .unwrap_or_default();
     assert!(err.contains("Fib") && err.contains("feedback"), "{err}");
 }
+
+#[test]
+fn a_feedback_that_overtakes_the_acceptance_starts_the_response_first() {
+    let builder = virtual_system()
+        .plugin(Plugin::backed("Fib", fibonacci()))
+        .inputs(&[
+            answer(0.2, 1, json!({"feedback": {"sequence": [0, 1]}})),
+            answer(0.25, 1, json!({"accepted": true})),
+            answer(0.3, 1, json!({"reply": {"ok": {"sequence": [0, 1, 1]}}})),
+        ]);
+    let report = run(builder, 2, |radar| {
+        radar.inject("Fib.start", json!({"order": 3}))
+    });
+    let trace = records(&report);
+    assert_sequence(
+        &trace,
+        &[
+            json!({"kind": "signal", "plugin": "Fib", "signal": "started", "t": ns(0.2)}),
+            json!({"kind": "signal", "plugin": "Fib", "signal": "feedback", "t": ns(0.2)}),
+            json!({"kind": "signal", "plugin": "Fib", "signal": "exited", "t": ns(0.3)}),
+        ],
+    );
+    assert_eq!(
+        count(&trace, json!({"kind": "signal", "signal": "started"})),
+        1,
+        "started once"
+    );
+}
+
+#[test]
+fn an_acceptance_or_feedback_for_a_service_is_said_and_left_out() {
+    let service = Backed::new(
+        "test service /beep",
+        None,
+        Some(PayloadType::Record(vec![(
+            "success".into(),
+            PayloadType::Bool,
+        )])),
+    );
+    let inputs = [
+        answer(0.1, 1, json!({"accepted": true})),
+        answer(0.2, 1, json!({"reply": {"success": true}})),
+    ];
+    let report = run(
+        virtual_system()
+            .plugin(Plugin::backed("Fib", service))
+            .inputs(&inputs),
+        1,
+        |radar| radar.inject("Fib.start", json!(null)),
+    );
+    let trace = records(&report);
+    assert_eq!(
+        count(
+            &trace,
+            json!({"kind": "log", "plugin": "Fib", "level": "warn"})
+        ),
+        1,
+        "{trace:#?}"
+    );
+    assert_sequence(
+        &trace,
+        &[
+            json!({"kind": "signal", "plugin": "Fib", "signal": "exited", "t": ns(0.2),
+                 "payload": {"success": true}}),
+        ],
+    );
+}

@@ -101,6 +101,11 @@ impl Answer {
             Answer::Reply(json) => (Some(json.clone()), None, false, None),
             Answer::Failed(why) => (None, Some(why.clone()), false, None),
             Answer::Accepted => (None, None, true, None),
+            // A feedback with no fields is `{}` in the line (`null` would
+            // read as no feedback at all).
+            Answer::Feedback(Json::Null) => {
+                (None, None, false, Some(Json::Object(Default::default())))
+            }
             Answer::Feedback(json) => (None, None, false, Some(json.clone())),
         }
     }
@@ -493,7 +498,9 @@ impl BackedInstance {
             accepted: false,
         }
         .await;
-        waiting.answered = answer.is_ok();
+        // Anything but a reply leaves the request (or goal) possibly under
+        // way at the server: it is abandoned there (a goal cancelled).
+        waiting.answered = matches!(answer, Ok(Answer::Reply(_)));
         drop(waiting);
         match answer {
             Ok(Answer::Reply(json)) => match &self.backed.reply {
@@ -568,14 +575,16 @@ impl AnswerWait<'_> {
     fn take(&mut self, answer: Answer) -> Taken {
         let answers = &self.backed.answers;
         match answer {
-            Answer::Accepted if self.backed.is_action() && !self.accepted => {
-                self.accepted = true;
-                answers.progress(Progress::Accepted);
+            Answer::Accepted if self.backed.is_action() => {
+                self.accept();
                 None
             }
             Answer::Feedback(json) if self.backed.is_action() => {
                 match self.backed.feedback_val(&json) {
                     Ok(payload) => {
+                        // A server that sends feedback has accepted the
+                        // goal, whichever word of its came first.
+                        self.accept();
                         answers.progress(Progress::Feedback(payload));
                         None
                     }
@@ -583,7 +592,22 @@ impl AnswerWait<'_> {
                 }
             }
             Answer::Accepted | Answer::Feedback(_) => None,
+            Answer::Reply(json) => {
+                // A goal that succeeded was accepted.
+                if self.backed.is_action() && json.get("ok").is_some() {
+                    self.accept();
+                }
+                Some(Ok(Answer::Reply(json)))
+            }
             end => Some(Ok(end)),
+        }
+    }
+
+    /// The goal was accepted: `started`, once.
+    fn accept(&mut self) {
+        if !self.accepted {
+            self.accepted = true;
+            self.backed.answers.progress(Progress::Accepted);
         }
     }
 

@@ -121,6 +121,13 @@ impl State {
             return;
         };
         let taken = match &self.plugins[pid].def.code.backed {
+            // A service has no acceptance and no feedback.
+            Some(backed)
+                if !backed.is_action()
+                    && matches!(answer, Answer::Accepted | Answer::Feedback(_)) =>
+            {
+                false
+            }
             Some(backed) => backed.answers.deliver(call, answer),
             None => false,
         };

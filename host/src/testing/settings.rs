@@ -255,6 +255,17 @@ impl ServerSettings {
                     Some(text) => Some(time("accept", text)?),
                     None => None,
                 };
+                if rejected && !feedback.is_empty() {
+                    return Err(this("feedback", "a rejected goal gets none".into()));
+                }
+                if let (Some(accept), Some(_)) = (accepted, &answer) {
+                    if accept > after {
+                        return Err(this(
+                            "accept",
+                            "comes after the goal has ended (`after`)".into(),
+                        ));
+                    }
+                }
                 let cancelled = match a.cancel.as_deref() {
                     Some("never") => None,
                     Some(text) => Some(time("cancel", text)?),

@@ -11,7 +11,9 @@ far as feedback after each; a goal of order above 40 is rejected; a
 cancel is accepted and ends the goal as canceled at its next step. Once N
 goals have ended (or the timeout) and Radar's run has ended by itself, it
 prints one JSON object: each goal's order and how it ended, the cancels
-asked for, the actions in ROS 2's graph and Radar's exit code and stderr.
+asked for, the actions in ROS 2's graph, the action clients of Radar's node
+(--radar-node, asked once the first goal has ended) and Radar's exit code
+and stderr.
 Run it inside a private network namespace (tests/clients/rclpy/netns): DDS
 discovers by multicast.
 """
@@ -26,6 +28,7 @@ import radar_run
 import rclpy
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action import get_action_names_and_types
+from rclpy.action.graph import get_action_client_names_and_types_by_node
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
@@ -100,8 +103,17 @@ def main():
     began = time.time()
     while time.time() - began < args.timeout:
         with lock:
-            if len(report["goals"]) >= args.goals:
-                break
+            ended = len(report["goals"])
+        if ended >= args.goals:
+            break
+        if ended >= 1 and "radar_action_clients" not in report:
+            # While Radar's node is surely there: its action clients.
+            try:
+                report["radar_action_clients"] = dict(
+                    get_action_client_names_and_types_by_node(node, args.radar_node, "/")
+                )
+            except Exception as e:  # the node is not in the graph
+                report["radar_action_clients"] = str(e)
         executor.spin_once(timeout_sec=0.1)
     # A moment for the last result to go out, and for the graph.
     settle = time.time() + 1.0

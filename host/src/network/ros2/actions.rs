@@ -138,13 +138,19 @@ impl Backing for ActionLink {
     }
 }
 
+/// How long, once the run ends, the client waits for goals sent and not
+/// yet answered, to cancel those the server accepts, and for its cancels
+/// to go out.
+const AT_END: std::time::Duration = std::time::Duration::from_secs(1);
+
 /// DDS: the action client's thread (see [`ActionLink`]). A goal goes out
 /// once discovery shows a server reading goals (DDS keeps nothing for a
 /// reader that matches later), and fails if none shows within two
 /// seconds; a server that goes while a goal is under way fails it. The
 /// result is asked for as soon as the goal is accepted; a cancel asked for
-/// before that is sent then. Goals still under way when the run ends, or
-/// given up, are cancelled.
+/// before that is sent then (a goal cancelled before it was sent is never
+/// sent). Goals nobody waits for any more, and those still under way when
+/// the run ends, are cancelled.
 #[cfg(feature = "dds")]
 pub(super) fn serve_dds(
     client: ros2_client::dds::ActionClient<
@@ -161,64 +167,28 @@ pub(super) fn serve_dds(
     use std::time::{Duration, Instant};
 
     use crossbeam_channel::RecvTimeoutError;
-    use ros2_client::action::GoalId;
-    use ros2_client::RmwRequestId;
 
-    use super::dds_cdr::{Answered, Encoded};
-    use super::services::{DISCOVERY, LOOK};
+    use super::services::LOOK;
 
-    /// Where one goal is.
-    enum Stage {
-        /// Waiting for a server to be seen.
-        Unsent(Vec<u8>, Instant),
-        /// Sent: waiting for the server to accept or reject it.
-        Sent(RmwRequestId),
-        /// Accepted: waiting for the result.
-        Accepted(RmwRequestId),
-    }
-    struct Goal {
-        call: u64,
-        id: Option<GoalId>,
-        stage: Stage,
-        /// A cancel was asked for.
-        cancel: bool,
-        /// The cancel was sent.
-        cancelled: bool,
-    }
-    let feedback = Arc::new(link.action.feedback.clone());
-    let result = Arc::new(link.action.result.clone());
-    let mut goals: Vec<Goal> = Vec::new();
-    let mut looked: Option<(Instant, bool)> = None;
-    let cancel_goal = |goal: &mut Goal| {
-        if let (Some(id), false) = (goal.id, goal.cancelled) {
-            goal.cancelled = client.cancel_goal(id).is_ok();
-        }
+    let mut goals = Goals {
+        client,
+        link,
+        list: Vec::new(),
+        cancels: 0,
     };
+    let mut looked: Option<(Instant, bool)> = None;
     while !stop.load(Ordering::Relaxed) {
-        let wait = if goals.is_empty() {
+        let wait = if goals.list.is_empty() {
             Duration::from_millis(100)
         } else {
             Duration::from_millis(1)
         };
         match orders.recv_timeout(wait) {
-            Ok(Order::Goal(call, bytes)) => goals.push(Goal {
-                call,
-                id: None,
-                stage: Stage::Unsent(bytes, Instant::now()),
-                cancel: false,
-                cancelled: false,
-            }),
-            Ok(Order::Cancel(call)) => {
-                for goal in goals.iter_mut().filter(|g| g.call == call) {
-                    goal.cancel = true;
-                }
-            }
+            Ok(order) => goals.order(order),
             Err(RecvTimeoutError::Timeout) => {}
             Err(RecvTimeoutError::Disconnected) => break,
         }
-        // Given up: not sent if not sent yet; cancelled once accepted.
-        goals.retain(|g| !(link.abandoned(g.call) && matches!(g.stage, Stage::Unsent(..))));
-        if goals.is_empty() {
+        if goals.list.is_empty() {
             continue;
         }
         let seen = match looked {
@@ -229,116 +199,285 @@ pub(super) fn serve_dds(
                 seen
             }
         };
-        for goal in &mut goals {
+        goals.step(seen);
+        goals.take();
+    }
+    // The run ends: no goal of it is left running on the robot. Goals sent
+    // and not answered yet are waited for (a while) to cancel them too.
+    let until = Instant::now() + AT_END;
+    while orders.try_recv().is_ok() {}
+    for goal in &mut goals.list {
+        goal.cancel = true;
+        goal.answered = true;
+    }
+    let before = goals.cancels;
+    while Instant::now() < until && !goals.list.is_empty() {
+        goals.step(true);
+        goals.take();
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    // A moment for the last cancels to leave.
+    if goals.cancels > before {
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// Where one goal is (DDS).
+#[cfg(feature = "dds")]
+enum Stage {
+    /// Waiting for a server to be seen.
+    Unsent(Vec<u8>, std::time::Instant),
+    /// Sent: waiting for the server to accept or reject it.
+    Sent(ros2_client::RmwRequestId),
+    /// Accepted: waiting for the result.
+    Accepted(ros2_client::RmwRequestId),
+}
+
+/// One goal of the DDS client.
+#[cfg(feature = "dds")]
+struct Goal {
+    call: u64,
+    id: Option<ros2_client::action::GoalId>,
+    stage: Stage,
+    /// A cancel was asked for (a stop, or nobody waits any more).
+    cancel: bool,
+    /// The cancel was sent: its request.
+    cancelled: Option<ros2_client::RmwRequestId>,
+    /// The activation has its final answer (or nobody waits): nothing
+    /// more is handed to it.
+    answered: bool,
+    /// The server ended the goal (or it never reached one): it goes.
+    ended: bool,
+}
+
+/// The DDS client's goals, and what it does with them.
+#[cfg(feature = "dds")]
+struct Goals {
+    client: ros2_client::dds::ActionClient<
+        super::dds_cdr::Encoded,
+        super::dds_cdr::Answered,
+        super::dds_cdr::Answered,
+    >,
+    link: Arc<ActionLink>,
+    list: Vec<Goal>,
+    /// Cancels sent.
+    cancels: u64,
+}
+
+#[cfg(feature = "dds")]
+impl Goals {
+    fn order(&mut self, order: Order) {
+        match order {
+            Order::Goal(call, bytes) => self.list.push(Goal {
+                call,
+                id: None,
+                stage: Stage::Unsent(bytes, std::time::Instant::now()),
+                cancel: false,
+                cancelled: None,
+                answered: false,
+                ended: false,
+            }),
+            Order::Cancel(call) => {
+                for goal in self.list.iter_mut().filter(|g| g.call == call) {
+                    goal.cancel = true;
+                }
+            }
+        }
+    }
+
+    /// Hands call `goal`'s final answer to its activation, once.
+    fn end(link: &ActionLink, goal: &mut Goal, answer: Answer) {
+        if !goal.answered && !link.abandoned(goal.call) {
+            link.answer(goal.call, answer);
+        }
+        goal.answered = true;
+    }
+
+    fn cancel_goal(&mut self, goal: &mut Goal) {
+        if let (Some(id), None, Stage::Accepted(_)) = (goal.id, goal.cancelled, &goal.stage) {
+            goal.cancelled = self.client.cancel_goal(id).ok();
+            self.cancels += 1;
+        }
+    }
+
+    /// Sends what can be sent, fails what must fail (`seen`: whether a
+    /// server is there).
+    fn step(&mut self, seen: bool) {
+        use super::dds_cdr::Encoded;
+        use super::services::DISCOVERY;
+        let link = self.link.clone();
+        let mut list = std::mem::take(&mut self.list);
+        for goal in &mut list {
+            if link.abandoned(goal.call) {
+                goal.cancel = true;
+                goal.answered = true;
+            }
             match &goal.stage {
-                Stage::Unsent(bytes, _) if seen => match client.send_goal(Encoded(bytes.clone())) {
-                    Ok((request, id)) => {
-                        goal.id = Some(id);
-                        goal.stage = Stage::Sent(request);
+                // Cancelled (or given up) before it went: it never goes.
+                Stage::Unsent(..) if goal.cancel => {
+                    Self::end(&link, goal, Answer::Reply(json!({ "err": "canceled" })));
+                    goal.ended = true;
+                }
+                Stage::Unsent(bytes, _) if seen => {
+                    match self.client.send_goal(Encoded(bytes.clone())) {
+                        Ok((request, id)) => {
+                            goal.id = Some(id);
+                            goal.stage = Stage::Sent(request);
+                        }
+                        Err(e) => {
+                            let why = format!("the goal was not sent: {e:?}");
+                            Self::end(&link, goal, Answer::Failed(why));
+                            goal.ended = true;
+                        }
                     }
-                    Err(e) => {
-                        link.answer(
-                            goal.call,
-                            Answer::Failed(format!("the goal was not sent: {e:?}")),
-                        );
-                        goal.call = 0;
-                    }
-                },
+                }
                 Stage::Unsent(_, at) if at.elapsed() >= DISCOVERY => {
-                    link.answer(
-                        goal.call,
-                        Answer::Failed(format!(
-                            "no server of {} ({}) on DDS after {} s",
-                            link.name,
-                            link.action.name,
-                            DISCOVERY.as_secs()
-                        )),
+                    let why = format!(
+                        "no server of {} ({}) on DDS after {} s",
+                        link.name,
+                        link.action.name,
+                        DISCOVERY.as_secs()
                     );
-                    goal.call = 0;
+                    Self::end(&link, goal, Answer::Failed(why));
+                    goal.ended = true;
                 }
                 Stage::Unsent(..) => {}
                 Stage::Sent(_) | Stage::Accepted(_) if !seen => {
-                    if !link.abandoned(goal.call) {
-                        link.answer(
-                            goal.call,
-                            Answer::Failed(format!(
-                                "the server of {} went away before the goal ended (DDS no \
-                                 longer sees it)",
-                                link.name
-                            )),
-                        );
-                    }
-                    goal.call = 0;
+                    let why = format!(
+                        "the server of {} went away before the goal ended (DDS no longer sees \
+                         it)",
+                        link.name
+                    );
+                    Self::end(&link, goal, Answer::Failed(why));
+                    goal.ended = true;
                 }
                 Stage::Sent(_) => {}
-                Stage::Accepted(_) if goal.cancel => cancel_goal(goal),
+                Stage::Accepted(_) if goal.cancel => self.cancel_goal(goal),
                 Stage::Accepted(_) => {}
             }
         }
-        // The server's answers to goals.
-        while let Ok(Some((request, answer))) = client.goal_client().receive_response() {
-            let Some(goal) = goals
+        list.retain(|g| !g.ended && !(g.answered && g.cancelled.is_some()));
+        self.list = list;
+    }
+
+    /// Takes the server's answers: to goals, feedback, results, cancels.
+    fn take(&mut self) {
+        use super::dds_cdr::Answered;
+        let link = self.link.clone();
+        let mut list = std::mem::take(&mut self.list);
+        while let Ok(Some((request, answer))) = self.client.goal_client().receive_response() {
+            let Some(goal) = list
                 .iter_mut()
                 .find(|g| matches!(g.stage, Stage::Sent(r) if r == request))
             else {
                 continue;
             };
             if !answer.accepted {
-                if !link.abandoned(goal.call) {
-                    link.answer(goal.call, Answer::Reply(json!({ "err": "rejected" })));
-                }
-                goal.call = 0;
+                Self::end(&link, goal, Answer::Reply(json!({ "err": "rejected" })));
+                goal.ended = true;
                 continue;
             }
-            if !link.abandoned(goal.call) {
+            if !goal.answered && !link.abandoned(goal.call) {
                 link.answer(goal.call, Answer::Accepted);
             }
             let Some(id) = goal.id else { continue };
-            match client.request_result(id) {
+            match self.client.request_result(id) {
                 Ok(request) => goal.stage = Stage::Accepted(request),
                 Err(e) => {
-                    link.answer(
-                        goal.call,
-                        Answer::Failed(format!("the result was not asked for: {e:?}")),
-                    );
+                    // Without its result the goal cannot be followed: it
+                    // is cancelled.
+                    goal.stage = Stage::Accepted(request);
+                    let why = format!("the result was not asked for: {e:?}");
+                    Self::end(&link, goal, Answer::Failed(why));
                     goal.cancel = true;
                 }
             }
-            if goal.cancel || link.abandoned(goal.call) {
-                cancel_goal(goal);
+            if goal.cancel {
+                self.cancel_goal(goal);
             }
         }
-        // Feedback, then results: each read as its own message type.
-        Answered::read_on_this_thread(feedback.clone());
-        while let Ok(Some((message, _))) = client.feedback_subscription().take() {
-            let goal = goals
+        // Feedback, then results: each read as its own message type. A
+        // message that does not read names no goal: it fails the goal
+        // under way when there is one.
+        let only = |list: &mut Vec<Goal>| -> Option<usize> {
+            let mut under_way = list
                 .iter()
-                .find(|g| g.id == Some(message.goal_id) && matches!(g.stage, Stage::Accepted(_)));
-            if let Some(goal) = goal.filter(|g| !link.abandoned(g.call)) {
-                link.feedback(goal.call, &message.feedback.0);
+                .enumerate()
+                .filter(|(_, g)| !g.answered && !matches!(g.stage, Stage::Unsent(..)));
+            match (under_way.next(), under_way.next()) {
+                (Some((i, _)), None) => Some(i),
+                _ => None,
             }
-        }
-        Answered::read_on_this_thread(result.clone());
-        while let Ok(Some((request, response))) = client.result_client().receive_response() {
-            if let Some(goal) = goals
-                .iter_mut()
-                .find(|g| matches!(g.stage, Stage::Accepted(r) if r == request))
-            {
-                if !link.abandoned(goal.call) {
-                    link.ended(goal.call, response.status as i8, &response.result.0);
+        };
+        Answered::read_on_this_thread(Arc::new(link.action.feedback.clone()));
+        loop {
+            match self.client.feedback_subscription().take() {
+                Ok(Some((message, _))) => {
+                    let goal = list.iter().find(|g| {
+                        g.id == Some(message.goal_id) && !matches!(g.stage, Stage::Unsent(..))
+                    });
+                    if let Some(goal) = goal.filter(|g| !g.answered && !link.abandoned(g.call)) {
+                        link.feedback(goal.call, &message.feedback.0);
+                    }
                 }
-                goal.call = 0;
+                Ok(None) => break,
+                Err(e) => {
+                    if let Some(i) = only(&mut list) {
+                        let why = format!("a feedback does not read: {e}");
+                        Self::end(&link, &mut list[i], Answer::Failed(why));
+                        list[i].cancel = true;
+                    }
+                    break;
+                }
             }
         }
-        // Answers to cancels say nothing the result does not.
-        while let Ok(Some(_)) = client.cancel_client().receive_response() {}
-        // Ended goals go, and given-up ones once their cancel went out (a
-        // given-up goal not answered yet waits: if it is accepted, it is
-        // cancelled then).
-        goals.retain(|g| g.call != 0 && !(link.abandoned(g.call) && g.cancelled));
-    }
-    // The run ends: no goal of it is left running on the robot.
-    for goal in &mut goals {
-        cancel_goal(goal);
+        Answered::read_on_this_thread(Arc::new(link.action.result.clone()));
+        loop {
+            match self.client.result_client().receive_response() {
+                Ok(Some((request, response))) => {
+                    if let Some(goal) = list
+                        .iter_mut()
+                        .find(|g| matches!(g.stage, Stage::Accepted(r) if r == request))
+                    {
+                        if !goal.answered && !link.abandoned(goal.call) {
+                            link.ended(goal.call, response.status as i8, &response.result.0);
+                        }
+                        goal.answered = true;
+                        goal.ended = true;
+                    }
+                }
+                Ok(None) => break,
+                Err(e) => {
+                    if let Some(i) = only(&mut list) {
+                        let why = format!("the result does not read: {e}");
+                        Self::end(&link, &mut list[i], Answer::Failed(why));
+                        list[i].cancel = true;
+                    }
+                    break;
+                }
+            }
+        }
+        // A cancel the server refuses leaves the goal running: said at
+        // once, rather than as a `cancel_ms` fault.
+        while let Ok(Some((request, response))) = self.client.cancel_client().receive_response() {
+            let refused = !matches!(
+                response.return_code,
+                CancelGoalResponseEnum::None | CancelGoalResponseEnum::GoalTerminated
+            );
+            if let Some(goal) = list.iter_mut().find(|g| g.cancelled == Some(request)) {
+                if refused {
+                    let why = format!(
+                        "the server refused to cancel the goal ({:?}): it may still be running",
+                        response.return_code
+                    );
+                    Self::end(&link, goal, Answer::Failed(why));
+                }
+            }
+        }
+        list.retain(|g| !g.ended && !(g.answered && g.cancelled.is_some()));
+        self.list = list;
     }
 }
+
+#[cfg(feature = "dds")]
+use ros2_client::action_msgs::CancelGoalResponseEnum;
