@@ -554,3 +554,80 @@ fn action_beside_rclpy(python: &str, distro: &str) {
     // The recording replays with neither ROS nor the network.
     super::ros2::replays_to_the_same_writes_and_signals(Path::new(&manifest), &inputs, &trace_text);
 }
+
+/// A Radar response served as the action `test_msgs/action/Fibonacci`.
+fn served_fibonacci() -> String {
+    format!(
+        r#"
+[plugins.Fib]
+wasm = "{}"
+
+[ros2]
+rmw = "dds"
+node = "radar_fibonacci"
+
+[[ros2.serve]]
+action = "/radar/fib"
+type = "test_msgs/action/Fibonacci"
+response = "Fib"
+"#,
+        radar_fixtures::plugins::FIBONACCI_RESPONSE
+    )
+}
+
+#[test]
+fn an_rclpy_action_client_drives_a_response_served_as_an_action() {
+    each_distro(rclpy_in_namespace, served_to_rclpy);
+}
+
+fn served_to_rclpy(python: &str, distro: &str) {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let manifest = write_manifest(dir.path(), &served_fibonacci());
+    let trace = dir.path().join("trace.jsonl");
+    let inputs = dir.path().join("inputs.jsonl");
+    let report = drive(
+        python,
+        "action_client.py",
+        &["--radar-node", "radar_fibonacci"],
+        &manifest,
+        &["--record", inputs.to_str().expect("utf-8")],
+        &trace,
+    );
+    assert_eq!(report["server"], true, "{distro}: {report:#}");
+    assert_eq!(
+        report["radar_action_servers"]["/radar/fib"],
+        serde_json::json!(["test_msgs/action/Fibonacci"]),
+        "{distro}: {report:#}"
+    );
+    let goals = report["goals"].as_array().cloned().unwrap_or_default();
+    assert_eq!(goals.len(), 3, "{distro}: {report:#}");
+    // The first goal: accepted, four feedbacks, succeeded (4) with the
+    // whole sequence.
+    assert_eq!(goals[0]["accepted"], true, "{distro}: {report:#}");
+    assert_eq!(goals[0]["status"], 4, "{distro}: {report:#}");
+    assert_eq!(
+        goals[0]["result"],
+        serde_json::json!([0, 1, 1, 2, 3, 5]),
+        "{distro}: {report:#}"
+    );
+    assert_eq!(goals[0]["feedback"], 4, "{distro}: {report:#}");
+    // A goal while the response runs: refused (its start was dropped).
+    assert_eq!(goals[1]["order"], 3, "{distro}: {report:#}");
+    assert_eq!(goals[1]["accepted"], false, "{distro}: {report:#}");
+    // The cancelled goal: the cancel taken (0), canceled (5).
+    assert_eq!(report["cancel_return_code"], 0, "{distro}: {report:#}");
+    assert_eq!(goals[2]["order"], 30, "{distro}: {report:#}");
+    assert_eq!(goals[2]["status"], 5, "{distro}: {report:#}");
+    // In the trace: the goals were injections (the busy one dropped), the
+    // cancel an interrupt.
+    let (trace_text, _) = lawful_trace(&trace);
+    for line in [
+        r#""kind":"inject","to":"Fib.start","payload":{"order":5}"#,
+        r#""kind":"dropped","id":0,"to":"Fib.start","reason":"busy""#,
+        r#""kind":"inject","to":"Fib.interrupt""#,
+    ] {
+        assert!(trace_text.contains(line), "{distro}: {line}: {trace_text}");
+    }
+    // The recording replays with no ROS.
+    super::ros2::replays_to_the_same_writes_and_signals(Path::new(&manifest), &inputs, &trace_text);
+}

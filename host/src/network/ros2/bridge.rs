@@ -29,6 +29,7 @@ use super::fit::{self, FieldPath};
 use super::graph::{self, Endpoint, Node};
 use super::incoming::{zenoh_sender, Taker};
 use super::outgoing::{has_header, publish, Outgoing, Tap, Wire};
+use super::served::ServedAction;
 use super::services::{backed_response, Server, ServiceLink};
 use super::settings::{Qos, Rmw, Ros2Settings};
 use super::types::{Message, MessageTypes};
@@ -74,6 +75,10 @@ pub struct Ros2 {
     services: Vec<Arc<ServiceLink>>,
     /// The responses backed by actions: each one's client.
     actions: Vec<Arc<ActionLink>>,
+    /// The responses served as actions: each one's server.
+    served: Vec<Arc<ServedAction>>,
+    /// The run, once started.
+    radar: Option<crate::system::Radar>,
     /// Emissions the tap queued, taken by the publishing thread.
     queued: Option<Receiver<(usize, Json)>>,
     tap: Option<Sender<(usize, Json)>>,
@@ -147,6 +152,24 @@ impl Ros2 {
                 }
             }
         }
+        let mut served = Vec::new();
+        for s in &settings.serve {
+            let at = format!("[[ros2.serve]] action `{}`", s.action);
+            if settings.rmw == Rmw::Zenoh {
+                return Err(Ros2Error::Settings(format!(
+                    "{at}: a response served as an action runs on DDS (`[ros2] rmw = \"dds\"`); \
+                     on rmw_zenoh it is not built yet"
+                )));
+            }
+            let action = types
+                .load_action(&s.type_name)
+                .map_err(|e| Ros2Error::Settings(format!("{at}: {e}")))?;
+            served.push(Arc::new(ServedAction::new(
+                settings.full_topic(&s.action),
+                action,
+                s.response.clone(),
+            )));
+        }
         let (tap, queued) = bounded(QUEUE);
         Ok(Self {
             settings: settings.clone(),
@@ -154,6 +177,8 @@ impl Ros2 {
             publications,
             services,
             actions,
+            served,
+            radar: None,
             joined: None,
             queued: Some(queued),
             tap: Some(tap),
@@ -178,6 +203,11 @@ impl Ros2 {
             routes,
             tx: self.tap.take(),
             left_out: self.left_out.clone(),
+            watchers: self
+                .served
+                .iter()
+                .map(|s| (s.response.clone(), s.watch()))
+                .collect(),
         }
     }
 
@@ -211,6 +241,9 @@ impl Ros2 {
         };
         if !self.actions.is_empty() {
             services.push_str(&format!(", {} action client(s)", self.actions.len()));
+        }
+        if !self.served.is_empty() {
+            services.push_str(&format!(", {} action server(s)", self.served.len()));
         }
         format!(
             "ros2: node {name} on {rmw}, domain {domain}: {} subscription(s), {} \
@@ -271,7 +304,11 @@ impl Ros2 {
     pub fn start(&mut self, system: &System, network: Option<&Network>) -> Result<(), Ros2Error> {
         let checked_in = self.check_subscriptions(system)?;
         let outgoing = self.check_publications(system)?;
+        for served in &self.served {
+            served.check(system)?;
+        }
         let radar = system.handle();
+        self.radar = Some(radar.clone());
         for link in &self.services {
             let _ = link.radar.set(radar.clone());
         }
@@ -497,6 +534,23 @@ impl Ros2 {
             let thread = std::thread::Builder::new()
                 .name("radar-ros2-service".into())
                 .spawn(move || super::services::serve_dds(client, server, link, requests, stop))
+                .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
+            self.threads.push(thread);
+        }
+        for served in &self.served {
+            let server = node.action_server(&served.name, &served.action)?;
+            let seen = served
+                .taken
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .take();
+            let (Some(seen), Some(radar)) = (seen, self.radar.clone()) else {
+                continue;
+            };
+            let (served, stop) = (served.clone(), self.stop.clone());
+            let thread = std::thread::Builder::new()
+                .name("radar-ros2-serve".into())
+                .spawn(move || super::served::serve_dds(server, served, radar, seen, stop))
                 .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
             self.threads.push(thread);
         }

@@ -14,7 +14,9 @@ use std::thread::JoinHandle;
 
 use futures::channel::oneshot;
 use futures::{FutureExt, StreamExt};
-use ros2_client::action::{ActionClient, ActionClientQosPolicies};
+use ros2_client::action::{
+    ActionClient, ActionClientQosPolicies, ActionServer, ActionServerQosPolicies,
+};
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::dds::{Client, Context, Node, Publisher, ServiceMapping, Subscription};
 use ros2_client::qos::{Durability, History, QosProfile, Reliability, WhenFull};
@@ -201,6 +203,45 @@ impl DdsNode {
             )
             .map(|client| (client, seen))
             .map_err(|e| Ros2Error::Session(format!("DDS: a client of action `{name}`: {e}")))
+    }
+
+    /// A server of action `name` (its full name) of type `action`, as
+    /// rclpy makes one: its three services, feedback and status.
+    pub(super) fn action_server(
+        &mut self,
+        name: &str,
+        action: &Action,
+    ) -> Result<ActionServer<Answered, Encoded, Encoded>, Ros2Error> {
+        let full =
+            ros_name(name).map_err(|e| Ros2Error::Settings(format!("action `{name}`: {e}")))?;
+        let mut parts = action.name.split('/');
+        let (package, _, type_name) = (parts.next(), parts.next(), parts.next());
+        let type_name = ActionTypeName::new(package.unwrap_or(""), type_name.unwrap_or(""));
+        let service = profile(&Qos {
+            best_effort: false,
+            depth: 10,
+            transient_local: false,
+        });
+        let status = profile(&Qos {
+            best_effort: false,
+            depth: 1,
+            transient_local: true,
+        });
+        let qos = ActionServerQosPolicies {
+            goal_service: service.clone(),
+            result_service: service.clone(),
+            cancel_service: service.clone(),
+            feedback_publisher: service,
+            status_publisher: status,
+        };
+        self.node
+            .create_action_server::<Answered, Encoded, Encoded>(
+                ServiceMapping::Enhanced,
+                &full,
+                &type_name,
+                qos,
+            )
+            .map_err(|e| Ros2Error::Session(format!("DDS: a server of action `{name}`: {e}")))
     }
 
     fn topic(

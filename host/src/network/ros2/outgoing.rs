@@ -196,10 +196,69 @@ pub(super) struct Tap {
     pub(super) routes: HashMap<String, Vec<(String, usize)>>,
     pub(super) tx: Option<Sender<(usize, Json)>>,
     pub(super) left_out: Arc<AtomicU64>,
+    /// Responses served as actions: what their servers hear of them.
+    pub(super) watchers: std::collections::BTreeMap<String, Sender<super::served::Seen>>,
+}
+
+impl Tap {
+    /// What a served response's server hears of this record, if anything.
+    fn watch(&self, entry: &Entry) {
+        use super::served::{tell, Seen};
+        let start = |to: &str| to.strip_suffix(".start").map(str::to_string);
+        match entry {
+            Entry::Inject { to, payload } => {
+                if let Some(plugin) = start(to) {
+                    tell(&self.watchers, &plugin, Seen::Injected(payload.clone()));
+                }
+            }
+            Entry::Deliver { id: 0, to, .. } => {
+                if let Some(plugin) = start(to) {
+                    tell(&self.watchers, &plugin, Seen::Delivered);
+                }
+            }
+            Entry::Dropped { id: 0, to, .. } => {
+                if let Some(plugin) = start(to) {
+                    tell(&self.watchers, &plugin, Seen::Dropped);
+                }
+            }
+            Entry::SlotBegin {
+                plugin,
+                slot,
+                connection,
+                after: None,
+                ..
+            } if slot == "start" => tell(
+                &self.watchers,
+                plugin,
+                Seen::Began {
+                    injected: *connection == Some(0),
+                },
+            ),
+            Entry::Signal {
+                plugin,
+                signal,
+                payload,
+            } => {
+                let seen = match &**signal {
+                    "started" => Seen::Started,
+                    "feedback" => Seen::Feedback(payload.clone()),
+                    "interrupted" => Seen::Interrupted,
+                    "exited" => Seen::Exited(payload.clone()),
+                    "faulted" => Seen::Faulted,
+                    _ => return,
+                };
+                tell(&self.watchers, plugin, seen);
+            }
+            _ => {}
+        }
+    }
 }
 
 impl TraceSink for Tap {
     fn record(&mut self, record: &Record) {
+        if !self.watchers.is_empty() {
+            self.watch(&record.entry);
+        }
         let Entry::Signal {
             plugin,
             signal,

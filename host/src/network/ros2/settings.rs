@@ -40,6 +40,9 @@ pub struct Ros2Settings {
     /// Signals out to topics.
     #[serde(default)]
     pub publish: Vec<Publish>,
+    /// Responses offered to the ROS 2 graph as action servers.
+    #[serde(default)]
+    pub serve: Vec<Serve>,
     /// The responses ROS 2 backs (`[plugins.X] ros2 = { service = ... }`),
     /// by plugin: filled from the plugins' tables when the manifest is read.
     #[serde(skip)]
@@ -157,6 +160,21 @@ pub struct Subscribe {
     /// The largest message read, in bytes (default 4 MiB).
     #[serde(default)]
     pub max_bytes: Option<usize>,
+}
+
+/// `[[ros2.serve]]`: response `response` offered to the ROS 2 graph as
+/// action `action` (`docs/ros2.md#responses-served-as-actions`).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Serve {
+    /// The action's name (`/radar/avoid`; relative names are in the node's
+    /// namespace).
+    pub action: String,
+    /// `pkg/action/Name`.
+    #[serde(rename = "type")]
+    pub type_name: String,
+    /// The response a goal starts.
+    pub response: String,
 }
 
 /// `[[ros2.publish]]`: every emission of `signal` is published on `topic`.
@@ -364,6 +382,33 @@ impl Ros2Settings {
                 return Err(format!(
                     "[ros2] topic `{topic}`: durability = \"transient_local\" is built on DDS \
                      only (rmw = \"dds\"); on rmw_zenoh Radar's topics are volatile"
+                ));
+            }
+        }
+        for (i, s) in self.serve.iter().enumerate() {
+            if !is_ros_name(&s.action) || s.action.ends_with('/') {
+                return Err(format!(
+                    "[[ros2.serve]] `{}` is not a ROS 2 action name (letters, digits, `_` and `/`)",
+                    s.action
+                ));
+            }
+            if s.response.is_empty() || s.response.contains('.') {
+                return Err(format!(
+                    "[[ros2.serve]] action `{}`: `response` names a response plugin (e.g. `Avoid`)",
+                    s.action
+                ));
+            }
+            if self.serve[..i].iter().any(|o| o.action == s.action) {
+                return Err(format!(
+                    "[[ros2.serve]] action `{}` is served twice",
+                    s.action
+                ));
+            }
+            if self.serve[..i].iter().any(|o| o.response == s.response) {
+                return Err(format!(
+                    "[[ros2.serve]] response `{}` serves two actions: a goal must know which \
+                     activation is its own",
+                    s.response
                 ));
             }
         }
