@@ -491,7 +491,9 @@ pub(super) fn serve_dds(
         Encoded(bytes)
     };
     Answered::read_on_this_thread(Arc::new(served.action.goal.clone()));
-    while !stop.load(Ordering::Relaxed) {
+    let mut stopping = false;
+    loop {
+        stopping |= stop.load(Ordering::Relaxed);
         let mut say = Vec::new();
         while let Ok(Some((request, goal))) = server.receive_goal() {
             match cdr::decode(&served.action.goal, &goal.goal.0) {
@@ -518,7 +520,7 @@ pub(super) fn serve_dds(
                 }
             }
             Err(crossbeam_channel::RecvTimeoutError::Timeout) => {}
-            Err(crossbeam_channel::RecvTimeoutError::Disconnected) => break,
+            Err(crossbeam_channel::RecvTimeoutError::Disconnected) => stopping = true,
         }
         goals.overdue(&mut say);
         while let Ok(Some((request, cancel))) = server.receive_cancel_request() {
@@ -564,6 +566,22 @@ pub(super) fn serve_dds(
                 .any(|g| g.id == asked.goal_id && g.result.is_some())
             {
                 say.push(Say::Ended(asked.goal_id));
+            }
+        }
+        if stopping {
+            // The run ends: no client is left waiting. Goals not ended are
+            // aborted, goals not decided refused.
+            let open: Vec<GoalId> = goals
+                .known
+                .iter()
+                .filter(|g| g.result.is_none())
+                .map(|g| g.id)
+                .collect();
+            for id in open {
+                goals.end(id, ABORTED, None, &mut say);
+            }
+            for (id, _) in &goal_requests {
+                say.push(Say::Accept(*id, false));
             }
         }
         for said in say {
@@ -628,6 +646,11 @@ pub(super) fn serve_dds(
                     let _ = server.send_goal_statuses(GoalStatusArray { status_list });
                 }
             }
+        }
+        if stopping {
+            // A moment for the last answers to leave.
+            std::thread::sleep(Duration::from_millis(100));
+            break;
         }
     }
 }
