@@ -174,19 +174,11 @@ impl DdsNode {
             requests: goals.to_dds_name("rq", &self.name, "Request"),
             replies: goals.to_dds_name("rr", &self.name, "Reply"),
         };
-        let mut parts = action.name.split('/');
-        let (package, _, type_name) = (parts.next(), parts.next(), parts.next());
-        let type_name = ActionTypeName::new(package.unwrap_or(""), type_name.unwrap_or(""));
-        let service = profile(&Qos {
-            best_effort: false,
-            depth: 10,
-            transient_local: false,
-        });
-        let status = profile(&Qos {
-            best_effort: false,
-            depth: 1,
-            transient_local: true,
-        });
+        let ActionParts {
+            type_name,
+            service,
+            status,
+        } = ActionParts::of(action);
         let qos = ActionClientQosPolicies {
             goal_service: service.clone(),
             result_service: service.clone(),
@@ -214,19 +206,11 @@ impl DdsNode {
     ) -> Result<ActionServer<Answered, Encoded, Encoded>, Ros2Error> {
         let full =
             ros_name(name).map_err(|e| Ros2Error::Settings(format!("action `{name}`: {e}")))?;
-        let mut parts = action.name.split('/');
-        let (package, _, type_name) = (parts.next(), parts.next(), parts.next());
-        let type_name = ActionTypeName::new(package.unwrap_or(""), type_name.unwrap_or(""));
-        let service = profile(&Qos {
-            best_effort: false,
-            depth: 10,
-            transient_local: false,
-        });
-        let status = profile(&Qos {
-            best_effort: false,
-            depth: 1,
-            transient_local: true,
-        });
+        let ActionParts {
+            type_name,
+            service,
+            status,
+        } = ActionParts::of(action);
         let qos = ActionServerQosPolicies {
             goal_service: service.clone(),
             result_service: service.clone(),
@@ -352,6 +336,34 @@ impl ServerSeen {
                 .discovered_writers()
                 .iter()
                 .any(|w| *w.publication_topic_data.topic_name() == self.replies)
+    }
+}
+
+/// What an action's client and server share: its type's name and ROS 2's
+/// QoS for its services (reliable, volatile, keep last 10) and its status
+/// (reliable, transient local, keep last 1).
+struct ActionParts {
+    type_name: ActionTypeName,
+    service: QosProfile,
+    status: QosProfile,
+}
+
+impl ActionParts {
+    fn of(action: &Action) -> Self {
+        let mut parts = action.name.split('/');
+        let (package, _, type_name) = (parts.next(), parts.next(), parts.next());
+        let qos = |depth, transient_local| {
+            profile(&Qos {
+                best_effort: false,
+                depth,
+                transient_local,
+            })
+        };
+        Self {
+            type_name: ActionTypeName::new(package.unwrap_or(""), type_name.unwrap_or("")),
+            service: qos(10, false),
+            status: qos(1, true),
+        }
     }
 }
 
