@@ -356,11 +356,14 @@ impl<Id: Copy + PartialEq> Goals<Id> {
                     let (cancel, interrupted) = self
                         .goal(id)
                         .map_or((false, false), |g| (g.cancel, g.interrupted));
-                    let status = match (cancel, interrupted) {
-                        (true, _) => CANCELED,
+                    // An `err` result did not succeed, however it ended.
+                    let failed = self.fitted.unwrap_ok && payload.get("ok").is_none();
+                    let status = match (cancel, interrupted, failed) {
+                        // The client's cancel reached the activation.
+                        (true, true, _) => CANCELED,
                         // Interrupted by the system, not the client.
-                        (false, true) => ABORTED,
-                        (false, false) => SUCCEEDED,
+                        (false, true, _) | (_, false, true) => ABORTED,
+                        (_, false, false) => SUCCEEDED,
                     };
                     self.end(id, status, Some(payload), say);
                 }
