@@ -26,6 +26,9 @@ pub const SCAN_EVENT: &[u8] = include_bytes!("../assets/scan_event.wasm");
 /// `plugins/back-off-response`: backs away, sending whole Twist records
 /// (its signal `cmd-vel`), and stops the base in its exit.
 pub const BACK_OFF_RESPONSE: &[u8] = include_bytes!("../assets/back_off_response.wasm");
+/// `plugins/low-battery-event`: triggers with a docking goal when a whole
+/// `sensor_msgs/msg/BatteryState` (entry `battery`) falls below `below`.
+pub const LOW_BATTERY_EVENT: &[u8] = include_bytes!("../assets/low_battery_event.wasm");
 
 /// `plugins/listing23-program`: Listing 2/3's deliberative part as a
 /// component.
@@ -39,7 +42,7 @@ pub const COUNTER_EVENT: &[u8] = include_bytes!("../assets/counter_event.wasm");
 pub const COUNTER_EVENT_V2: &[u8] = include_bytes!("../assets/counter_event_v2.wasm");
 
 /// The names a manifest gives these as `wasm = "builtin:NAME"`.
-pub const BUILTIN: [(&str, &[u8]); 11] = [
+pub const BUILTIN: [(&str, &[u8]); 12] = [
     ("test-event", TEST_EVENT),
     ("test-response", TEST_RESPONSE),
     ("timer-event", TIMER_EVENT),
@@ -48,6 +51,7 @@ pub const BUILTIN: [(&str, &[u8]); 11] = [
     ("avoid-response", AVOID_RESPONSE),
     ("scan-event", SCAN_EVENT),
     ("back-off-response", BACK_OFF_RESPONSE),
+    ("low-battery-event", LOW_BATTERY_EVENT),
     ("listing23-program", LISTING23_PROGRAM),
     ("counter-event", COUNTER_EVENT),
     ("counter-event-v2", COUNTER_EVENT_V2),

@@ -312,7 +312,7 @@ fn types_against_rclpy(python: &str, distro: &str) {
 }
 
 #[test]
-fn the_dds_robot_example_backs_away_from_an_rclpy_laser_scan_with_whole_twists() {
+fn the_dds_robot_example_backs_away_from_an_rclpy_laser_scan_and_docks_through_an_rclpy_action() {
     each_distro(rclpy_in_namespace, robot_beside_rclpy);
 }
 
@@ -320,12 +320,13 @@ fn robot_beside_rclpy(python: &str, distro: &str) {
     let dir = tempfile::tempdir().expect("temp dir");
     let manifest = root().join("docs/examples/ros2-dds-robot/radar.toml");
     let trace = dir.path().join("trace.jsonl");
+    let inputs = dir.path().join("inputs.jsonl");
     let report = drive(
         python,
         "robot.py",
         &[],
         manifest.to_str().expect("utf-8"),
-        &[],
+        &["--record", inputs.to_str().expect("utf-8")],
         &trace,
     );
     // A whole LaserScan (360 ranges) reached the entry; Obstacle triggered
@@ -348,7 +349,45 @@ fn robot_beside_rclpy(python: &str, distro: &str) {
         serde_json::json!(["sensor_msgs/msg/LaserScan"]),
         "{distro}: {report:#}"
     );
+    // The battery fell below 20 %: LowBattery's goal (dock 5) reached the
+    // docking server, which saw it through.
+    assert_eq!(
+        report["goals"],
+        serde_json::json!([{"order": 5, "ended": "succeeded"}]),
+        "{distro}: {report:#}"
+    );
+    assert_eq!(
+        report["actions"]["/dock"],
+        serde_json::json!(["test_msgs/action/Fibonacci"]),
+        "{distro}: {report:#}"
+    );
     let (trace_text, records) = lawful_trace(&trace);
+    // Dock started when the server accepted the goal, heard its feedback,
+    // and exited with the result.
+    let dock: Vec<(&str, Json)> = records
+        .iter()
+        .filter_map(|r| match &r.entry {
+            radar::trace::Entry::Signal {
+                plugin,
+                signal,
+                payload,
+                ..
+            } if &**plugin == "Dock" => Some((&**signal, payload.clone())),
+            _ => None,
+        })
+        .collect();
+    let signals: Vec<&str> = dock.iter().map(|(s, _)| *s).collect();
+    assert_eq!(
+        signals,
+        ["started", "feedback", "feedback", "feedback", "feedback", "exited"],
+        "{distro}: {trace_text}"
+    );
+    assert_eq!(dock[0].1, serde_json::json!({"order": 5}), "{distro}");
+    assert_eq!(
+        dock[5].1,
+        serde_json::json!({"ok": {"sequence": [0, 1, 1, 2, 3, 5]}}),
+        "{distro}: {trace_text}"
+    );
     let scans = records
         .iter()
         .filter(|r| {
@@ -357,6 +396,9 @@ fn robot_beside_rclpy(python: &str, distro: &str) {
         })
         .count();
     assert!(scans > 10, "{distro}: {scans} scans written: {trace_text}");
+    // The recording, scans, battery states and the action's answers,
+    // replays with neither ROS nor the network.
+    super::ros2::replays_to_the_same_writes_and_signals(&manifest, &inputs, &trace_text);
 }
 
 /// A response backed by an rclpy `std_srvs/srv/SetBool` server.

@@ -107,6 +107,7 @@ fn the_embedded_example_plugins_are_the_current_builds() {
         ("avoid_response.wasm", plugins::AVOID_RESPONSE),
         ("scan_event.wasm", plugins::SCAN_EVENT),
         ("back_off_response.wasm", plugins::BACK_OFF_RESPONSE),
+        ("low_battery_event.wasm", plugins::LOW_BATTERY_EVENT),
         ("counter_event.wasm", plugins::COUNTER_EVENT),
         ("counter_event_v2.wasm", plugins::COUNTER_EVENT_V2),
     ] {

@@ -6,9 +6,8 @@ response `Fib` is backed by that action (docs/ros2.md).
               -- RADAR_COMMAND...
 
 Starts the server, then RADAR_COMMAND (a `radar run`). Each goal of order
-n is worked through in n steps of `--step` seconds, with the sequence so
-far as feedback after each; a goal of order above 40 is rejected; a
-cancel is accepted and ends the goal as canceled at its next step. Once N
+n is worked through in n steps of `--step` seconds (fibonacci_server.py:
+feedback after each step, above 40 rejected, cancels accepted). Once N
 goals have ended (or the timeout) and Radar's run has ended by itself, it
 prints one JSON object: each goal's order and how it ended, the cancels
 asked for, the actions in ROS 2's graph, the action clients of Radar's node
@@ -23,16 +22,13 @@ import json
 import threading
 import time
 
+import fibonacci_server
 import radar_run
-
 import rclpy
-from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action import get_action_names_and_types
 from rclpy.action.graph import get_action_client_names_and_types_by_node
-from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
-from test_msgs.action import Fibonacci
 
 
 def main():
@@ -50,48 +46,8 @@ def main():
     report = {"goals": [], "cancels": 0}
     lock = threading.Lock()
 
-    def on_goal(goal):
-        if goal.order > 40:
-            with lock:
-                report["goals"].append({"order": goal.order, "ended": "rejected"})
-            return GoalResponse.REJECT
-        return GoalResponse.ACCEPT
-
-    def on_cancel(_handle):
-        with lock:
-            report["cancels"] += 1
-        return CancelResponse.ACCEPT
-
-    def execute(handle):
-        sequence = [0, 1]
-        result = Fibonacci.Result()
-        for _ in range(1, handle.request.order):
-            time.sleep(args.step)
-            if handle.is_cancel_requested:
-                handle.canceled()
-                result.sequence = sequence
-                with lock:
-                    report["goals"].append({"order": handle.request.order, "ended": "canceled"})
-                return result
-            sequence.append(sequence[-1] + sequence[-2])
-            feedback = Fibonacci.Feedback()
-            feedback.sequence = sequence
-            handle.publish_feedback(feedback)
-        handle.succeed()
-        result.sequence = sequence
-        with lock:
-            report["goals"].append({"order": handle.request.order, "ended": "succeeded"})
-        return result
-
-    ActionServer(
-        node,
-        Fibonacci,
-        "/fib",
-        execute_callback=execute,
-        goal_callback=on_goal,
-        cancel_callback=on_cancel,
-        callback_group=ReentrantCallbackGroup(),
-    )
+    # Kept for as long as the node spins.
+    _server = fibonacci_server.serve(node, "/fib", args.step, report, lock)
     executor = MultiThreadedExecutor()
     executor.add_node(node)
     radar, joined = radar_run.start(command)
