@@ -1,19 +1,29 @@
-//! One hop of a robot's reaction on DDS, as ROS 2 sees it: an rclpy node
-//! publishes a `sensor_msgs/msg/Range`, and times until a
-//! `geometry_msgs/msg/Twist` comes back, through Radar (Obstacle checks the
-//! entry every 1 ms, Avoid starts, its `started` is published) against
-//! through a plain rclpy relay node doing the same hop (what a ROS 2 user
-//! would write instead), interleaved in one run
-//! (`tests/clients/rclpy/latency.py`). Everything runs inside a private
-//! network namespace (`tests/clients/rclpy/netns`), on ROS 2 Kilted's
-//! rclpy (Fast DDS), installed by `tests/clients/rclpy/setup`.
+//! Radar on DDS as ROS 2 sees it, each figure against what a ROS 2 user
+//! would write instead, interleaved in one run:
+//!
+//! - **One hop of a robot's reaction** (`tests/clients/rclpy/latency.py`):
+//!   an rclpy node publishes a `sensor_msgs/msg/Range`, and times until a
+//!   `geometry_msgs/msg/Twist` comes back, through Radar (Obstacle checks
+//!   the entry every 1 ms, Avoid starts, its `started` is published)
+//!   against through a plain rclpy relay node doing the same hop. Radar's
+//!   p50 includes half its check period on average (0.5 ms).
+//! - **An action's round trip** (`tests/clients/rclpy/action_latency.py`):
+//!   rclpy's action client sends a `test_msgs/action/Fibonacci` goal of
+//!   order 1 and times until its result arrives, from a Radar response
+//!   served as the action (`[[ros2.serve]]`) against from a plain rclpy
+//!   action server.
+//!
+//! Everything runs inside a private network namespace
+//! (`tests/clients/rclpy/netns`), on ROS 2 Kilted's rclpy (Fast DDS),
+//! installed by `tests/clients/rclpy/setup`.
 //!
 //! `cargo bench -p radar --bench ros2_dds` (`RADAR_DDS_SAMPLES`, default
-//! 300 of each; `RADAR_DDS_DISTRO`, default `kilted`). Radar's p50
-//! includes half its check period on average (0.5 ms).
+//! 300 of each; `RADAR_DDS_DISTRO`, default `kilted`).
 
 use std::path::Path;
 use std::process::Command;
+
+use radar_fixtures::plugins::FIBONACCI_RESPONSE;
 
 const MANIFEST: &str = r#"
 [plugins.Obstacle]
@@ -65,9 +75,42 @@ fn main() {
     );
     let python = String::from_utf8_lossy(&setup.stdout).trim().to_string();
     let dir = tempfile::tempdir().expect("a temp dir");
-    let manifest = dir.path().join("radar.toml");
-    std::fs::write(&manifest, MANIFEST).expect("the manifest");
+    let hop = dir.path().join("hop.toml");
+    std::fs::write(&hop, MANIFEST).expect("the manifest");
     println!("== rclpy → Range → … → Twist → rclpy, on DDS (ROS 2 {distro}), {samples} of each ==");
+    in_namespace(&python, &clients, "latency.py", &samples, &hop);
+    let served = dir.path().join("served.toml");
+    std::fs::write(&served, served_fibonacci()).expect("the manifest");
+    println!(
+        "== rclpy action client → Fibonacci goal → result, on DDS (ROS 2 {distro}), {samples} of each =="
+    );
+    in_namespace(&python, &clients, "action_latency.py", &samples, &served);
+}
+
+/// A Radar response served as the action `/radar/fib`, answering at once.
+fn served_fibonacci() -> String {
+    format!(
+        r#"
+[plugins.Fib]
+wasm = "{}"
+config = {{ step_ms = 0 }}
+
+[ros2]
+rmw = "dds"
+node = "radar_action_latency"
+
+[[ros2.serve]]
+action = "/radar/fib"
+type = "test_msgs/action/Fibonacci"
+response = "Fib"
+"#,
+        FIBONACCI_RESPONSE
+    )
+}
+
+/// Runs the rclpy `script` (with `--samples`) inside a private network
+/// namespace, beside `radar run manifest` under the real clock.
+fn in_namespace(python: &str, clients: &Path, script: &str, samples: &str, manifest: &Path) {
     let mut command = Command::new(clients.join("netns"));
     // The caller's own ROS 2 settings stay out of the namespace.
     for var in [
@@ -84,13 +127,13 @@ fn main() {
     }
     let status = command
         .arg(python)
-        .arg(clients.join("latency.py"))
-        .args(["--samples", &samples, "--"])
+        .arg(clients.join(script))
+        .args(["--samples", samples, "--"])
         .arg(env!("CARGO_BIN_EXE_radar"))
         .arg("run")
-        .arg(&manifest)
+        .arg(manifest)
         .args(["--clock", "real", "--for", "600s", "-q"])
         .status()
-        .expect("latency.py runs");
-    assert!(status.success(), "latency.py failed");
+        .unwrap_or_else(|e| panic!("{script} runs: {e}"));
+    assert!(status.success(), "{script} failed");
 }
