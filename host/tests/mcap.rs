@@ -102,3 +102,142 @@ fn convert_refuses_what_is_not_a_trace_in_one_line() {
         text(&out.stderr)
     );
 }
+
+/// The reference reader's view of an MCAP file (`tests/clients/mcap/read.py`).
+fn read_with_the_reference_reader(mcap: &str) -> Json {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let setup = Command::new(root.join("tests/clients/mcap/setup"))
+        .output()
+        .expect("setup runs");
+    assert!(setup.status.success(), "{}", text(&setup.stderr));
+    let out = Command::new(text(&setup.stdout).trim())
+        .arg(root.join("tests/clients/mcap/read.py"))
+        .arg(mcap)
+        .output()
+        .expect("read.py runs");
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    serde_json::from_slice(&out.stdout).expect("JSON")
+}
+
+/// A whole `sensor_msgs/msg/LaserScan` as a `(ros2 /scan)` write gives
+/// it, WIT-named: 360 ranges, `near` m in a sector, 2 m elsewhere.
+fn scan(near: f64) -> Json {
+    let mut ranges = vec![2.0; 360];
+    ranges[170..190].fill(near);
+    serde_json::json!({
+        "header": {"stamp": {"sec": 0, "nanosec": 0}, "frame-id": "laser"},
+        "angle-min": -3.0, "angle-max": 3.0, "angle-increment": 0.015625,
+        "time-increment": 0.0, "scan-time": 0.0, "range-min": 0.05, "range-max": 12.0,
+        "ranges": ranges, "intensities": []
+    })
+}
+
+#[test]
+fn an_mcap_trace_writes_the_ros2_messages_on_their_topics_as_ros2_readers_decode_them() {
+    // A recording of the DDS robot example (scans in, Twists out), replayed
+    // with no ROS and traced as MCAP: the scans are on /scan and BackOff's
+    // Twists on /cmd_vel, each in CDR with its ROS 2 schema, and
+    // mcap-ros2-support decodes them from the file alone.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let inputs = path(dir.path(), "inputs.jsonl");
+    let lines: Vec<String> = [(0u64, 2.0), (1_000_000_000, 0.25), (2_000_000_000, 2.0)]
+        .iter()
+        .map(|(t, near)| {
+            serde_json::json!({
+                "t": t, "kind": "board-write", "entry": "scan", "by": "(ros2 /scan)",
+                "value": scan(*near)
+            })
+            .to_string()
+        })
+        .collect();
+    std::fs::write(&inputs, lines.join("\n") + "\n").expect("inputs");
+    let manifest =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/examples/ros2-dds-robot/radar.toml");
+    let mcap = path(dir.path(), "replay.mcap");
+    let out = radar(&[
+        "run",
+        manifest.to_str().expect("utf-8"),
+        "-q",
+        "--for",
+        "4s",
+        "--replay",
+        &inputs,
+        "--trace",
+        &mcap,
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let seen = read_with_the_reference_reader(&mcap);
+    // A virtual-clock run: log time = t.
+    assert_eq!(seen["log_time_offsets"], serde_json::json!([0]), "{seen:#}");
+    let scans = &seen["channels"]["/scan"];
+    assert_eq!(scans["message_encoding"], "cdr", "{seen:#}");
+    assert_eq!(scans["schema"], "sensor_msgs/msg/LaserScan", "{seen:#}");
+    assert_eq!(scans["schema_encoding"], "ros2msg", "{seen:#}");
+    let scans = seen["ros2"]["/scan"].as_array().expect("scans");
+    assert_eq!(scans.len(), 3, "{seen:#}");
+    let second = &scans[1]["message"];
+    assert_eq!(second["header"]["frame_id"], "laser");
+    assert_eq!(second["range_max"], 12.0);
+    assert_eq!(second["ranges"].as_array().map(Vec::len), Some(360));
+    assert_eq!(second["ranges"][180], 0.25);
+    assert_eq!(scans[1]["log_time"], 1_000_000_000u64);
+    // BackOff backed away at 0.25 m/s, then its exit stopped the base.
+    let twists: Vec<(f64, f64)> = seen["ros2"]["/cmd_vel"]
+        .as_array()
+        .expect("twists")
+        .iter()
+        .map(|m| {
+            assert_eq!(m["schema"], "geometry_msgs/msg/Twist");
+            let twist = &m["message"];
+            (
+                twist["linear"]["x"].as_f64().expect("x"),
+                twist["angular"]["z"].as_f64().expect("z"),
+            )
+        })
+        .collect();
+    assert_eq!(twists, [(-0.25, 0.0), (0.0, 0.0)], "{seen:#}");
+    // The JSON Lines trace is still the records alone.
+    let back = path(dir.path(), "back.jsonl");
+    let out = radar(&["trace", "convert", &mcap, &back]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert_eq!(
+        std::fs::read_to_string(&back).expect("converted"),
+        seen["jsonl"].as_str().expect("jsonl")
+    );
+}
+
+#[test]
+fn a_real_clock_run_traced_as_mcap_has_wall_clock_log_times() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mcap = path(dir.path(), "real.mcap");
+    let before = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .expect("after 1970")
+        .as_nanos();
+    let out = radar(&[
+        "run", "-q", "--clock", "real", "--for", "1s", "--trace", &mcap,
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let after = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .expect("after 1970")
+        .as_nanos();
+    let seen = read_with_the_reference_reader(&mcap);
+    // One offset for every record: the wall-clock time of t = 0, within
+    // the run.
+    let offsets = seen["log_time_offsets"].as_array().expect("offsets");
+    assert_eq!(offsets.len(), 1, "{seen:#}");
+    let start = u128::from(offsets[0].as_u64().expect("an offset"));
+    assert!(
+        before <= start && start <= after,
+        "{before} {start} {after}"
+    );
+    // Converting back gives the records with their own t.
+    let back = path(dir.path(), "back.jsonl");
+    let out = radar(&["trace", "convert", &mcap, &back]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert_eq!(
+        std::fs::read_to_string(&back).expect("converted"),
+        seen["jsonl"].as_str().expect("jsonl")
+    );
+}

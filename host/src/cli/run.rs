@@ -252,6 +252,27 @@ fn print_watch_event(event: WatchEvent) {
     }
 }
 
+/// Gives an MCAP trace the ROS 2 messages to write on their topics: the
+/// bridge's, or in a replay (which has no bridge) the same routes read
+/// from the manifest. A replay whose routes cannot be read says so and
+/// writes none.
+fn recorded_topics(
+    slot: &radar::view::TopicsSlot,
+    bridge: Option<&Ros2>,
+    settings: &radar::network::ros2::Ros2Settings,
+    manifest: &Manifest,
+    system: &radar::System,
+) {
+    let topics = match bridge {
+        Some(bridge) => bridge.recorded_topics(system),
+        None => Ros2::open(settings, manifest.dir()).and_then(|b| b.recorded_topics(system)),
+    };
+    match topics {
+        Ok(topics) => slot.set(topics),
+        Err(e) => eprintln!("radar: the MCAP trace leaves out the ROS 2 topics: {e}"),
+    }
+}
+
 pub fn run(args: RunArgs) -> Result<()> {
     let replay = match &args.replay {
         None => None,
@@ -277,13 +298,22 @@ pub fn run(args: RunArgs) -> Result<()> {
             args.timeline.options(),
         ));
     }
+    // An MCAP trace also writes the ROS 2 messages on their topics, once
+    // the system they are checked against is built.
+    let mut mcap_topics: Option<radar::view::TopicsSlot> = None;
     if let Some(path) = &args.trace {
         let file = File::create(path)
             .with_context(|| format!("cannot create trace file {}", path.display()))?;
         // By the extension: `.mcap` is MCAP, anything else JSON Lines.
         if radar::view::is_mcap(path) {
-            let trace = radar::view::McapTrace::new(BufWriter::new(file))
-                .with_context(|| format!("cannot write trace file {}", path.display()))?;
+            let topics = radar::view::TopicsSlot::default();
+            let mut trace = radar::view::McapTrace::new(BufWriter::new(file))
+                .with_context(|| format!("cannot write trace file {}", path.display()))?
+                .with_topics(topics.clone());
+            if args.clock == ClockKind::Real {
+                trace = trace.with_wall_clock();
+            }
+            mcap_topics = Some(topics);
             builder = builder.trace_to(trace);
         } else {
             builder = builder.trace_to(JsonLines::new(BufWriter::new(file)));
@@ -458,6 +488,9 @@ pub fn run(args: RunArgs) -> Result<()> {
                 .map_err(|e| super::fixes::building(e, &manifest, path, args.release))?;
             if let Some(bridge) = &mut ros2 {
                 bridge.start(&system, network.as_ref())?;
+            }
+            if let (Some(slot), Some(settings)) = (&mcap_topics, &manifest.ros2) {
+                recorded_topics(slot, ros2.as_ref(), settings, &manifest, &system);
             }
             warn_of_changed_plugins(replay.as_deref(), &system);
             stop_on_signals(&system);

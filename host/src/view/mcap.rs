@@ -1,21 +1,28 @@
 //! The trace as MCAP: every record once, as the JSON line the JSON Lines
 //! trace has for it, on a channel per plugin and kind of record
 //! (`/radar/<Plugin>/<kind>`, or `/radar/<kind>` for records of no
-//! plugin), with a JSON Schema per kind and log time = the record's `t`.
+//! plugin), with a JSON Schema per kind and log time = the record's `t`
+//! (in a real-clock run, [`McapTrace::with_wall_clock`], the wall-clock
+//! time of `t`, so that the file lines up with a rosbag of the same run).
 //! Because each message is the record's own line, the JSON Lines trace is
 //! rebuilt from the file byte for byte ([`mcap_to_jsonl`]), and a JSON
-//! Lines trace becomes the same MCAP file a run writes ([`jsonl_to_mcap`]).
+//! Lines trace becomes the same MCAP file a virtual-clock run writes
+//! ([`jsonl_to_mcap`]). Messages a record also makes on a topic of its own
+//! ([`super::topics`]: a ROS 2 message, in CDR) go on that topic's channel
+//! and are left out of the JSON Lines trace.
 //!
 //! Chunks are not compressed: the compressors the `mcap` crate offers are
 //! C builds, and a trace is small next to what it records.
 
 use std::collections::HashMap;
 use std::io::{BufRead, Seek, Write};
+use std::time::{SystemTime, UNIX_EPOCH};
 
 use ::mcap::records::MessageHeader;
 use ::mcap::{WriteOptions, Writer};
 use serde::Deserialize;
 
+use super::topics::{TopicMessage, TopicsSlot};
 use crate::trace::{Record, TraceSink};
 
 /// Why a trace cannot be converted.
@@ -54,6 +61,14 @@ pub struct McapTrace<W: Write + Seek + Send> {
     last_t: u64,
     pending: Vec<Record>,
     error: Option<ViewError>,
+    /// Log times are wall-clock times: the epoch's nanoseconds at `t = 0`
+    /// (taken from the first record, as it comes), once known.
+    wall_clock: bool,
+    offset: Option<u64>,
+    /// Messages the records also make on topics of their own, and those
+    /// topics' channels.
+    topics: TopicsSlot,
+    topic_channels: HashMap<(String, String), u16>,
 }
 
 impl<W: Write + Seek + Send> McapTrace<W> {
@@ -70,7 +85,32 @@ impl<W: Write + Seek + Send> McapTrace<W> {
             last_t: 0,
             pending: Vec::new(),
             error: None,
+            wall_clock: false,
+            offset: None,
+            topics: TopicsSlot::default(),
+            topic_channels: HashMap::new(),
         })
+    }
+
+    /// Log times are wall-clock times (a real-clock run): `t = 0` is the
+    /// moment the first record reached this sink, less its `t`, which is
+    /// within microseconds of the run's start. Each record keeps its own
+    /// `t`.
+    pub fn with_wall_clock(mut self) -> Self {
+        self.wall_clock = true;
+        self
+    }
+
+    /// Records also make messages on topics of their own, as `topics`
+    /// says once it is set.
+    pub fn with_topics(mut self, topics: TopicsSlot) -> Self {
+        self.topics = topics;
+        self
+    }
+
+    /// The log time of a record at `t`.
+    fn log_time(&self, t: u64) -> u64 {
+        t.saturating_add(self.offset.unwrap_or(0))
     }
 
     /// Writes one record's JSON line (`line`, without its newline).
@@ -88,6 +128,7 @@ impl<W: Write + Seek + Send> McapTrace<W> {
             )));
         }
         self.last_t = head.t;
+        let log_time = self.log_time(head.t);
         let writer = self
             .writer
             .as_mut()
@@ -115,10 +156,50 @@ impl<W: Write + Seek + Send> McapTrace<W> {
             &MessageHeader {
                 channel_id,
                 sequence: self.sequence,
-                log_time: head.t,
-                publish_time: head.t,
+                log_time,
+                publish_time: log_time,
             },
             line,
+        )?;
+        self.sequence = self.sequence.wrapping_add(1);
+        Ok(())
+    }
+
+    /// Writes a message a record at `t` made on a topic of its own.
+    fn write_topic_message(&mut self, t: u64, message: &TopicMessage) -> Result<(), ViewError> {
+        let log_time = self.log_time(t);
+        let writer = self
+            .writer
+            .as_mut()
+            .ok_or_else(|| ViewError::NotARecord("the MCAP file is finished".into()))?;
+        let channel = &message.channel;
+        let key = (channel.topic.clone(), channel.schema_name.clone());
+        let channel_id = match self.topic_channels.get(&key) {
+            Some(id) => *id,
+            None => {
+                let schema_id = writer.add_schema(
+                    &channel.schema_name,
+                    &channel.schema_encoding,
+                    &channel.schema,
+                )?;
+                let id = writer.add_channel(
+                    schema_id,
+                    &channel.topic,
+                    &channel.message_encoding,
+                    &Default::default(),
+                )?;
+                self.topic_channels.insert(key, id);
+                id
+            }
+        };
+        writer.write_to_known_channel(
+            &MessageHeader {
+                channel_id,
+                sequence: self.sequence,
+                log_time,
+                publish_time: log_time,
+            },
+            &message.data,
         )?;
         self.sequence = self.sequence.wrapping_add(1);
         Ok(())
@@ -144,6 +225,14 @@ impl<W: Write + Seek + Send> McapTrace<W> {
             }
             if let Err(e) = self.write_line(record.to_json_line().as_bytes()) {
                 self.error = Some(e);
+                break;
+            }
+            let log_time = self.log_time(record.t);
+            for message in self.topics.messages(record, log_time) {
+                if let Err(e) = self.write_topic_message(record.t, &message) {
+                    self.error = Some(e);
+                    break;
+                }
             }
         }
     }
@@ -151,6 +240,12 @@ impl<W: Write + Seek + Send> McapTrace<W> {
 
 impl<W: Write + Seek + Send> TraceSink for McapTrace<W> {
     fn record(&mut self, record: &Record) {
+        if self.wall_clock && self.offset.is_none() {
+            let now = SystemTime::now()
+                .duration_since(UNIX_EPOCH)
+                .map_or(0, |d| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX));
+            self.offset = Some(now.saturating_sub(record.t));
+        }
         self.pending.push(record.clone());
         if self.pending.len() >= Self::BATCH {
             self.drain();
@@ -197,11 +292,15 @@ pub fn jsonl_to_mcap<W: Write + Seek + Send>(input: impl BufRead, out: W) -> Res
 
 /// An MCAP trace (the file's bytes) as JSON Lines, each record's line as
 /// the file holds it, in the order of their log times (and, at one time,
-/// of their sequence numbers).
+/// of their sequence numbers). Messages on channels not encoded as JSON
+/// (a ROS 2 topic's, in CDR) are not records, and are left out.
 pub fn mcap_to_jsonl(bytes: &[u8], mut out: impl Write) -> Result<(), ViewError> {
     let mut messages = Vec::new();
     for message in ::mcap::MessageStream::new(bytes)? {
         let message = message?;
+        if message.channel.message_encoding != "json" {
+            continue;
+        }
         if message.data.first() != Some(&b'{') || message.data.contains(&b'\n') {
             return Err(ViewError::NotARecord(format!(
                 "a message on {} is not a trace record's JSON line",

@@ -29,6 +29,7 @@ use super::fit::{self, FieldPath};
 use super::graph::{self, Endpoint, Node};
 use super::incoming::{zenoh_sender, Taker};
 use super::outgoing::{has_header, publish, Outgoing, Tap, Wire};
+use super::recorded::{RecordedTopics, Sent, Taken};
 use super::served::ServedAction;
 use super::services::{backed_response, Server, ServiceLink};
 use super::settings::{Qos, Rmw, Ros2Settings};
@@ -287,6 +288,43 @@ impl Ros2 {
             name: settings.node_name(system.as_deref()),
         };
         Ok((session, node))
+    }
+
+    /// What an MCAP trace of the run also writes on the ROS 2 topics: each
+    /// message taken by a subscription whose entry keeps it whole, and each
+    /// one published, in CDR with its ROS 2 schema
+    /// (`docs/ros2.md#beside-a-rosbag`). Checks the routes against the
+    /// built system as [`Ros2::start`] does; needs no network, so a replay
+    /// has it too.
+    pub fn recorded_topics(
+        &self,
+        system: &System,
+    ) -> Result<Box<dyn crate::view::AlsoOnTopics>, Ros2Error> {
+        let taken = self
+            .subscriptions
+            .iter()
+            .zip(self.check_subscriptions(system)?)
+            .filter(|(_, (path, _))| path.is_empty())
+            .map(|(sub, _)| Taken {
+                topic: sub.topic.clone(),
+                message: sub.message.clone(),
+            })
+            .collect();
+        let sent = self
+            .publications
+            .iter()
+            .zip(self.check_publications(system)?)
+            .map(|(p, checked)| Sent {
+                signal: p.signal.clone(),
+                topic: p.topic.clone(),
+                message: p.message.clone(),
+                path: checked.path,
+                base: checked.base,
+                unwrap_ok: checked.unwrap_ok,
+                stamp: has_header(&p.message),
+            })
+            .collect();
+        Ok(Box::new(RecordedTopics::new(taken, sent)))
     }
 
     /// Emissions not published (see [`Ros2`]'s fields).

@@ -9,7 +9,8 @@
 //! type hash (`hash`) and wire form (`cdr`), how a message fits an entry
 //! or a signal (`fit`), rmw_zenoh's names (`graph`), and the bridge that
 //! runs them (`bridge`), with its subscriptions' threads (`incoming`) and
-//! its publishing (`outgoing`); on DDS, the node (`dds`) and the bytes
+//! its publishing (`outgoing`), and what an MCAP trace
+//! writes on the topics (`recorded`); on DDS, the node (`dds`) and the bytes
 //! through RustDDS's CDR (`dds_cdr`).
 
 mod actions;
@@ -27,6 +28,7 @@ mod hash;
 mod incoming;
 pub mod msg;
 mod outgoing;
+mod recorded;
 mod served;
 mod services;
 mod settings;

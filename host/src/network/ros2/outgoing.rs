@@ -124,7 +124,7 @@ pub(super) fn publish(
 /// not used, whatever the signal carries (a fixed message goes out after
 /// an `err` too). `Ok(None)`: nothing goes out (an `err` of a route that
 /// publishes what a result holds); `Err`: why it cannot.
-fn message(
+pub(super) fn message(
     unwrap_ok: bool,
     path: Option<&FieldPath>,
     base: &Json,
@@ -172,7 +172,7 @@ pub(super) fn has_header(message: &Message) -> bool {
 
 /// A value whose `header` has no stamp gets `now`, as a ROS 2 node stamps
 /// what it publishes.
-fn stamped(mut value: Json, now: Duration) -> Json {
+pub(super) fn stamped(mut value: Json, now: Duration) -> Json {
     if let Some(object) = value.as_object_mut() {
         let header = object
             .entry("header")
