@@ -219,6 +219,19 @@ fn type_mismatches_are_refused_when_the_system_is_built() {
             "[[ros2.subscribe]]\ntopic = \"/x\"\ntype = \"my_msgs/msg/Unknown\"\nentry = \"range\"\n",
             "radar: ros2: topic `/x`: unknown message type `my_msgs/msg/Unknown`",
         ),
+        (
+            "[[ros2.serve]]\naction = \"/a\"\nservice = \"/s\"\ntype = \"std_srvs/srv/SetBool\"\n\
+             response = \"Avoid\"\n",
+            "[[ros2.serve]] response `Avoid`: say `action = \"/name\"` (and `type = \
+             \"pkg/action/Name\"`) or `service = \"/name\"` (and `type = \"pkg/srv/Name\"`), \
+             one of them",
+        ),
+        (
+            "[[ros2.serve]]\nservice = \"/grip\"\ntype = \"std_srvs/srv/SetBool\"\n\
+             response = \"Avoid\"\n",
+            "[[ros2.serve]] service `/grip`: a response served as an action or a service runs \
+             on DDS",
+        ),
     ];
     for (extra, needle) in cases {
         // Nothing is listened on or connected to: the check comes first.

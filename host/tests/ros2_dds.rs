@@ -673,3 +673,83 @@ fn served_to_rclpy(python: &str, distro: &str) {
     // The recording replays with no ROS.
     super::ros2::replays_to_the_same_writes_and_signals(Path::new(&manifest), &inputs, &trace_text);
 }
+
+/// A Radar response served as the service `std_srvs/srv/SetBool`.
+fn served_gripper() -> String {
+    format!(
+        r#"
+[plugins.Grip]
+wasm = "{}"
+
+[ros2]
+rmw = "dds"
+node = "radar_gripper"
+
+[[ros2.serve]]
+service = "/radar/grip"
+type = "std_srvs/srv/SetBool"
+response = "Grip"
+"#,
+        radar_fixtures::plugins::GRIPPER_RESPONSE
+    )
+}
+
+#[test]
+fn an_rclpy_service_client_calls_a_response_served_as_a_service() {
+    each_distro(rclpy_in_namespace, served_service_to_rclpy);
+}
+
+fn served_service_to_rclpy(python: &str, distro: &str) {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let manifest = write_manifest(dir.path(), &served_gripper());
+    let trace = dir.path().join("trace.jsonl");
+    let inputs = dir.path().join("inputs.jsonl");
+    let report = drive(
+        python,
+        "service_client.py",
+        &["--radar-node", "radar_gripper"],
+        &manifest,
+        &["--record", inputs.to_str().expect("utf-8")],
+        &trace,
+    );
+    assert_eq!(report["server"], true, "{distro}: {report:#}");
+    assert_eq!(
+        report["radar_services"]["/radar/grip"],
+        serde_json::json!(["std_srvs/srv/SetBool"]),
+        "{distro}: {report:#}"
+    );
+    let calls = report["calls"].as_array().cloned().unwrap_or_default();
+    let replies: Vec<(bool, Json)> = calls
+        .iter()
+        .map(|c| (c["data"] == true, c["reply"].clone()))
+        .collect();
+    let reply = |message: &str| serde_json::json!({"success": true, "message": message});
+    // Each call is answered once the gripper has moved (0.3 s); a call
+    // while it moves finds it busy, and gets no reply.
+    assert_eq!(
+        replies,
+        [
+            (true, reply("closed")),
+            (false, reply("opened")),
+            (true, reply("closed")),
+            (false, Json::Null),
+        ],
+        "{distro}: {report:#}"
+    );
+    for call in &calls[..3] {
+        let took = call["took"].as_f64().expect("answered");
+        assert!(took >= 0.3, "{distro}: {report:#}");
+    }
+    // In the trace: each request an injection into start (the busy one
+    // dropped), each reply the activation's `exited`.
+    let (trace_text, _) = lawful_trace(&trace);
+    for line in [
+        r#""kind":"inject","to":"Grip.start","payload":{"data":true}"#,
+        r#""kind":"dropped","id":0,"to":"Grip.start","reason":"busy""#,
+        r#""kind":"signal","plugin":"Grip","signal":"exited","payload":{"ok":{"message":"opened","success":true}}"#,
+    ] {
+        assert!(trace_text.contains(line), "{distro}: {line}: {trace_text}");
+    }
+    // The recording replays with no ROS.
+    super::ros2::replays_to_the_same_writes_and_signals(Path::new(&manifest), &inputs, &trace_text);
+}

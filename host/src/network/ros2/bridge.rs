@@ -30,7 +30,7 @@ use super::graph::{self, Endpoint, Node};
 use super::incoming::{zenoh_sender, Taker};
 use super::outgoing::{has_header, publish, Outgoing, Tap, Wire};
 use super::recorded::{RecordedTopics, Sent, Taken};
-use super::served::ServedAction;
+use super::served::{Offered, Served};
 use super::services::{backed_response, Server, ServiceLink};
 use super::settings::{Qos, Rmw, Ros2Settings};
 use super::types::{Message, MessageTypes};
@@ -77,7 +77,7 @@ pub struct Ros2 {
     /// The responses backed by actions: each one's client.
     actions: Vec<Arc<ActionLink>>,
     /// The responses served as actions: each one's server.
-    served: Vec<Arc<ServedAction>>,
+    served: Vec<Arc<Served>>,
     /// The run, once started.
     radar: Option<crate::system::Radar>,
     /// Emissions the tap queued, taken by the publishing thread.
@@ -155,19 +155,29 @@ impl Ros2 {
         }
         let mut served = Vec::new();
         for s in &settings.serve {
-            let at = format!("[[ros2.serve]] action `{}`", s.action);
+            let at = format!("[[ros2.serve]] {} `{}`", s.kind(), s.name());
             if settings.rmw == Rmw::Zenoh {
                 return Err(Ros2Error::Settings(format!(
-                    "{at}: a response served as an action runs on DDS (`[ros2] rmw = \"dds\"`); \
-                     on rmw_zenoh it is not built yet"
+                    "{at}: a response served as an action or a service runs on DDS (`[ros2] \
+                     rmw = \"dds\"`); on rmw_zenoh it is not built yet"
                 )));
             }
-            let action = types
-                .load_action(&s.type_name)
-                .map_err(|e| Ros2Error::Settings(format!("{at}: {e}")))?;
-            served.push(Arc::new(ServedAction::new(
-                settings.full_topic(&s.action),
-                action,
+            let offered = if s.service.is_some() {
+                Offered::Service(
+                    types
+                        .load_service(&s.type_name)
+                        .map_err(|e| Ros2Error::Settings(format!("{at}: {e}")))?,
+                )
+            } else {
+                Offered::Action(Box::new(
+                    types
+                        .load_action(&s.type_name)
+                        .map_err(|e| Ros2Error::Settings(format!("{at}: {e}")))?,
+                ))
+            };
+            served.push(Arc::new(Served::new(
+                settings.full_topic(s.name()),
+                offered,
                 s.response.clone(),
             )));
         }
@@ -243,8 +253,19 @@ impl Ros2 {
         if !self.actions.is_empty() {
             services.push_str(&format!(", {} action client(s)", self.actions.len()));
         }
-        if !self.served.is_empty() {
-            services.push_str(&format!(", {} action server(s)", self.served.len()));
+        let served_actions = self
+            .served
+            .iter()
+            .filter(|s| matches!(s.offered, Offered::Action(_)))
+            .count();
+        if served_actions > 0 {
+            services.push_str(&format!(", {served_actions} action server(s)"));
+        }
+        if self.served.len() > served_actions {
+            services.push_str(&format!(
+                ", {} service server(s)",
+                self.served.len() - served_actions
+            ));
         }
         format!(
             "ros2: node {name} on {rmw}, domain {domain}: {} subscription(s), {} \
@@ -576,7 +597,6 @@ impl Ros2 {
             self.threads.push(thread);
         }
         for served in &self.served {
-            let server = node.action_server(&served.name, &served.action)?;
             let seen = served
                 .taken
                 .lock()
@@ -585,10 +605,26 @@ impl Ros2 {
             let (Some(seen), Some(radar)) = (seen, self.radar.clone()) else {
                 continue;
             };
-            let (served, stop) = (served.clone(), self.stop.clone());
+            let stop = self.stop.clone();
+            let run: Box<dyn FnOnce() + Send> = match &served.offered {
+                Offered::Action(action) => {
+                    let server = node.action_server(&served.name, action)?;
+                    let served = served.clone();
+                    Box::new(move || {
+                        super::served_action::serve_dds(server, served, radar, seen, stop)
+                    })
+                }
+                Offered::Service(service) => {
+                    let server = node.server(&served.name, service)?;
+                    let served = served.clone();
+                    Box::new(move || {
+                        super::served_service::serve_dds(server, served, radar, seen, stop)
+                    })
+                }
+            };
             let thread = std::thread::Builder::new()
                 .name("radar-ros2-serve".into())
-                .spawn(move || super::served::serve_dds(server, served, radar, seen, stop))
+                .spawn(run)
                 .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
             self.threads.push(thread);
         }

@@ -18,7 +18,7 @@ use ros2_client::action::{
     ActionClient, ActionClientQosPolicies, ActionServer, ActionServerQosPolicies,
 };
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
-use ros2_client::dds::{Client, Context, Node, Publisher, ServiceMapping, Subscription};
+use ros2_client::dds::{Client, Context, Node, Publisher, Server, ServiceMapping, Subscription};
 use ros2_client::qos::{Durability, History, QosProfile, Reliability, WhenFull};
 use ros2_client::{
     ActionTypeName, MessageTypeName, Name, NodeName, NodeOptions, ReadError, ServiceTypeName,
@@ -154,6 +154,35 @@ impl DdsNode {
             )
             .map(|client| (client, seen))
             .map_err(|e| Ros2Error::Session(format!("DDS: a client of service `{name}`: {e}")))
+    }
+
+    /// A server of service `name` (its full name) of type `service`, as
+    /// rclpy makes one: ROS 2's service QoS and Fast DDS's request and
+    /// reply mapping.
+    pub(super) fn server(
+        &mut self,
+        name: &str,
+        service: &Service,
+    ) -> Result<Server<Answered, Encoded>, Ros2Error> {
+        let full =
+            ros_name(name).map_err(|e| Ros2Error::Settings(format!("service `{name}`: {e}")))?;
+        let mut parts = service.name.split('/');
+        let (package, _, type_name) = (parts.next(), parts.next(), parts.next());
+        let type_name = ServiceTypeName::new(package.unwrap_or(""), type_name.unwrap_or(""));
+        let qos = profile(&Qos {
+            best_effort: false,
+            depth: 10,
+            transient_local: false,
+        });
+        self.node
+            .create_server::<Answered, Encoded>(
+                ServiceMapping::Enhanced,
+                &full,
+                &type_name,
+                qos.clone(),
+                qos,
+            )
+            .map_err(|e| Ros2Error::Session(format!("DDS: a server of service `{name}`: {e}")))
     }
 
     /// A client of action `name` (its full name) of type `action`: its

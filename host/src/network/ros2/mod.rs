@@ -30,6 +30,10 @@ pub mod msg;
 mod outgoing;
 mod recorded;
 mod served;
+#[cfg(feature = "dds")]
+mod served_action;
+#[cfg(feature = "dds")]
+mod served_service;
 mod services;
 mod settings;
 mod types;

@@ -40,7 +40,7 @@ pub struct Ros2Settings {
     /// Signals out to topics.
     #[serde(default)]
     pub publish: Vec<Publish>,
-    /// Responses offered to the ROS 2 graph as action servers.
+    /// Responses offered to the ROS 2 graph as action or service servers.
     #[serde(default)]
     pub serve: Vec<Serve>,
     /// The responses ROS 2 backs (`[plugins.X] ros2 = { service = ... }`),
@@ -163,18 +163,42 @@ pub struct Subscribe {
 }
 
 /// `[[ros2.serve]]`: response `response` offered to the ROS 2 graph as
-/// action `action` (`docs/ros2.md#responses-served-as-actions`).
+/// action `action` (`docs/ros2.md#responses-served-as-actions`) or as
+/// service `service` (`docs/ros2.md#responses-served-as-services`).
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Serve {
     /// The action's name (`/radar/avoid`; relative names are in the node's
     /// namespace).
-    pub action: String,
-    /// `pkg/action/Name`.
+    #[serde(default)]
+    pub action: Option<String>,
+    /// The service's name, instead of an action.
+    #[serde(default)]
+    pub service: Option<String>,
+    /// `pkg/action/Name` or `pkg/srv/Name`.
     #[serde(rename = "type")]
     pub type_name: String,
-    /// The response a goal starts.
+    /// The response a goal or a request starts.
     pub response: String,
+}
+
+impl Serve {
+    /// The action's or service's name.
+    pub fn name(&self) -> &str {
+        self.action
+            .as_deref()
+            .or(self.service.as_deref())
+            .unwrap_or_default()
+    }
+
+    /// `action` or `service`.
+    pub fn kind(&self) -> &'static str {
+        if self.service.is_some() {
+            "service"
+        } else {
+            "action"
+        }
+    }
 }
 
 /// `[[ros2.publish]]`: every emission of `signal` is published on `topic`.
@@ -386,28 +410,40 @@ impl Ros2Settings {
             }
         }
         for (i, s) in self.serve.iter().enumerate() {
-            if !is_ros_name(&s.action) || s.action.ends_with('/') {
+            let (name, kind) = match (&s.action, &s.service) {
+                (Some(action), None) => (action, "action"),
+                (None, Some(service)) => (service, "service"),
+                _ => {
+                    return Err(format!(
+                        "[[ros2.serve]] response `{}`: say `action = \"/name\"` (and `type = \
+                         \"pkg/action/Name\"`) or `service = \"/name\"` (and `type = \
+                         \"pkg/srv/Name\"`), one of them",
+                        s.response
+                    ))
+                }
+            };
+            if !is_ros_name(name) || name.ends_with('/') {
                 return Err(format!(
-                    "[[ros2.serve]] `{}` is not a ROS 2 action name (letters, digits, `_` and `/`)",
-                    s.action
+                    "[[ros2.serve]] `{name}` is not a ROS 2 {kind} name (letters, digits, `_` \
+                     and `/`)"
                 ));
             }
             if s.response.is_empty() || s.response.contains('.') {
                 return Err(format!(
-                    "[[ros2.serve]] action `{}`: `response` names a response plugin (e.g. `Avoid`)",
-                    s.action
+                    "[[ros2.serve]] {kind} `{name}`: `response` names a response plugin (e.g. \
+                     `Avoid`)"
                 ));
             }
-            if self.serve[..i].iter().any(|o| o.action == s.action) {
-                return Err(format!(
-                    "[[ros2.serve]] action `{}` is served twice",
-                    s.action
-                ));
+            if self.serve[..i]
+                .iter()
+                .any(|o| o.name() == name && o.kind() == kind)
+            {
+                return Err(format!("[[ros2.serve]] {kind} `{name}` is served twice"));
             }
             if self.serve[..i].iter().any(|o| o.response == s.response) {
                 return Err(format!(
-                    "[[ros2.serve]] response `{}` serves two actions: a goal must know which \
-                     activation is its own",
+                    "[[ros2.serve]] response `{}` is served twice: a goal or a request must \
+                     know which activation is its own",
                     s.response
                 ));
             }
