@@ -229,8 +229,12 @@ fn type_mismatches_are_refused_when_the_system_is_built() {
         (
             "[[ros2.serve]]\nservice = \"/grip\"\ntype = \"std_srvs/srv/SetBool\"\n\
              response = \"Avoid\"\n",
-            "[[ros2.serve]] service `/grip`: a response served as an action or a service runs \
-             on DDS",
+            "radar: ros2: [[ros2.serve]] service `/grip` (std_srvs/srv/SetBool) by `Avoid`: ",
+        ),
+        (
+            "[[ros2.serve]]\naction = \"/fib\"\ntype = \"test_msgs/action/Fibonacci\"\n\
+             response = \"Avoid\"\n",
+            "[[ros2.serve]] action `/fib`: a response served as an action runs on DDS",
         ),
     ];
     for (extra, needle) in cases {

@@ -60,3 +60,51 @@ fn a_response_backed_by_a_zenoh_ros2_sdk_service_calls_it_and_exits_with_the_rep
     let inputs = dir.path().join("inputs.jsonl");
     replays_to_the_same_writes_and_signals(&dir.path().join("radar.toml"), &inputs, &trace);
 }
+
+#[test]
+fn a_zenoh_ros2_sdk_client_calls_a_response_served_as_a_service() {
+    let python = python();
+    let run = Running::start(
+        |ep| {
+            format!(
+                "[plugins.Grip]\nwasm = \"{}\"\n\n\
+                 [ros2]\nnode = \"radar_gripper\"\nlisten = [\"{ep}\"]\n\n\
+                 [[ros2.serve]]\nservice = \"/radar/grip\"\ntype = \"std_srvs/srv/SetBool\"\n\
+                 response = \"Grip\"\n",
+                radar_fixtures::plugins::GRIPPER_RESPONSE
+            )
+        },
+        &["--clock", "real", "--for", "8s"],
+    );
+    let client = Client::start(
+        &python,
+        "service_client.py",
+        &["--port", &run.port.to_string(), "true", "false"],
+    );
+    // The SDK's graph shows Radar's node serving the service, with its
+    // type; each call gets the gripper's reply.
+    assert_eq!(
+        client.line(Duration::from_secs(20)),
+        r#"{"server": "/radar_gripper", "type": "std_srvs/srv/SetBool"}"#
+    );
+    let (ok, replies, stderr) = client.finish();
+    assert!(ok, "{stderr}");
+    assert_eq!(
+        replies,
+        [
+            r#"{"data": true, "reply": {"success": true, "message": "closed"}}"#,
+            r#"{"data": false, "reply": {"success": true, "message": "opened"}}"#,
+        ],
+        "{stderr}"
+    );
+    let (out, dir) = run.finish(Duration::from_secs(30));
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let (trace, _) = lawful_trace(&dir.path().join("trace.jsonl"));
+    assert!(
+        trace.contains(r#""kind":"inject","to":"Grip.start","payload":{"data":false}"#),
+        "{trace}"
+    );
+    // The recording replays with neither ROS nor the network.
+    let inputs = dir.path().join("inputs.jsonl");
+    replays_to_the_same_writes_and_signals(&dir.path().join("radar.toml"), &inputs, &trace);
+}

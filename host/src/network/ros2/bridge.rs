@@ -156,10 +156,10 @@ impl Ros2 {
         let mut served = Vec::new();
         for s in &settings.serve {
             let at = format!("[[ros2.serve]] {} `{}`", s.kind(), s.name());
-            if settings.rmw == Rmw::Zenoh {
+            if settings.rmw == Rmw::Zenoh && s.action.is_some() {
                 return Err(Ros2Error::Settings(format!(
-                    "{at}: a response served as an action or a service runs on DDS (`[ros2] \
-                     rmw = \"dds\"`); on rmw_zenoh it is not built yet"
+                    "{at}: a response served as an action runs on DDS (`[ros2] rmw = \"dds\"`); \
+                     on rmw_zenoh it is not built yet"
                 )));
             }
             let offered = if s.service.is_some() {
@@ -507,6 +507,45 @@ impl Ros2 {
                 sequence: 0,
             });
             entity += 1;
+        }
+        for served in &self.served {
+            let Offered::Service(service) = &served.offered else {
+                continue;
+            };
+            let qos = Qos::parse(None, None, None).map_err(Ros2Error::Settings)?;
+            let token = node.endpoint_token(
+                Endpoint::ServiceServer,
+                entity,
+                &served.name,
+                &service.name,
+                &service.hash,
+                &qos,
+            );
+            entity += 1;
+            self.tokens
+                .push(liveliness.declare_token(token).wait().map_err(declare)?);
+            let key = graph::topic_key(node.domain, &served.name, &service.name, &service.hash);
+            let queryable = session
+                .declare_queryable(key)
+                .complete(true)
+                .wait()
+                .map_err(declare)?;
+            let seen = served
+                .taken
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .take();
+            let (Some(seen), Some(radar)) = (seen, self.radar.clone()) else {
+                continue;
+            };
+            let (served, stop) = (served.clone(), self.stop.clone());
+            let thread = std::thread::Builder::new()
+                .name("radar-ros2-serve".into())
+                .spawn(move || {
+                    super::served_service::serve_zenoh(queryable, served, radar, seen, stop)
+                })
+                .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
+            self.threads.push(thread);
         }
         for link in &self.services {
             let service = &link.service;

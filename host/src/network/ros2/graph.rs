@@ -66,6 +66,7 @@ pub enum Endpoint {
     Publisher,
     Subscription,
     ServiceClient,
+    ServiceServer,
 }
 
 impl Node {
@@ -104,6 +105,7 @@ impl Node {
                 Endpoint::Publisher => "MP",
                 Endpoint::Subscription => "MS",
                 Endpoint::ServiceClient => "SC",
+                Endpoint::ServiceServer => "SS",
             },
             mangle(&self.namespace),
             mangle(&self.name),

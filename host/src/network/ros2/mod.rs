@@ -32,7 +32,6 @@ mod recorded;
 mod served;
 #[cfg(feature = "dds")]
 mod served_action;
-#[cfg(feature = "dds")]
 mod served_service;
 mod services;
 mod settings;

@@ -1,27 +1,42 @@
-//! The DDS side of a response served as a service (`served`): ros2-client's
-//! service server. A request starts the response; its activation's
-//! `exited` is the reply. A ROS 2 service has no way to say no, so a
-//! request whose start is dropped (the response is busy), or whose
-//! activation faults, is answered by no reply: the client's own timeout
-//! ends its wait, and the trace says why (`dropped`, `fault`).
+//! The middleware's side of a response served as a service (`served`): a
+//! request starts the response; its activation's `exited` is the reply.
+//! One loop serves both middlewares through [`Requests`]: on DDS
+//! ros2-client's service server, on rmw_zenoh a queryable on the service's
+//! key expression.
+//!
+//! A request whose start is dropped (the response is busy), or whose
+//! activation faults or ends with an `err`, gets no reply: a ROS 2 service
+//! has no way to say no, so the client's own timeout ends its wait (on
+//! rmw_zenoh the query is ended with no reply, which rmw_zenoh's clients
+//! do not take as an answer). The trace says why (`dropped`, `fault`).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
 use crossbeam_channel::{Receiver, RecvTimeoutError};
-use ros2_client::dds::Server;
-use ros2_client::RmwRequestId;
 
 use super::cdr;
-use super::dds_cdr::{Answered, Encoded};
 use super::served::{Goals, Offered, Say, Seen, Served, SUCCEEDED};
 use crate::system::Radar;
 
+/// A middleware's service server.
+trait Requests {
+    /// How the middleware tells one request from another.
+    type Id: Copy + PartialEq;
+    /// The requests that came since the last look: each one's CDR bytes.
+    fn take(&mut self) -> Vec<(Self::Id, Vec<u8>)>;
+    /// Sends request `id` its reply (CDR bytes).
+    fn reply(&mut self, id: Self::Id, bytes: Vec<u8>);
+    /// Request `id` gets no reply (`why`: said to a client that can hear
+    /// it).
+    fn no_reply(&mut self, id: Self::Id, why: Option<String>);
+}
+
 /// The server's thread: requests taken as they come, what the run does
 /// heard through `seen`, until `stop` or the run's end.
-pub(super) fn serve_dds(
-    server: Server<Answered, Encoded>,
+fn serve<R: Requests>(
+    mut wire: R,
     served: Arc<Served>,
     radar: Radar,
     seen: Receiver<Seen>,
@@ -30,17 +45,16 @@ pub(super) fn serve_dds(
     let Offered::Service(service) = &served.offered else {
         return;
     };
-    let Some(mut requests) = Goals::<RmwRequestId>::new(served.clone(), radar) else {
+    let Some(mut requests) = Goals::<R::Id>::new(served.clone(), radar) else {
         return;
     };
-    Answered::read_on_this_thread(Arc::new(service.request.clone()));
     loop {
         let mut stopping = stop.load(Ordering::Relaxed);
         let mut say = Vec::new();
-        while let Ok(Some((id, request))) = server.receive_request() {
-            // A request that does not read as its type gets no reply.
-            if let Ok(json) = cdr::decode(&service.request, &request.0) {
-                requests.new_goal(id, json, &mut say);
+        for (id, bytes) in wire.take() {
+            match cdr::decode(&service.request, &bytes) {
+                Ok(json) => requests.new_goal(id, json, &mut say),
+                Err(e) => wire.no_reply(id, Some(format!("not a {}: {e}", service.request.name))),
             }
         }
         match seen.recv_timeout(Duration::from_millis(2)) {
@@ -55,16 +69,22 @@ pub(super) fn serve_dds(
         }
         requests.overdue(&mut say);
         for said in say {
-            let Say::Ended(id) = said else { continue };
-            let reply = requests
-                .known
-                .iter()
-                .find(|r| r.id == id && r.status == SUCCEEDED)
-                .and_then(|r| r.result.clone());
-            if let Some(reply) = reply {
-                let _ = server.send_response(id, Encoded(reply));
+            match said {
+                Say::Accept(id, false) => wire.no_reply(id, None),
+                Say::Ended(id) => {
+                    let reply = requests
+                        .known
+                        .iter()
+                        .find(|r| r.id == id && r.status == SUCCEEDED)
+                        .and_then(|r| r.result.clone());
+                    match reply {
+                        Some(reply) => wire.reply(id, reply),
+                        None => wire.no_reply(id, None),
+                    }
+                    requests.forget(id);
+                }
+                _ => {}
             }
-            requests.forget(id);
         }
         if stopping {
             // A moment for the last replies to leave.
@@ -72,4 +92,140 @@ pub(super) fn serve_dds(
             break;
         }
     }
+}
+
+/// DDS: ros2-client's service server.
+#[cfg(feature = "dds")]
+pub(super) fn serve_dds(
+    server: ros2_client::dds::Server<super::dds_cdr::Answered, super::dds_cdr::Encoded>,
+    served: Arc<Served>,
+    radar: Radar,
+    seen: Receiver<Seen>,
+    stop: Arc<AtomicBool>,
+) {
+    use super::dds_cdr::{Answered, Encoded};
+
+    struct Dds(ros2_client::dds::Server<Answered, Encoded>);
+
+    impl Requests for Dds {
+        type Id = ros2_client::RmwRequestId;
+
+        fn take(&mut self) -> Vec<(Self::Id, Vec<u8>)> {
+            let mut taken = Vec::new();
+            while let Ok(Some((id, request))) = self.0.receive_request() {
+                taken.push((id, request.0));
+            }
+            taken
+        }
+
+        fn reply(&mut self, id: Self::Id, bytes: Vec<u8>) {
+            let _ = self.0.send_response(id, Encoded(bytes));
+        }
+
+        // DDS has no way to end a request unanswered.
+        fn no_reply(&mut self, _: Self::Id, _: Option<String>) {}
+    }
+
+    if let Offered::Service(service) = &served.offered {
+        Answered::read_on_this_thread(Arc::new(service.request.clone()));
+    }
+    serve(Dds(server), served, radar, seen, stop);
+}
+
+/// rmw_zenoh: the service's queryable (declared complete, as rmw_zenoh
+/// does). A reply carries what rmw_zenoh's does: the request's sequence
+/// number, the time, the client's GID. A request left unanswered ends its
+/// query with no reply; one that does not read as its type, with an error.
+pub(super) fn serve_zenoh(
+    queryable: zenoh::query::Queryable<zenoh::handlers::FifoChannelHandler<zenoh::query::Query>>,
+    served: Arc<Served>,
+    radar: Radar,
+    seen: Receiver<Seen>,
+    stop: Arc<AtomicBool>,
+) {
+    use zenoh::Wait;
+
+    struct Zenoh {
+        queryable:
+            zenoh::query::Queryable<zenoh::handlers::FifoChannelHandler<zenoh::query::Query>>,
+        next: u64,
+        /// Queries waiting for their reply, with their request's sequence
+        /// number and client GID.
+        open: Vec<(u64, zenoh::query::Query, [u8; 8], [u8; 16])>,
+    }
+
+    impl Requests for Zenoh {
+        type Id = u64;
+
+        fn take(&mut self) -> Vec<(u64, Vec<u8>)> {
+            let mut taken = Vec::new();
+            while let Ok(Some(query)) = self.queryable.try_recv() {
+                let attachment = query
+                    .attachment()
+                    .map(|a| a.to_bytes().into_owned())
+                    .unwrap_or_default();
+                let (Some(sequence), Some(gid)) = (
+                    attachment
+                        .get(..8)
+                        .and_then(|s| <[u8; 8]>::try_from(s).ok()),
+                    attachment
+                        .get(17..33)
+                        .and_then(|g| <[u8; 16]>::try_from(g).ok()),
+                ) else {
+                    // rmw_zenoh's clients always send one.
+                    let _ = query
+                        .reply_err("a service request needs rmw_zenoh's attachment")
+                        .wait();
+                    continue;
+                };
+                let bytes = query
+                    .payload()
+                    .map(|p| p.to_bytes().into_owned())
+                    .unwrap_or_default();
+                self.next += 1;
+                taken.push((self.next, bytes));
+                self.open.push((self.next, query, sequence, gid));
+            }
+            taken
+        }
+
+        fn reply(&mut self, id: u64, bytes: Vec<u8>) {
+            let Some(i) = self.open.iter().position(|(o, ..)| *o == id) else {
+                return;
+            };
+            let (_, query, sequence, gid) = self.open.swap_remove(i);
+            let attachment = super::graph::attachment(
+                i64::from_le_bytes(sequence),
+                super::services::wall_ns(),
+                &gid,
+            );
+            let _ = query
+                .reply(query.key_expr().clone(), bytes)
+                .attachment(attachment)
+                .wait();
+        }
+
+        fn no_reply(&mut self, id: u64, why: Option<String>) {
+            let Some(i) = self.open.iter().position(|(o, ..)| *o == id) else {
+                return;
+            };
+            // Dropping the query ends it.
+            let (_, query, ..) = self.open.swap_remove(i);
+            if let Some(why) = why {
+                let _ = query.reply_err(why).wait();
+            }
+        }
+    }
+
+    serve(
+        Zenoh {
+            queryable,
+            next: 0,
+            open: Vec::new(),
+        },
+        served,
+        radar,
+        seen,
+        stop,
+    );
 }

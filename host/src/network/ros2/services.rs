@@ -450,7 +450,7 @@ impl ZenohCall {
 }
 
 /// Nanoseconds since the epoch, as rmw_zenoh stamps a request.
-fn wall_ns() -> i64 {
+pub(super) fn wall_ns() -> i64 {
     let now = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .unwrap_or_default();
