@@ -21,21 +21,19 @@ use zenoh::qos::CongestionControl;
 use zenoh::{Session, Wait};
 
 use super::actions::ActionLink;
-use super::cdr;
 #[cfg(feature = "dds")]
 use super::dds::{DdsNode, DdsPublisher};
 use super::error::Ros2Error;
-use super::fit::{self, FieldPath};
 use super::graph::{self, Endpoint, Node};
 use super::incoming::{zenoh_sender, Taker};
 use super::outgoing::{has_header, publish, Outgoing, Tap, Wire};
 use super::recorded::{RecordedTopics, Sent, Taken};
+use super::routes::{check_publications, check_subscriptions, Publication, Subscription};
 use super::served::{Offered, Served};
 use super::services::{backed_response, Server, ServiceLink};
 use super::settings::{Qos, Rmw, Ros2Settings};
-use super::types::{Message, MessageTypes};
+use super::types::MessageTypes;
 use crate::network::{session, Network};
-use crate::payload::PayloadType;
 use crate::system::System;
 use crate::trace::TraceSink;
 
@@ -45,25 +43,6 @@ const QUEUE: usize = 65_536;
 /// The connect endpoint of rmw_zenoh's router (`ros2 run rmw_zenoh_cpp
 /// rmw_zenohd`) on this machine.
 const ROUTER: &str = "tcp/127.0.0.1:7447";
-
-struct Subscription {
-    topic: String,
-    max_bytes: usize,
-    message: Message,
-    entry: String,
-    field: Option<String>,
-    qos: Qos,
-}
-
-struct Publication {
-    signal: String,
-    topic: String,
-    message: Message,
-    field: Option<String>,
-    use_payload: bool,
-    values: Json,
-    qos: Qos,
-}
 
 /// Radar's ROS 2 node (see the module docs).
 pub struct Ros2 {
@@ -324,7 +303,7 @@ impl Ros2 {
         let taken = self
             .subscriptions
             .iter()
-            .zip(self.check_subscriptions(system)?)
+            .zip(check_subscriptions(&self.subscriptions, system)?)
             .filter(|(_, (path, _))| path.is_empty())
             .map(|(sub, _)| Taken {
                 topic: sub.topic.clone(),
@@ -334,7 +313,7 @@ impl Ros2 {
         let sent = self
             .publications
             .iter()
-            .zip(self.check_publications(system)?)
+            .zip(check_publications(&self.publications, system)?)
             .map(|(p, checked)| Sent {
                 signal: p.signal.clone(),
                 topic: p.topic.clone(),
@@ -361,8 +340,8 @@ impl Ros2 {
     /// its subscriptions and publishers, and starts taking and publishing
     /// messages.
     pub fn start(&mut self, system: &System, network: Option<&Network>) -> Result<(), Ros2Error> {
-        let checked_in = self.check_subscriptions(system)?;
-        let outgoing = self.check_publications(system)?;
+        let checked_in = check_subscriptions(&self.subscriptions, system)?;
+        let outgoing = check_publications(&self.publications, system)?;
         for served in &self.served {
             served.check(system)?;
         }
@@ -700,100 +679,6 @@ impl Ros2 {
             "[ros2] rmw = \"dds\": this radar was built without DDS (cargo feature `dds`)".into(),
         ))
     }
-
-    fn check_subscriptions(
-        &self,
-        system: &System,
-    ) -> Result<Vec<(FieldPath, PayloadType)>, Ros2Error> {
-        let mut checked = Vec::new();
-        for sub in &self.subscriptions {
-            let route = format!(
-                "[[ros2.subscribe]] topic `{}` ({})",
-                sub.topic, sub.message.name
-            );
-            let ty = system.entry_type(&sub.entry).ok_or_else(|| {
-                let entries: Vec<&str> = system.entries().collect();
-                Ros2Error::Mismatch(format!(
-                    "{route}: no blackboard entry `{}` (entries: {}; an entry exists when a \
-                     plugin's world reads or writes it)",
-                    sub.entry,
-                    if entries.is_empty() {
-                        "none".to_string()
-                    } else {
-                        entries.join(", ")
-                    }
-                ))
-            })?;
-            let path = fit::place(&sub.message, sub.field.as_deref(), ty).map_err(|e| {
-                Ros2Error::Mismatch(format!(
-                    "{route} does not fit entry `{}`: {}",
-                    sub.entry,
-                    e.describe(&sub.message, &format!("entry `{}` is", sub.entry))
-                ))
-            })?;
-            checked.push((path, ty.clone()));
-        }
-        Ok(checked)
-    }
-
-    fn check_publications(&self, system: &System) -> Result<Vec<Checked>, Ros2Error> {
-        let mut checked = Vec::new();
-        for p in &self.publications {
-            let route = format!(
-                "[[ros2.publish]] signal `{}` to topic `{}` ({})",
-                p.signal, p.topic, p.message.name
-            );
-            let payload = system
-                .signal_type(&p.signal)
-                .map_err(|e| Ros2Error::Mismatch(format!("{route}: {e}")))?;
-            // A result publishes what it holds when it is `ok`, if the
-            // payload is used at all: a fixed message goes out whatever the
-            // signal carries, an `err` too (the stop after an interrupt).
-            let (payload, unwrap_ok) = match payload {
-                Some(PayloadType::Result { ok: Some(ok), .. }) if p.use_payload => {
-                    (Some(*ok), true)
-                }
-                other => (other, false),
-            };
-            let path = match payload.filter(|_| p.use_payload) {
-                None => None,
-                Some(ty) => Some(
-                    fit::place(&p.message, p.field.as_deref(), &ty).map_err(|e| {
-                        let hint = if p.field.is_none() {
-                            " (name the field it fills, e.g. `field = \"data\"`, or publish \
-                         `values` alone with `use_payload = false`)"
-                        } else {
-                            ""
-                        };
-                        Ros2Error::Mismatch(format!(
-                            "{route} does not fit: {}{hint}",
-                            e.describe(&p.message, &format!("`{}` carries", p.signal))
-                        ))
-                    })?,
-                ),
-            };
-            let base = fit::values(&p.message, &p.values)
-                .map_err(|e| Ros2Error::Mismatch(format!("{route}: {e}")))?;
-            cdr::encode(&p.message, &base)
-                .map_err(|e| Ros2Error::Mismatch(format!("{route}: values: {e}")))?;
-            checked.push(Checked {
-                path,
-                base,
-                unwrap_ok,
-            });
-        }
-        Ok(checked)
-    }
-}
-
-/// A publication checked against the system.
-struct Checked {
-    /// Where the payload goes (`None`: it is not used).
-    path: Option<FieldPath>,
-    /// The message before the payload: the route's values.
-    base: Json,
-    /// The payload is a result, published only when `ok`, as what it holds.
-    unwrap_ok: bool,
 }
 
 /// The node on its middleware, kept for the run: the session (rmw_zenoh) or

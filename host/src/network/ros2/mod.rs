@@ -29,6 +29,7 @@ mod incoming;
 pub mod msg;
 mod outgoing;
 mod recorded;
+mod routes;
 mod served;
 #[cfg(feature = "dds")]
 mod served_action;
