@@ -232,6 +232,8 @@ fn a_real_clock_run_traced_as_mcap_has_wall_clock_log_times() {
         before <= start && start <= after,
         "{before} {start} {after}"
     );
+    // The run lasted its second after t = 0 (t = 0 is not its end).
+    assert!(start + 1_000_000_000 <= after, "{start} {after}");
     // Converting back gives the records with their own t.
     let back = path(dir.path(), "back.jsonl");
     let out = radar(&["trace", "convert", &mcap, &back]);

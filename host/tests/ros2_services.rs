@@ -79,7 +79,13 @@ fn a_zenoh_ros2_sdk_client_calls_a_response_served_as_a_service() {
     let client = Client::start(
         &python,
         "service_client.py",
-        &["--port", &run.port.to_string(), "true", "false"],
+        &[
+            "--port",
+            &run.port.to_string(),
+            "--together",
+            "true",
+            "false",
+        ],
     );
     // The SDK's graph shows Radar's node serving the service, with its
     // type; each call gets the gripper's reply.
@@ -94,16 +100,22 @@ fn a_zenoh_ros2_sdk_client_calls_a_response_served_as_a_service() {
         [
             r#"{"data": true, "reply": {"success": true, "message": "closed"}}"#,
             r#"{"data": false, "reply": {"success": true, "message": "opened"}}"#,
+            // Two at once: the first answered, the second (the response
+            // busy) never.
+            r#"{"data": true, "reply": {"success": true, "message": "closed"}}"#,
+            r#"{"data": false, "reply": null}"#,
         ],
         "{stderr}"
     );
     let (out, dir) = run.finish(Duration::from_secs(30));
     assert!(out.status.success(), "{}", text(&out.stderr));
     let (trace, _) = lawful_trace(&dir.path().join("trace.jsonl"));
-    assert!(
-        trace.contains(r#""kind":"inject","to":"Grip.start","payload":{"data":false}"#),
-        "{trace}"
-    );
+    for line in [
+        r#""kind":"inject","to":"Grip.start","payload":{"data":false}"#,
+        r#""kind":"dropped","id":0,"to":"Grip.start","reason":"busy""#,
+    ] {
+        assert!(trace.contains(line), "{line}: {trace}");
+    }
     // The recording replays with neither ROS nor the network.
     let inputs = dir.path().join("inputs.jsonl");
     replays_to_the_same_writes_and_signals(&dir.path().join("radar.toml"), &inputs, &trace);

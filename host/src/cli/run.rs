@@ -265,7 +265,7 @@ fn recorded_topics(
 ) {
     let topics = match bridge {
         Some(bridge) => bridge.recorded_topics(system),
-        None => Ros2::open(settings, manifest.dir()).and_then(|b| b.recorded_topics(system)),
+        None => Ros2::read(settings, manifest.dir()).and_then(|b| b.recorded_topics(system)),
     };
     match topics {
         Ok(topics) => slot.set(topics),

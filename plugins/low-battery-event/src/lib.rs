@@ -84,7 +84,11 @@ impl Guest for LowBatteryEvent {
     fn check() -> Option<Goal> {
         sleep(config_secs("interval_s", Duration::from_millis(500))).ok()?;
         let battery = board::read_battery()?;
-        // ROS 2 says NaN when the driver does not know: not low.
+        // ROS 2 says NaN when the driver does not know: the last reading
+        // stands.
+        if battery.percentage.is_nan() {
+            return None;
+        }
         let low = battery.percentage < config_or("below", 0.2f32);
         let was_low = LOW.swap(low, Ordering::Relaxed);
         (low && !was_low).then(|| Goal {

@@ -2,13 +2,14 @@
 tests: calls std_srvs/srv/SetBool at a service name.
 
     service_client.py --port P [--service /radar/grip] [--timeout S]
-                      [--domain D] DATA...
+                      [--domain D] [--together] DATA...
 
 Connects to the Zenoh peer at tcp/127.0.0.1:P, makes a ROS 2 client of
 SetBool (the SDK computes the service's type hash itself) and, once the
 service's server shows in the graph (printed: its node and type, one
 JSON line), calls it once per DATA (`true` or
-`false`), one after the other. Prints one JSON line per call: the
+`false`), one after the other; with --together, then two calls at once
+(true, then false 0.1 s later). Prints one JSON line per call: the
 request's data and the reply as Radar JSON, or null when none came within
 the call's timeout (2 s). Exits 0, or 1 at the timeout.
 """
@@ -16,6 +17,7 @@ the call's timeout (2 s). Exits 0, or 1 at the timeout.
 import argparse
 import json
 import sys
+import threading
 import time
 
 import ros2_common as rc
@@ -29,6 +31,7 @@ def main():
     parser.add_argument("--service", default="/radar/grip")
     parser.add_argument("--timeout", type=float, default=20.0)
     parser.add_argument("--domain", type=int, default=0)
+    parser.add_argument("--together", action="store_true")
     parser.add_argument("data", nargs="+", choices=["true", "false"])
     args = parser.parse_args()
     rc.timeout(args.timeout, lambda: "timeout")
@@ -62,12 +65,11 @@ def main():
             )
             break
         time.sleep(0.2)
-    for data in args.data:
-        reply = client.call(data=data == "true")
+    def show(data, reply):
         print(
             json.dumps(
                 {
-                    "data": data == "true",
+                    "data": data,
                     "reply": None
                     if reply is None
                     else {"success": bool(reply.success), "message": str(reply.message)},
@@ -75,6 +77,27 @@ def main():
             ),
             flush=True,
         )
+
+    for data in args.data:
+        show(data == "true", client.call(data=data == "true"))
+    if args.together:
+        # Two calls at once: the second finds the response busy.
+        replies = [None, None]
+        answered = [threading.Event(), threading.Event()]
+
+        def answer(i):
+            def take(reply):
+                replies[i] = reply
+                answered[i].set()
+
+            return take
+
+        client.call_async(answer(0), data=True)
+        time.sleep(0.1)
+        client.call_async(answer(1), data=False)
+        for i, data in enumerate((True, False)):
+            answered[i].wait(timeout=2.0)
+            show(data, replies[i])
     client.close()
     return 0
 

@@ -74,8 +74,16 @@ impl Ros2 {
     /// Reads the routes and their message types (`base`: the manifest's
     /// folder); nothing is on the network until [`Ros2::start`].
     pub fn open(settings: &Ros2Settings, base: &Path) -> Result<Self, Ros2Error> {
-        settings.validate().map_err(Ros2Error::Settings)?;
         settings.check_environment().map_err(Ros2Error::Settings)?;
+        Self::read(settings, base)
+    }
+
+    /// Reads the routes and their message types alone, as [`Ros2::open`]
+    /// does but without looking at the environment (`ROS_DOMAIN_ID` and
+    /// the like): for a replay, which never joins the graph but writes
+    /// the ROS 2 messages of an MCAP trace ([`Ros2::recorded_topics`]).
+    pub fn read(settings: &Ros2Settings, base: &Path) -> Result<Self, Ros2Error> {
+        settings.validate().map_err(Ros2Error::Settings)?;
         let types = MessageTypes::new(settings.msg_paths.iter().map(|p| base.join(p)).collect());
         let load = |topic: &str, type_name: &str| {
             types
@@ -491,6 +499,14 @@ impl Ros2 {
             let Offered::Service(service) = &served.offered else {
                 continue;
             };
+            let seen = served
+                .taken
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .take();
+            let (Some(seen), Some(radar)) = (seen, self.radar.clone()) else {
+                continue;
+            };
             let qos = Qos::parse(None, None, None).map_err(Ros2Error::Settings)?;
             let token = node.endpoint_token(
                 Endpoint::ServiceServer,
@@ -509,14 +525,6 @@ impl Ros2 {
                 .complete(true)
                 .wait()
                 .map_err(declare)?;
-            let seen = served
-                .taken
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .take();
-            let (Some(seen), Some(radar)) = (seen, self.radar.clone()) else {
-                continue;
-            };
             let (served, stop) = (served.clone(), self.stop.clone());
             let thread = std::thread::Builder::new()
                 .name("radar-ros2-serve".into())

@@ -146,15 +146,33 @@ pub fn attachment(sequence: i64, timestamp_ns: i64, gid: &[u8; 16]) -> Vec<u8> {
     bytes
 }
 
+/// An attachment's sequence number and GID (of the length it gives), if
+/// it has them (see [`attachment`]).
+pub fn parse_attachment(attachment: &[u8]) -> Option<(i64, &[u8])> {
+    let sequence = i64::from_le_bytes(attachment.get(..8)?.try_into().ok()?);
+    let gid = attachment.get(17..17 + usize::from(*attachment.get(16)?))?;
+    Some((sequence, gid))
+}
+
 /// The sender's GID in an attachment, as hex, when the attachment has one.
 pub fn sender(attachment: &[u8]) -> Option<String> {
-    let gid = attachment.get(17..17 + usize::from(*attachment.get(16)?))?;
+    let (_, gid) = parse_attachment(attachment)?;
     Some(gid.iter().map(|b| format!("{b:02x}")).collect())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_attachment_reads_back_its_sequence_number_and_gid() {
+        let gid = [7u8; 16];
+        let bytes = attachment(42, 1_000, &gid);
+        assert_eq!(parse_attachment(&bytes), Some((42, &gid[..])));
+        assert_eq!(sender(&bytes).as_deref(), Some("07".repeat(16).as_str()));
+        // Cut short: no GID.
+        assert_eq!(parse_attachment(&bytes[..20]), None);
+    }
 
     #[test]
     fn names_as_rmw_zenoh_does() {

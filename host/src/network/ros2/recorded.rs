@@ -1,7 +1,7 @@
 //! The ROS 2 messages of a run in its MCAP trace, beside the records
 //! (`docs/ros2.md#beside-a-rosbag`): each message a subscription took and
 //! each one a publication sent, on its ROS 2 topic with its ROS 2 schema
-//! (`ros2msg`) in CDR, as rosbag2 writes them, so that Foxglove shows a
+//! (`ros2msg`, the fields alone) in CDR, as rosbag2 lays them out, so that Foxglove shows a
 //! Radar trace and the robot's own rosbag side by side. Made from the
 //! records alone (a `board-write` by `(ros2 TOPIC)`, a published signal),
 //! so a replay's trace has them too.
@@ -139,16 +139,19 @@ impl AlsoOnTopics for RecordedTopics {
     }
 }
 
-/// A message type's definition as rosbag2 writes it in an MCAP schema
-/// (`ros2msg`): its own fields, then each type it refers to after a line
-/// of 80 `=` and `MSG: pkg/Name`. Types are named `pkg/Name` (a message's
-/// `msg/` left out), as `.msg` files write them.
+/// A message type's definition in rosbag2's layout for an MCAP schema
+/// (`ros2msg`): its own fields, then each type it refers to after an empty
+/// line, a line of 80 `=` and `MSG: pkg/Name`. Types are named `pkg/Name`
+/// (a message's `msg/` left out), as `.msg` files write them. Only the
+/// fields: constants and comments, which Radar does not keep, are left
+/// out.
 pub(super) fn ros2msg(message: &Message) -> String {
     let mut text = fields(message.def());
     for (name, def) in &message.defs {
         if *name == message.name {
             continue;
         }
+        text.push('\n');
         text.push_str(&"=".repeat(80));
         text.push_str("\nMSG: ");
         text.push_str(&short(name));
@@ -201,11 +204,11 @@ mod tests {
             text,
             format!(
                 "std_msgs/Header header\ngeometry_msgs/Twist twist\n\
-                 {separator}\nMSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n\
-                 {separator}\nMSG: geometry_msgs/Twist\ngeometry_msgs/Vector3 linear\n\
+                 \n{separator}\nMSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n\
+                 \n{separator}\nMSG: geometry_msgs/Twist\ngeometry_msgs/Vector3 linear\n\
                  geometry_msgs/Vector3 angular\n\
-                 {separator}\nMSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n\
-                 {separator}\nMSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\n\
+                 \n{separator}\nMSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n\
+                 \n{separator}\nMSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\n\
                  string frame_id\n"
             )
         );

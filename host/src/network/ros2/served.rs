@@ -302,6 +302,20 @@ impl<Id: Copy + PartialEq> Goals<Id> {
         })
     }
 
+    /// Records a goal or request refused before the run took it (`why`),
+    /// naming the action or service, as a `refused` record.
+    pub(super) fn refuse(&self, why: &str) {
+        let _ = self.radar.refused(
+            format!("ros2 {}", self.served.name),
+            "a ROS 2 client",
+            format!(
+                "{} for `{}`: {why}",
+                self.served.offered.kind(),
+                self.served.response
+            ),
+        );
+    }
+
     /// A goal answered for good (a service's request, once replied to).
     pub(super) fn forget(&mut self, id: Id) {
         self.known.retain(|g| g.id != id);
@@ -477,6 +491,10 @@ impl<Id: Copy + PartialEq> Goals<Id> {
             .is_some_and(|(_, _, at)| at.elapsed() >= OUTCOME)
         {
             if let Some((id, _, _)) = self.asked.pop_front() {
+                self.refuse(&format!(
+                    "the run did not take its start within {} s",
+                    OUTCOME.as_secs()
+                ));
                 say.push(Say::Accept(id, false));
             }
         }

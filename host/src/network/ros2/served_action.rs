@@ -76,7 +76,8 @@ pub(super) fn serve_dds(
                     goal_requests.push((goal.goal_id, request));
                     goals.new_goal(goal.goal_id, json, &mut say);
                 }
-                Err(_) => {
+                Err(e) => {
+                    goals.refuse(&format!("a goal that is not a {}: {e}", action.goal.name));
                     let _ = server.send_goal_response(
                         request,
                         SendGoalResponse {

@@ -54,7 +54,11 @@ fn serve<R: Requests>(
         for (id, bytes) in wire.take() {
             match cdr::decode(&service.request, &bytes) {
                 Ok(json) => requests.new_goal(id, json, &mut say),
-                Err(e) => wire.no_reply(id, Some(format!("not a {}: {e}", service.request.name))),
+                Err(e) => {
+                    let why = format!("not a {}: {e}", service.request.name);
+                    requests.refuse(&why);
+                    wire.no_reply(id, Some(why));
+                }
             }
         }
         match seen.recv_timeout(Duration::from_millis(2)) {
@@ -151,7 +155,7 @@ pub(super) fn serve_zenoh(
         next: u64,
         /// Queries waiting for their reply, with their request's sequence
         /// number and client GID.
-        open: Vec<(u64, zenoh::query::Query, [u8; 8], [u8; 16])>,
+        open: Vec<(u64, zenoh::query::Query, i64, [u8; 16])>,
     }
 
     impl Requests for Zenoh {
@@ -164,14 +168,9 @@ pub(super) fn serve_zenoh(
                     .attachment()
                     .map(|a| a.to_bytes().into_owned())
                     .unwrap_or_default();
-                let (Some(sequence), Some(gid)) = (
-                    attachment
-                        .get(..8)
-                        .and_then(|s| <[u8; 8]>::try_from(s).ok()),
-                    attachment
-                        .get(17..33)
-                        .and_then(|g| <[u8; 16]>::try_from(g).ok()),
-                ) else {
+                let Some((sequence, gid)) = super::graph::parse_attachment(&attachment)
+                    .and_then(|(s, g)| Some((s, <[u8; 16]>::try_from(g).ok()?)))
+                else {
                     // rmw_zenoh's clients always send one.
                     let _ = query
                         .reply_err("a service request needs rmw_zenoh's attachment")
@@ -194,11 +193,7 @@ pub(super) fn serve_zenoh(
                 return;
             };
             let (_, query, sequence, gid) = self.open.swap_remove(i);
-            let attachment = super::graph::attachment(
-                i64::from_le_bytes(sequence),
-                super::services::wall_ns(),
-                &gid,
-            );
+            let attachment = super::graph::attachment(sequence, super::services::wall_ns(), &gid);
             let _ = query
                 .reply(query.key_expr().clone(), bytes)
                 .attachment(attachment)
