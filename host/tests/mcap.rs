@@ -42,18 +42,7 @@ fn a_run_traced_as_mcap_is_its_json_lines_trace_byte_for_byte() {
     );
 
     // The MCAP reference reader.
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let setup = Command::new(root.join("tests/clients/mcap/setup"))
-        .output()
-        .expect("setup runs");
-    assert!(setup.status.success(), "{}", text(&setup.stderr));
-    let out = Command::new(text(&setup.stdout).trim())
-        .arg(root.join("tests/clients/mcap/read.py"))
-        .arg(&mcap)
-        .output()
-        .expect("read.py runs");
-    assert!(out.status.success(), "{}", text(&out.stderr));
-    let seen: Json = serde_json::from_slice(&out.stdout).expect("JSON");
+    let seen = read_with_the_reference_reader(&mcap);
     assert_eq!(seen["profile"], "radar-trace");
     assert_eq!(seen["jsonl"], written.as_str());
     assert_eq!(seen["message_count"], written.lines().count());

@@ -597,23 +597,24 @@ fn action_beside_rclpy(python: &str, distro: &str) {
     super::ros2::replays_to_the_same_writes_and_signals(Path::new(&manifest), &inputs, &trace_text);
 }
 
+/// A manifest whose response `plugin` (the component `wasm`) is served
+/// on DDS as `served` (`action = "/radar/fib"`, ...) of type `ty`, by
+/// Radar's node `node`.
+fn served(plugin: &str, wasm: &str, node: &str, served: &str, ty: &str) -> String {
+    format!(
+        "[plugins.{plugin}]\nwasm = \"{wasm}\"\n\n[ros2]\nrmw = \"dds\"\nnode = \"{node}\"\n\n\
+         [[ros2.serve]]\n{served}\ntype = \"{ty}\"\nresponse = \"{plugin}\"\n"
+    )
+}
+
 /// A Radar response served as the action `test_msgs/action/Fibonacci`.
 fn served_fibonacci() -> String {
-    format!(
-        r#"
-[plugins.Fib]
-wasm = "{}"
-
-[ros2]
-rmw = "dds"
-node = "radar_fibonacci"
-
-[[ros2.serve]]
-action = "/radar/fib"
-type = "test_msgs/action/Fibonacci"
-response = "Fib"
-"#,
-        radar_fixtures::plugins::FIBONACCI_RESPONSE
+    served(
+        "Fib",
+        radar_fixtures::plugins::FIBONACCI_RESPONSE,
+        "radar_fibonacci",
+        "action = \"/radar/fib\"",
+        "test_msgs/action/Fibonacci",
     )
 }
 
@@ -676,21 +677,12 @@ fn served_to_rclpy(python: &str, distro: &str) {
 
 /// A Radar response served as the service `std_srvs/srv/SetBool`.
 fn served_gripper() -> String {
-    format!(
-        r#"
-[plugins.Grip]
-wasm = "{}"
-
-[ros2]
-rmw = "dds"
-node = "radar_gripper"
-
-[[ros2.serve]]
-service = "/radar/grip"
-type = "std_srvs/srv/SetBool"
-response = "Grip"
-"#,
-        radar_fixtures::plugins::GRIPPER_RESPONSE
+    served(
+        "Grip",
+        radar_fixtures::plugins::GRIPPER_RESPONSE,
+        "radar_gripper",
+        "service = \"/radar/grip\"",
+        "std_srvs/srv/SetBool",
     )
 }
 

@@ -23,6 +23,7 @@ import threading
 import time
 
 import fibonacci_server
+import radar_run
 import rclpy
 from rclpy.action import ActionClient
 from rclpy.node import Node
@@ -70,15 +71,10 @@ def main():
         server()
         return 0
     command = args.radar[1:] if args.radar[:1] == ["--"] else args.radar
-    radar = subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
-    while True:
-        line = radar.stdout.readline()
-        if not line:
-            print("radar ended before joining the graph", file=sys.stderr)
-            return 1
-        if line.startswith("ros2: node"):
-            break
-    threading.Thread(target=radar.stdout.read, daemon=True).start()
+    radar, joined = radar_run.start(command)
+    if joined is None:
+        print("radar ended before joining the graph:", *radar.stderr_lines, file=sys.stderr)
+        return 1
     server_process = subprocess.Popen([sys.executable, __file__, "--server"])
 
     rclpy.init()

@@ -396,10 +396,9 @@ impl Ros2 {
         if let Some(queued) = self.queued.take() {
             let left_out = self.left_out.clone();
             let stop = self.stop.clone();
-            let thread = std::thread::Builder::new()
-                .name("radar-ros2-out".into())
-                .spawn(move || publish(out, queued, left_out, stop))
-                .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
+            let thread = spawn("radar-ros2-out", move || {
+                publish(out, queued, left_out, stop)
+            })?;
             self.threads.push(thread);
         }
         self.joined = Some(joined);
@@ -446,25 +445,22 @@ impl Ros2 {
                 .wait()
                 .map_err(declare)?;
             let stop = self.stop.clone();
-            let thread = std::thread::Builder::new()
-                .name("radar-ros2-in".into())
-                .spawn(move || {
-                    while !stop.load(Ordering::Relaxed) {
-                        match inbox.recv_timeout(Duration::from_millis(100)) {
-                            Ok(Some(sample)) => {
-                                let bytes = sample.payload().to_bytes();
-                                let attachment = sample.attachment().map(|a| a.to_bytes());
-                                let sender = || zenoh_sender(attachment.as_deref());
-                                if !taker.take(&bytes, sender) {
-                                    break;
-                                }
+            let thread = spawn("radar-ros2-in", move || {
+                while !stop.load(Ordering::Relaxed) {
+                    match inbox.recv_timeout(Duration::from_millis(100)) {
+                        Ok(Some(sample)) => {
+                            let bytes = sample.payload().to_bytes();
+                            let attachment = sample.attachment().map(|a| a.to_bytes());
+                            let sender = || zenoh_sender(attachment.as_deref());
+                            if !taker.take(&bytes, sender) {
+                                break;
                             }
-                            Ok(None) => {}
-                            Err(_) => break,
                         }
+                        Ok(None) => {}
+                        Err(_) => break,
                     }
-                })
-                .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
+                }
+            })?;
             self.threads.push(thread);
         }
         let mut wires = Vec::new();
@@ -526,12 +522,9 @@ impl Ros2 {
                 .wait()
                 .map_err(declare)?;
             let (served, stop) = (served.clone(), self.stop.clone());
-            let thread = std::thread::Builder::new()
-                .name("radar-ros2-serve".into())
-                .spawn(move || {
-                    super::served_service::serve_zenoh(queryable, served, radar, seen, stop)
-                })
-                .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
+            let thread = spawn("radar-ros2-serve", move || {
+                super::served_service::serve_zenoh(queryable, served, radar, seen, stop)
+            })?;
             self.threads.push(thread);
         }
         for link in &self.services {
@@ -554,12 +547,9 @@ impl Ros2 {
             let Some(requests) = requests else { continue };
             let (session, gid) = (session.clone(), node.gid(entity));
             let (link, stop) = (link.clone(), self.stop.clone());
-            let thread = std::thread::Builder::new()
-                .name("radar-ros2-service".into())
-                .spawn(move || {
-                    super::services::serve_zenoh(session, key, servers, gid, link, requests, stop)
-                })
-                .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
+            let thread = spawn("radar-ros2-service", move || {
+                super::services::serve_zenoh(session, key, servers, gid, link, requests, stop)
+            })?;
             self.threads.push(thread);
             entity += 1;
         }
@@ -616,10 +606,9 @@ impl Ros2 {
             let requests = link.taken.lock().unwrap_or_else(|e| e.into_inner()).take();
             let Some(requests) = requests else { continue };
             let (link, stop) = (link.clone(), self.stop.clone());
-            let thread = std::thread::Builder::new()
-                .name("radar-ros2-service".into())
-                .spawn(move || super::services::serve_dds(client, server, link, requests, stop))
-                .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
+            let thread = spawn("radar-ros2-service", move || {
+                super::services::serve_dds(client, server, link, requests, stop)
+            })?;
             self.threads.push(thread);
         }
         for served in &self.served {
@@ -648,10 +637,7 @@ impl Ros2 {
                     })
                 }
             };
-            let thread = std::thread::Builder::new()
-                .name("radar-ros2-serve".into())
-                .spawn(run)
-                .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
+            let thread = spawn("radar-ros2-serve", run)?;
             self.threads.push(thread);
         }
         for link in &self.actions {
@@ -659,10 +645,9 @@ impl Ros2 {
             let orders = link.taken.lock().unwrap_or_else(|e| e.into_inner()).take();
             let Some(orders) = orders else { continue };
             let (link, stop) = (link.clone(), self.stop.clone());
-            let thread = std::thread::Builder::new()
-                .name("radar-ros2-action".into())
-                .spawn(move || super::actions::serve_dds(client, server, link, orders, stop))
-                .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))?;
+            let thread = spawn("radar-ros2-action", move || {
+                super::actions::serve_dds(client, server, link, orders, stop)
+            })?;
             self.threads.push(thread);
         }
         node.start(self.stop.clone())?;
@@ -707,4 +692,12 @@ impl Drop for Ros2 {
             let _ = thread.join();
         }
     }
+}
+
+/// Starts one of the bridge's threads, named `name`.
+fn spawn(name: &str, run: impl FnOnce() + Send + 'static) -> Result<JoinHandle<()>, Ros2Error> {
+    std::thread::Builder::new()
+        .name(name.into())
+        .spawn(run)
+        .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))
 }

@@ -129,21 +129,16 @@ impl DdsNode {
         name: &str,
         service: &Service,
     ) -> Result<(Client<Encoded, Answered>, ServerSeen), Ros2Error> {
-        let full =
-            ros_name(name).map_err(|e| Ros2Error::Settings(format!("service `{name}`: {e}")))?;
+        let ServiceParts {
+            full,
+            type_name,
+            qos,
+        } = ServiceParts::of(name, service)?;
         let seen = ServerSeen {
             participant: self._context.domain_participant(),
             requests: full.to_dds_name("rq", &self.name, "Request"),
             replies: full.to_dds_name("rr", &self.name, "Reply"),
         };
-        let mut parts = service.name.split('/');
-        let (package, _, type_name) = (parts.next(), parts.next(), parts.next());
-        let type_name = ServiceTypeName::new(package.unwrap_or(""), type_name.unwrap_or(""));
-        let qos = profile(&Qos {
-            best_effort: false,
-            depth: 10,
-            transient_local: false,
-        });
         self.node
             .create_client::<Encoded, Answered>(
                 ServiceMapping::Enhanced,
@@ -164,16 +159,11 @@ impl DdsNode {
         name: &str,
         service: &Service,
     ) -> Result<Server<Answered, Encoded>, Ros2Error> {
-        let full =
-            ros_name(name).map_err(|e| Ros2Error::Settings(format!("service `{name}`: {e}")))?;
-        let mut parts = service.name.split('/');
-        let (package, _, type_name) = (parts.next(), parts.next(), parts.next());
-        let type_name = ServiceTypeName::new(package.unwrap_or(""), type_name.unwrap_or(""));
-        let qos = profile(&Qos {
-            best_effort: false,
-            depth: 10,
-            transient_local: false,
-        });
+        let ServiceParts {
+            full,
+            type_name,
+            qos,
+        } = ServiceParts::of(name, service)?;
         self.node
             .create_server::<Answered, Encoded>(
                 ServiceMapping::Enhanced,
@@ -371,6 +361,32 @@ impl ServerSeen {
 /// What an action's client and server share: its type's name and ROS 2's
 /// QoS for its services (reliable, volatile, keep last 10) and its status
 /// (reliable, transient local, keep last 1).
+/// What a service's client and server share: its ROS name, its type name
+/// and ROS 2's service QoS (reliable, volatile, keep last 10).
+struct ServiceParts {
+    full: Name,
+    type_name: ServiceTypeName,
+    qos: QosProfile,
+}
+
+impl ServiceParts {
+    fn of(name: &str, service: &Service) -> Result<Self, Ros2Error> {
+        let full =
+            ros_name(name).map_err(|e| Ros2Error::Settings(format!("service `{name}`: {e}")))?;
+        let mut parts = service.name.split('/');
+        let (package, _, type_name) = (parts.next(), parts.next(), parts.next());
+        Ok(Self {
+            full,
+            type_name: ServiceTypeName::new(package.unwrap_or(""), type_name.unwrap_or("")),
+            qos: profile(&Qos {
+                best_effort: false,
+                depth: 10,
+                transient_local: false,
+            }),
+        })
+    }
+}
+
 struct ActionParts {
     type_name: ActionTypeName,
     service: QosProfile,
