@@ -20,6 +20,7 @@ mod program_end;
 mod ros2;
 #[cfg(feature = "dds")]
 mod ros2_dds;
+mod ros2_replay;
 mod ros2_services;
 mod scaffold;
 mod scenarios;

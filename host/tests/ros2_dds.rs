@@ -222,7 +222,11 @@ fn obstacle_beside_rclpy(python: &str, distro: &str) {
         assert!(refused[0].contains(needle), "{distro}: {}", refused[0]);
     }
     // The recording replays with neither ROS nor the network.
-    super::ros2::replays_to_the_same_writes_and_signals(Path::new(&manifest), &inputs, &trace_text);
+    super::ros2_replay::replays_to_the_same_writes_and_signals(
+        Path::new(&manifest),
+        &inputs,
+        &trace_text,
+    );
 }
 
 /// Radar's value of `cdr`, as Radar itself writes and reads it back:
@@ -400,7 +404,7 @@ fn robot_beside_rclpy(python: &str, distro: &str) {
     // replays with neither ROS nor the network: every entry's writes and
     // every plugin's signals, in order. (Scans come every 0.1 s, so a scan
     // may land between an answer and the signal it makes in the real run.)
-    super::ros2::replays_to_the_same_streams(&manifest, &inputs, &trace_text);
+    super::ros2_replay::replays_to_the_same_streams(&manifest, &inputs, &trace_text);
 }
 
 /// A response backed by an rclpy `std_srvs/srv/SetBool` server.
@@ -487,7 +491,11 @@ fn service_beside_rclpy(python: &str, distro: &str) {
     );
     // The recording replays with neither ROS nor the network: the replies
     // come from it.
-    super::ros2::replays_to_the_same_writes_and_signals(Path::new(&manifest), &inputs, &trace_text);
+    super::ros2_replay::replays_to_the_same_writes_and_signals(
+        Path::new(&manifest),
+        &inputs,
+        &trace_text,
+    );
 }
 
 /// A response backed by an rclpy `test_msgs/action/Fibonacci` server.
@@ -596,7 +604,11 @@ fn action_beside_rclpy(python: &str, distro: &str) {
     );
     assert_eq!(signals("interrupted").len(), 1, "{distro}: {trace_text}");
     // The recording replays with neither ROS nor the network.
-    super::ros2::replays_to_the_same_writes_and_signals(Path::new(&manifest), &inputs, &trace_text);
+    super::ros2_replay::replays_to_the_same_writes_and_signals(
+        Path::new(&manifest),
+        &inputs,
+        &trace_text,
+    );
 }
 
 /// A manifest whose response `plugin` (the component `wasm`) is served
@@ -674,7 +686,11 @@ fn served_to_rclpy(python: &str, distro: &str) {
         assert!(trace_text.contains(line), "{distro}: {line}: {trace_text}");
     }
     // The recording replays with no ROS.
-    super::ros2::replays_to_the_same_writes_and_signals(Path::new(&manifest), &inputs, &trace_text);
+    super::ros2_replay::replays_to_the_same_writes_and_signals(
+        Path::new(&manifest),
+        &inputs,
+        &trace_text,
+    );
 }
 
 /// A Radar response served as the service `std_srvs/srv/SetBool`.
@@ -745,5 +761,9 @@ fn served_service_to_rclpy(python: &str, distro: &str) {
         assert!(trace_text.contains(line), "{distro}: {line}: {trace_text}");
     }
     // The recording replays with no ROS.
-    super::ros2::replays_to_the_same_writes_and_signals(Path::new(&manifest), &inputs, &trace_text);
+    super::ros2_replay::replays_to_the_same_writes_and_signals(
+        Path::new(&manifest),
+        &inputs,
+        &trace_text,
+    );
 }

@@ -8,7 +8,8 @@ use std::time::Duration;
 
 use crate::common::{lawful_trace, text};
 
-use super::ros2::{python, replays_to_the_same_writes_and_signals, Client, Running};
+use super::ros2::{python, Client, Running};
+use super::ros2_replay::replays_to_the_same_writes_and_signals;
 
 #[test]
 fn a_response_backed_by_a_zenoh_ros2_sdk_service_calls_it_and_exits_with_the_reply() {
