@@ -18,6 +18,7 @@ mod mcap;
 mod network;
 mod program_end;
 mod ros2;
+mod ros2_actions;
 #[cfg(feature = "dds")]
 mod ros2_dds;
 mod ros2_replay;

@@ -84,11 +84,17 @@ impl ActionLink {
     }
 
     /// The goal ended with `status` (`action_msgs/msg/GoalStatus`) and
-    /// the result's CDR bytes: `{"ok": result}` if it succeeded, else
-    /// `{"err": status}`.
+    /// the result's CDR bytes (see [`ActionLink::final_answer`]).
     pub(super) fn ended(&self, call: u64, status: i8, bytes: &[u8]) {
-        let answer = match status {
-            SUCCEEDED => match cdr::decode(&self.action.result, bytes) {
+        let result = cdr::decode(&self.action.result, bytes).map_err(|e| e.to_string());
+        self.answer(call, self.final_answer(status, result));
+    }
+
+    /// What a goal that ended with `status` and `result` (as read) answers:
+    /// `{"ok": result}` if it succeeded, else `{"err": status}`.
+    pub(super) fn final_answer(&self, status: i8, result: Result<Json, String>) -> Answer {
+        match status {
+            SUCCEEDED => match result {
                 Ok(result) if carried(&self.action.result).is_some() => {
                     Answer::Reply(json!({ "ok": result }))
                 }
@@ -100,8 +106,7 @@ impl ActionLink {
             other => Answer::Failed(format!(
                 "the server ended the goal with status {other}, which is not a final one"
             )),
-        };
-        self.answer(call, answer);
+        }
     }
 }
 
@@ -141,7 +146,7 @@ impl Backing for ActionLink {
 /// How long, once the run ends, the client waits for goals sent and not
 /// yet answered, to cancel those the server accepts, and for its cancels
 /// to go out.
-const AT_END: std::time::Duration = std::time::Duration::from_secs(1);
+pub(super) const AT_END: std::time::Duration = std::time::Duration::from_secs(1);
 
 /// DDS: the action client's thread (see [`ActionLink`]). A goal goes out
 /// once discovery shows a server reading goals (DDS keeps nothing for a

@@ -21,6 +21,7 @@ use zenoh::qos::CongestionControl;
 use zenoh::{Session, Wait};
 
 use super::actions::ActionLink;
+use super::actions_zenoh::ZenohAction;
 #[cfg(feature = "dds")]
 use super::dds::{DdsNode, DdsPublisher};
 use super::error::Ros2Error;
@@ -128,12 +129,6 @@ impl Ros2 {
             match backed_response(settings, &types, plugin, by)?.1 {
                 Server::Service(service) => {
                     services.push(Arc::new(ServiceLink::new(plugin, name, service)))
-                }
-                Server::Action(_) if settings.rmw == Rmw::Zenoh => {
-                    return Err(Ros2Error::Settings(format!(
-                        "plugins.{plugin}.ros2: a response backed by an action runs on DDS \
-                         (`[ros2] rmw = \"dds\"`); on rmw_zenoh it is not built yet"
-                    )))
                 }
                 Server::Action(action) => {
                     actions.push(Arc::new(ActionLink::new(plugin, name, *action)))
@@ -552,6 +547,17 @@ impl Ros2 {
             })?;
             self.threads.push(thread);
             entity += 1;
+        }
+        for link in &self.actions {
+            let orders = link.taken.lock().unwrap_or_else(|e| e.into_inner()).take();
+            let Some(orders) = orders else { continue };
+            let (wire, tokens) = ZenohAction::declare(&session, &node, &mut entity, link)?;
+            self.tokens.extend(tokens);
+            let (link, stop) = (link.clone(), self.stop.clone());
+            let thread = spawn("radar-ros2-action", move || {
+                super::actions_zenoh::serve_zenoh(wire, link, orders, stop)
+            })?;
+            self.threads.push(thread);
         }
         let name = format!("{}/{}", node.namespace.trim_end_matches('/'), node.name);
         Ok((

@@ -14,6 +14,7 @@
 //! through RustDDS's CDR (`dds_cdr`).
 
 mod actions;
+mod actions_zenoh;
 mod bridge;
 mod builtin;
 pub mod cdr;

@@ -372,24 +372,10 @@ impl ZenohCall {
         self.stop.load(Ordering::Relaxed) || self.link.abandoned(call)
     }
 
-    /// Whether a server's liveliness token is there now.
-    fn server_seen(&self) -> bool {
-        let Ok(replies) = self
-            .session
-            .liveliness()
-            .get(&self.servers)
-            .timeout(Duration::from_millis(500))
-            .wait()
-        else {
-            return false;
-        };
-        replies.recv().is_ok()
-    }
-
     fn run(self, call: u64, bytes: Vec<u8>) {
         let link = &self.link;
         let began = std::time::Instant::now();
-        while !self.server_seen() {
+        while !server_seen(&self.session, &self.servers) {
             if self.ended(call) {
                 return;
             }
@@ -447,6 +433,20 @@ impl ZenohCall {
         };
         link.answer(call, answer);
     }
+}
+
+/// rmw_zenoh: whether the liveliness token of a server that `servers`
+/// matches (see `graph::server_tokens`) is there now.
+pub(super) fn server_seen(session: &zenoh::Session, servers: &str) -> bool {
+    let Ok(replies) = session
+        .liveliness()
+        .get(servers)
+        .timeout(Duration::from_millis(500))
+        .wait()
+    else {
+        return false;
+    };
+    replies.recv().is_ok()
 }
 
 /// Nanoseconds since the epoch, as rmw_zenoh stamps a request.

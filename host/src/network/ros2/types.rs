@@ -659,6 +659,13 @@ mod tests {
                 "record { structure-needs-at-least-one-member: u8 }",
                 "record { structure-needs-at-least-one-member: u8 }",
             ),
+            // action_msgs' CancelGoal.json: an action's cancel on rmw_zenoh.
+            (
+                "action_msgs/srv/CancelGoal",
+                "RIHS01_573d8b0a534451d7bc2ac8c5ffde8ac14b8593b7001175d0cd6516dcbeb8689a",
+                "record { goal-info: record { goal-id: record { uuid: list<u8> }, stamp: record { sec: s32, nanosec: u32 } } }",
+                "record { return-code: s8, goals-canceling: list<record { goal-id: record { uuid: list<u8> }, stamp: record { sec: s32, nanosec: u32 } }> }",
+            ),
         ] {
             let service = types
                 .load_service(name)
