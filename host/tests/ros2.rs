@@ -235,7 +235,7 @@ fn type_mismatches_are_refused_when_the_system_is_built() {
         (
             "[[ros2.serve]]\naction = \"/fib\"\ntype = \"test_msgs/action/Fibonacci\"\n\
              response = \"Avoid\"\n",
-            "[[ros2.serve]] action `/fib`: a response served as an action runs on DDS",
+            "radar: ros2: [[ros2.serve]] action `/fib` (test_msgs/action/Fibonacci) by `Avoid`: ",
         ),
     ];
     for (extra, needle) in cases {

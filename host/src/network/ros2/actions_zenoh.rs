@@ -491,7 +491,7 @@ impl GoalThread<'_> {
 const CANCEL_ANSWER: Duration = Duration::from_secs(2);
 
 /// A goal id read from `unique_identifier_msgs/msg/UUID`'s JSON.
-fn goal_id(uuid: &Json) -> Option<GoalId> {
+pub(super) fn goal_id(uuid: &Json) -> Option<GoalId> {
     let bytes: Vec<u8> = uuid["uuid"]
         .as_array()?
         .iter()

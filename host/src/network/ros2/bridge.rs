@@ -31,6 +31,7 @@ use super::outgoing::{has_header, publish, Outgoing, Tap, Wire};
 use super::recorded::{RecordedTopics, Sent, Taken};
 use super::routes::{check_publications, check_subscriptions, Publication, Subscription};
 use super::served::{Offered, Served};
+use super::served_action_zenoh::ZenohActionServer;
 use super::services::{backed_response, Server, ServiceLink};
 use super::settings::{Qos, Rmw, Ros2Settings};
 use super::types::MessageTypes;
@@ -138,12 +139,6 @@ impl Ros2 {
         let mut served = Vec::new();
         for s in &settings.serve {
             let at = format!("[[ros2.serve]] {} `{}`", s.kind(), s.name());
-            if settings.rmw == Rmw::Zenoh && s.action.is_some() {
-                return Err(Ros2Error::Settings(format!(
-                    "{at}: a response served as an action runs on DDS (`[ros2] rmw = \"dds\"`); \
-                     on rmw_zenoh it is not built yet"
-                )));
-            }
             let offered = if s.service.is_some() {
                 Offered::Service(
                     types
@@ -487,9 +482,6 @@ impl Ros2 {
             entity += 1;
         }
         for served in &self.served {
-            let Offered::Service(service) = &served.offered else {
-                continue;
-            };
             let seen = served
                 .taken
                 .lock()
@@ -497,6 +489,20 @@ impl Ros2 {
                 .take();
             let (Some(seen), Some(radar)) = (seen, self.radar.clone()) else {
                 continue;
+            };
+            let service = match &served.offered {
+                Offered::Service(service) => service,
+                Offered::Action(_) => {
+                    let (server, tokens) =
+                        ZenohActionServer::declare(&session, &node, &mut entity, served)?;
+                    self.tokens.extend(tokens);
+                    let (served, stop) = (served.clone(), self.stop.clone());
+                    let thread = spawn("radar-ros2-serve", move || {
+                        super::served_action::serve(server, served, radar, seen, stop)
+                    })?;
+                    self.threads.push(thread);
+                    continue;
+                }
             };
             let qos = Qos::parse(None, None, None).map_err(Ros2Error::Settings)?;
             let token = node.endpoint_token(

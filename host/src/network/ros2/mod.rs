@@ -11,7 +11,10 @@
 //! runs them (`bridge`), with its subscriptions' threads (`incoming`) and
 //! its publishing (`outgoing`), and what an MCAP trace
 //! writes on the topics (`recorded`); on DDS, the node (`dds`) and the bytes
-//! through RustDDS's CDR (`dds_cdr`).
+//! through RustDDS's CDR (`dds_cdr`). Responses backed by services and
+//! actions (`services`, `actions`, `actions_zenoh`) and served as them
+//! (`served`, `served_service`, `served_action`, `served_action_zenoh`)
+//! each keep one loop for both middlewares where the protocol allows.
 
 mod actions;
 mod actions_zenoh;
@@ -32,8 +35,8 @@ mod outgoing;
 mod recorded;
 mod routes;
 mod served;
-#[cfg(feature = "dds")]
 mod served_action;
+mod served_action_zenoh;
 mod served_service;
 mod services;
 mod settings;

@@ -21,7 +21,7 @@ use super::served::{Goals, Offered, Say, Seen, Served, SUCCEEDED};
 use crate::system::Radar;
 
 /// A middleware's service server.
-trait Requests {
+pub(super) trait Requests {
     /// How the middleware tells one request from another.
     type Id: Copy + PartialEq;
     /// The requests that came since the last look: each one's CDR bytes.
@@ -137,90 +137,97 @@ pub(super) fn serve_dds(
 }
 
 /// rmw_zenoh: the service's queryable (declared complete, as rmw_zenoh
-/// does). A reply carries what rmw_zenoh's does: the request's sequence
-/// number, the time, the client's GID. A request left unanswered ends its
-/// query with no reply; one that does not read as its type, with an error.
+/// does), through [`ZenohRequests`].
 pub(super) fn serve_zenoh(
-    queryable: zenoh::query::Queryable<zenoh::handlers::FifoChannelHandler<zenoh::query::Query>>,
+    queryable: ZenohQueryable,
     served: Arc<Served>,
     radar: Radar,
     seen: Receiver<Seen>,
     stop: Arc<AtomicBool>,
 ) {
-    use zenoh::Wait;
+    serve(ZenohRequests::new(queryable), served, radar, seen, stop);
+}
 
-    struct Zenoh {
-        queryable:
-            zenoh::query::Queryable<zenoh::handlers::FifoChannelHandler<zenoh::query::Query>>,
-        next: u64,
-        /// Queries waiting for their reply, with their request's sequence
-        /// number and client GID.
-        open: Vec<(u64, zenoh::query::Query, i64, [u8; 16])>,
-    }
+/// A queryable of rmw_zenoh's services.
+pub(super) type ZenohQueryable =
+    zenoh::query::Queryable<zenoh::handlers::FifoChannelHandler<zenoh::query::Query>>;
 
-    impl Requests for Zenoh {
-        type Id = u64;
+/// The requests of one service on rmw_zenoh (a served service's, or one of
+/// a served action's three): each a query on the service's queryable. A
+/// reply carries what rmw_zenoh's does: the request's sequence number, the
+/// time, the client's GID. A request left unanswered ends its query with
+/// no reply; one that does not read as its type, with an error.
+pub(super) struct ZenohRequests {
+    queryable: ZenohQueryable,
+    next: u64,
+    /// Queries waiting for their reply, with their request's sequence
+    /// number and client GID.
+    open: Vec<(u64, zenoh::query::Query, i64, [u8; 16])>,
+}
 
-        fn take(&mut self) -> Vec<(u64, Vec<u8>)> {
-            let mut taken = Vec::new();
-            while let Ok(Some(query)) = self.queryable.try_recv() {
-                let attachment = query
-                    .attachment()
-                    .map(|a| a.to_bytes().into_owned())
-                    .unwrap_or_default();
-                let Some((sequence, gid)) = super::graph::parse_attachment(&attachment)
-                    .and_then(|(s, g)| Some((s, <[u8; 16]>::try_from(g).ok()?)))
-                else {
-                    // rmw_zenoh's clients always send one.
-                    let _ = query
-                        .reply_err("a service request needs rmw_zenoh's attachment")
-                        .wait();
-                    continue;
-                };
-                let bytes = query
-                    .payload()
-                    .map(|p| p.to_bytes().into_owned())
-                    .unwrap_or_default();
-                self.next += 1;
-                taken.push((self.next, bytes));
-                self.open.push((self.next, query, sequence, gid));
-            }
-            taken
-        }
-
-        fn reply(&mut self, id: u64, bytes: Vec<u8>) {
-            let Some(i) = self.open.iter().position(|(o, ..)| *o == id) else {
-                return;
-            };
-            let (_, query, sequence, gid) = self.open.swap_remove(i);
-            let attachment = super::graph::attachment(sequence, super::services::wall_ns(), &gid);
-            let _ = query
-                .reply(query.key_expr().clone(), bytes)
-                .attachment(attachment)
-                .wait();
-        }
-
-        fn no_reply(&mut self, id: u64, why: Option<String>) {
-            let Some(i) = self.open.iter().position(|(o, ..)| *o == id) else {
-                return;
-            };
-            // Dropping the query ends it.
-            let (_, query, ..) = self.open.swap_remove(i);
-            if let Some(why) = why {
-                let _ = query.reply_err(why).wait();
-            }
-        }
-    }
-
-    serve(
-        Zenoh {
+impl ZenohRequests {
+    pub(super) fn new(queryable: ZenohQueryable) -> Self {
+        Self {
             queryable,
             next: 0,
             open: Vec::new(),
-        },
-        served,
-        radar,
-        seen,
-        stop,
-    );
+        }
+    }
+}
+
+impl Requests for ZenohRequests {
+    type Id = u64;
+
+    fn take(&mut self) -> Vec<(u64, Vec<u8>)> {
+        use zenoh::Wait;
+        let mut taken = Vec::new();
+        while let Ok(Some(query)) = self.queryable.try_recv() {
+            let attachment = query
+                .attachment()
+                .map(|a| a.to_bytes().into_owned())
+                .unwrap_or_default();
+            let Some((sequence, gid)) = super::graph::parse_attachment(&attachment)
+                .and_then(|(s, g)| Some((s, <[u8; 16]>::try_from(g).ok()?)))
+            else {
+                // rmw_zenoh's clients always send one.
+                let _ = query
+                    .reply_err("a service request needs rmw_zenoh's attachment")
+                    .wait();
+                continue;
+            };
+            let bytes = query
+                .payload()
+                .map(|p| p.to_bytes().into_owned())
+                .unwrap_or_default();
+            self.next += 1;
+            taken.push((self.next, bytes));
+            self.open.push((self.next, query, sequence, gid));
+        }
+        taken
+    }
+
+    fn reply(&mut self, id: u64, bytes: Vec<u8>) {
+        use zenoh::Wait;
+        let Some(i) = self.open.iter().position(|(o, ..)| *o == id) else {
+            return;
+        };
+        let (_, query, sequence, gid) = self.open.swap_remove(i);
+        let attachment = super::graph::attachment(sequence, super::services::wall_ns(), &gid);
+        let _ = query
+            .reply(query.key_expr().clone(), bytes)
+            .attachment(attachment)
+            .wait();
+    }
+
+    fn no_reply(&mut self, id: u64, why: Option<String>) {
+        use zenoh::Wait;
+        let Some(i) = self.open.iter().position(|(o, ..)| *o == id) else {
+            return;
+        };
+        // Dropping the query ends it.
+        let (_, query, ..) = self.open.swap_remove(i);
+        if let Some(why) = why {
+            let _ = query.reply_err(why).wait();
+        }
+    }
 }

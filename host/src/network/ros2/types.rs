@@ -735,6 +735,14 @@ mod tests {
         for (ours, theirs) in expected {
             assert_eq!(ours, theirs);
         }
+        // action_msgs' GoalStatusArray.json: an action's status topic.
+        let status = types
+            .load("action_msgs/msg/GoalStatusArray")
+            .expect("built in");
+        assert_eq!(
+            status.hash,
+            "RIHS01_6c1684b00f177d37438febe6e709fc4e2b0d4248dca4854946f9ed8b30cda83e"
+        );
         assert_eq!(
             action.send_goal.request.payload_type().to_string(),
             "record { goal-id: record { uuid: list<u8> }, goal: record { order: s32 } }"
