@@ -8,6 +8,7 @@ pub mod fixes;
 pub mod graph;
 pub mod ros2;
 pub mod run;
+pub mod run_args;
 pub mod shadow;
 pub mod shown;
 pub mod simulate;

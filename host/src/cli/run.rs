@@ -17,8 +17,10 @@ use radar::trace::compare::{
 use radar::trace::inputs::{self, Input, TimedInput};
 use radar::trace::JsonLines;
 use radar::workspace::{self, WatchEvent};
-use radar::{example, ClockKind, SwapPolicy, System};
+use radar::{example, ClockKind, System};
 
+use super::run_args::{parse_injection, parse_pace, parse_swap, parse_write};
+use super::run_args::{BoardWrite, Injection, Swap};
 use super::say;
 use super::shown::TimelineArgs;
 
@@ -106,6 +108,10 @@ pub struct RunArgs {
     /// 1000000000.
     #[arg(long)]
     fuel_as_time: Option<u64>,
+    /// Virtual clock: go no faster than FACTOR times the wall clock (1: as
+    /// fast), so that ROS 2 nodes (`[ros2] publish_clock`) or a person keep up.
+    #[arg(long, value_name = "FACTOR", value_parser = parse_pace)]
+    pace: Option<f64>,
     /// Seed of the random sources plugins see under the virtual clock
     /// (default 0).
     #[arg(long, default_value_t = 0)]
@@ -147,34 +153,6 @@ impl RunArgs {
     }
 }
 
-/// One `--swap`.
-#[derive(Clone)]
-struct Swap {
-    at: Duration,
-    plugin: String,
-    path: PathBuf,
-    policy: SwapPolicy,
-}
-
-fn parse_swap(text: &str) -> Result<Swap, String> {
-    let shape = || format!("`{text}`: expected AT:Plugin=PATH[:drain|restart]");
-    let (at, rest) = text.split_once(':').ok_or_else(shape)?;
-    let (plugin, target) = rest.split_once('=').ok_or_else(shape)?;
-    let (path, policy) = match target.rsplit_once(':') {
-        Some((path, policy)) if policy == "drain" || policy == "restart" => (path, policy.parse()?),
-        _ => (target, SwapPolicy::Drain),
-    };
-    if plugin.is_empty() || path.is_empty() {
-        return Err(shape());
-    }
-    Ok(Swap {
-        at: parse_duration(at)?,
-        plugin: plugin.to_string(),
-        path: PathBuf::from(path),
-        policy,
-    })
-}
-
 /// `radar run --example`.
 #[derive(Clone, Copy, Default, clap::ValueEnum)]
 pub enum BuiltInExample {
@@ -185,49 +163,6 @@ pub enum BuiltInExample {
     /// Listing 2/3 with its program paced to show the paper's Fig. 3 at
     /// 0 s, 1 s and 4 s.
     Fig3,
-}
-
-/// One `--write`.
-#[derive(Clone)]
-struct BoardWrite {
-    at: Duration,
-    entry: String,
-    value: serde_json::Value,
-}
-
-fn parse_write(text: &str) -> Result<BoardWrite, String> {
-    let shape = || format!("`{text}`: expected AT:entry=JSON");
-    let (at, rest) = text.split_once(':').ok_or_else(shape)?;
-    let (entry, value) = rest.split_once('=').ok_or_else(shape)?;
-    if entry.is_empty() {
-        return Err(shape());
-    }
-    Ok(BoardWrite {
-        at: parse_duration(at)?,
-        entry: entry.to_string(),
-        value: serde_json::from_str(value).map_err(|e| format!("`{value}` is not JSON: {e}"))?,
-    })
-}
-
-/// One `--inject`.
-#[derive(Clone)]
-struct Injection {
-    at: Duration,
-    slot: String,
-    payload: serde_json::Value,
-}
-
-fn parse_injection(text: &str) -> Result<Injection, String> {
-    let (at, rest) = text
-        .split_once(':')
-        .ok_or_else(|| format!("`{text}`: expected AT:Plugin.slot=JSON"))?;
-    let (slot, payload) = rest.split_once('=').unwrap_or((rest, "null"));
-    Ok(Injection {
-        at: parse_duration(at)?,
-        slot: slot.to_string(),
-        payload: serde_json::from_str(payload)
-            .map_err(|e| format!("`{payload}` is not JSON: {e}"))?,
-    })
 }
 
 /// What `--watch` did, one line each.
@@ -346,6 +281,12 @@ pub fn run(args: RunArgs) -> Result<()> {
             anyhow::bail!("--fuel-as-time goes with the virtual clock (under the real clock compute takes its real time)");
         }
         builder = builder.fuel_as_time(rate);
+    }
+    if let Some(factor) = args.pace {
+        if args.clock == ClockKind::Real {
+            anyhow::bail!("--pace goes with the virtual clock (the real clock is the wall's)");
+        }
+        builder = builder.pace(factor);
     }
     if args.realtime.is_some() || args.cpu.is_some() {
         if args.clock != ClockKind::Real {
@@ -468,6 +409,21 @@ pub fn run(args: RunArgs) -> Result<()> {
             // recording holds every message that came in.
             if let Some(settings) = manifest.ros2.as_ref().filter(|_| replay.is_none()) {
                 let mut bridge = Ros2::open(settings, manifest.dir())?;
+                if let Some(followed) = bridge.followed_clock() {
+                    if args.clock == ClockKind::Virtual {
+                        anyhow::bail!(
+                            "[ros2] use_sim_time: the run follows a simulator's /clock as it \
+                             comes: run with --clock real"
+                        );
+                    }
+                    builder = builder.follow_clock(followed);
+                }
+                if settings.publish_clock && args.clock == ClockKind::Real {
+                    anyhow::bail!(
+                        "[ros2] publish_clock publishes the virtual clock (under the real clock \
+                         ROS 2 nodes have the wall clock): leave out --clock real"
+                    );
+                }
                 builder = builder.trace_to(bridge.tap());
                 for (plugin, link) in bridge.backings() {
                     if args.clock == ClockKind::Virtual {

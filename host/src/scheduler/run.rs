@@ -118,6 +118,10 @@ impl SpinWindow {
     }
 }
 
+/// How often a real clock that follows one driven from outside (ROS 2's
+/// `/clock`) looks at its time while it waits for a deadline.
+const FOLLOWED_LOOK: Duration = Duration::from_millis(1);
+
 /// Owns the executor and the command channel; [`Scheduler::run`] is the
 /// scheduler's thread.
 pub(crate) struct Scheduler {
@@ -415,6 +419,9 @@ impl Scheduler {
             match kind {
                 ClockKind::Virtual => match next {
                     Some(d) if limit.is_none_or(|l| d <= l) => {
+                        if self.paced(d) {
+                            continue;
+                        }
                         self.core.base.advance_to(d);
                         let fired = self.core.base.fired();
                         if self
@@ -433,6 +440,9 @@ impl Scheduler {
                     }
                     _ => {
                         if let Some(l) = limit {
+                            if self.paced(l) {
+                                continue;
+                            }
                             self.core.base.advance_to(l);
                         }
                         break;
@@ -445,7 +455,8 @@ impl Scheduler {
                         (d, l) => d.or(l),
                     };
                     let wait = until.map(|u| Duration::from_nanos(u.saturating_sub(now)));
-                    if wait.is_some_and(|w| w <= spin.now) {
+                    let follows = self.core.base.follows();
+                    if !follows && wait.is_some_and(|w| w <= spin.now) {
                         // The last stretch before a deadline is spun (the
                         // loop's top still takes commands as they come).
                         std::hint::spin_loop();
@@ -460,7 +471,13 @@ impl Scheduler {
                     // Sleep until the spinning stretch before the deadline,
                     // a tick at most: the loop's top looks whether the run
                     // is being stopped.
-                    let wait = wait.map(|w| (w - spin.now).min(crate::watchdog::TICK));
+                    // A followed clock's time is not the wall clock's: it
+                    // is looked at again each millisecond, never spun on
+                    // (it may stand still).
+                    let wait = wait.map(|w| match follows {
+                        true => w.min(FOLLOWED_LOOK),
+                        false => (w - spin.now).min(crate::watchdog::TICK),
+                    });
                     let received = match wait {
                         Some(w) => {
                             let asleep = std::time::Instant::now();
@@ -570,6 +587,24 @@ impl Scheduler {
     /// Waits at most `wait` for a command; a stop asked for from another
     /// thread (a signal) ends the wait too, as a timeout the loop's top
     /// then sees.
+    /// Paced virtual clock (`--pace`): whether virtual time `t` is not due
+    /// yet on the wall clock; then the scheduler has waited for it a while,
+    /// taking a command that came meanwhile (an input from outside comes in
+    /// at the virtual time of its coming, as the wall clock paces it).
+    fn paced(&mut self, t: u64) -> bool {
+        let Some(wait) = self.core.base.paced_wait(t) else {
+            return false;
+        };
+        match self.wait_for_command(wait.min(crate::watchdog::TICK)) {
+            Ok(cmd) => self.handle(cmd),
+            Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => {
+                std::thread::sleep(wait.min(crate::watchdog::TICK))
+            }
+        }
+        true
+    }
+
     fn wait_for_command(&self, wait: Duration) -> Result<Command, RecvTimeoutError> {
         crossbeam_channel::select_biased! {
             recv(self.commands) -> command => {

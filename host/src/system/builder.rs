@@ -19,7 +19,7 @@ use super::parts::Source;
 use super::parts::{Deliberative, Plugin};
 use super::run::System;
 use crate::clock::duration_nanos;
-use crate::clock::ClockKind;
+use crate::clock::{ClockKind, FollowedClock};
 use crate::error::RadarError;
 use crate::limiter::MemoryBudget;
 use crate::plugin::remote::Remote;
@@ -36,6 +36,8 @@ use crate::watchdog::RunWatch;
 /// Builds a [`System`](crate::System); see the module docs.
 pub struct SystemBuilder {
     clock: ClockKind,
+    followed: Option<FollowedClock>,
+    pace: Option<f64>,
     plugins: Vec<Plugin>,
     links: Vec<Link>,
     /// Injections, blackboard writes and swaps at given times, in the
@@ -80,6 +82,8 @@ impl Default for SystemBuilder {
     fn default() -> Self {
         Self {
             clock: ClockKind::Virtual,
+            followed: None,
+            pace: None,
             plugins: Vec::new(),
             links: Vec::new(),
             inputs: Vec::new(),
@@ -184,6 +188,23 @@ impl SystemBuilder {
     /// The clock the system runs on (default: virtual).
     pub fn clock(mut self, clock: ClockKind) -> Self {
         self.clock = clock;
+        self
+    }
+
+    /// The real clock follows `clock`, driven from outside (a simulator's
+    /// ROS 2 `/clock`): the run's time is its time since the first one it
+    /// heard, 0 until then. Ignored under the virtual clock.
+    pub fn follow_clock(mut self, clock: FollowedClock) -> Self {
+        self.followed = Some(clock);
+        self
+    }
+
+    /// The virtual clock goes no faster than `factor` times the wall clock
+    /// (1.0: as fast; 2.0: twice as fast), so that ROS 2 nodes, a viewer or
+    /// a person can keep up; what happens at each virtual time is the same
+    /// as unpaced, inputs from outside aside. Ignored under the real clock.
+    pub fn pace(mut self, factor: f64) -> Self {
+        self.pace = Some(factor);
         self
     }
 
@@ -683,6 +704,8 @@ impl SystemBuilder {
             setups: SharedSetups::default(),
             id: NEXT_SYSTEM.fetch_add(1, Ordering::Relaxed),
             clock: self.clock,
+            followed: self.followed,
+            pace: self.pace,
             plugins: defs,
             links: self.links.into_iter().map(|l| l.spec).collect(),
             inputs,

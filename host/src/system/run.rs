@@ -35,6 +35,10 @@ pub struct System {
     pub(super) loader: Arc<Mutex<Loader>>,
     pub(super) setups: SharedSetups,
     pub(super) clock: ClockKind,
+    /// Real clock: the clock driven from outside it follows, if any.
+    pub(super) followed: Option<crate::clock::FollowedClock>,
+    /// Virtual clock: at most this many times as fast as the wall clock.
+    pub(super) pace: Option<f64>,
     pub(super) plugins: Vec<PluginDef>,
     pub(super) links: Vec<LinkSpec>,
     pub(super) inputs: Vec<StaticInput>,
@@ -240,7 +244,12 @@ impl System {
         limit: Option<Duration>,
         mut programs: u32,
     ) -> Result<RunReport, RadarError> {
-        let base = TimeBase::with_fuel_time(self.clock, self.fuel_per_second);
+        let base = TimeBase::following(
+            self.clock,
+            self.fuel_per_second,
+            self.followed.take(),
+            self.pace,
+        );
         if let Some(code) = self.program.take() {
             let stops_run = Arc::new(std::sync::atomic::AtomicBool::new(false));
             let setup = deliberative::ProgramRun {

@@ -3,7 +3,8 @@
     fixtures.py TYPE...   (e.g. sensor_msgs/msg/Range)
     fixtures.py --all     (every type of builtin_interfaces, std_msgs,
                            geometry_msgs, sensor_msgs, nav_msgs,
-                           unique_identifier_msgs and action_msgs in
+                           unique_identifier_msgs, action_msgs and
+                           rosgraph_msgs in
                            rosbags' ROS 2 Jazzy store)
 
 For each type prints one JSON line {"type", "hash" (RIHS01, from rosbags),

@@ -58,7 +58,7 @@ zenoh_ros2_sdk.message_registry.get_message_file_path = _no_clone
 
 PACKAGES = (
     "builtin_interfaces", "std_msgs", "geometry_msgs", "sensor_msgs", "nav_msgs",
-    "unique_identifier_msgs", "action_msgs",
+    "unique_identifier_msgs", "action_msgs", "rosgraph_msgs",
 )
 INTS = {"byte", "char", "int8", "int16", "int32", "int64",
         "uint8", "uint16", "uint32", "uint64"}

@@ -26,8 +26,8 @@ use super::actions_zenoh::ZenohAction;
 use super::dds::{DdsNode, DdsPublisher};
 use super::error::Ros2Error;
 use super::graph::{self, Endpoint, Node};
-use super::incoming::{zenoh_sender, Taker};
-use super::outgoing::{has_header, publish, Outgoing, Tap, Wire};
+use super::incoming::{zenoh_sender, Into, Taker};
+use super::outgoing::{has_header, publish, publish_clock, Outgoing, Tap, Wire};
 use super::recorded::{RecordedTopics, Sent, Taken};
 use super::routes::{check_publications, check_subscriptions, Publication, Subscription};
 use super::served::{Offered, Served};
@@ -35,8 +35,9 @@ use super::served_action_zenoh::ZenohActionServer;
 use super::services::{backed_response, Server, ServiceLink};
 use super::settings::{Qos, Rmw, Ros2Settings};
 use super::types::MessageTypes;
+use crate::clock::FollowedClock;
 use crate::network::{session, Network};
-use crate::system::System;
+use crate::system::{Radar, System};
 use crate::trace::TraceSink;
 
 /// Signals waiting to be published, at most.
@@ -61,9 +62,13 @@ pub struct Ros2 {
     served: Vec<Arc<Served>>,
     /// The run, once started.
     radar: Option<crate::system::Radar>,
+    /// `[ros2] use_sim_time`: the clock `/clock` drives, for the run.
+    followed: Option<FollowedClock>,
     /// Emissions the tap queued, taken by the publishing thread.
     queued: Option<Receiver<(usize, Json)>>,
     tap: Option<Sender<(usize, Json)>>,
+    /// `[ros2] publish_clock`: where `/clock`'s thread queues its ticks.
+    clock_tx: Option<Sender<(usize, Json)>>,
     tokens: Vec<zenoh::liveliness::LivelinessToken>,
     threads: Vec<JoinHandle<()>>,
     stop: Arc<AtomicBool>,
@@ -121,6 +126,19 @@ impl Ros2 {
                 values,
                 qos: Qos::parse(p.qos.as_deref(), p.depth, p.durability.as_deref())
                     .map_err(Ros2Error::Settings)?,
+                clock: false,
+            });
+        }
+        if settings.publish_clock {
+            publications.push(Publication {
+                signal: String::new(),
+                topic: "/clock".to_string(),
+                message: load("/clock", "rosgraph_msgs/msg/Clock")?,
+                field: None,
+                use_payload: true,
+                values: Json::Object(Default::default()),
+                qos: Qos::parse(None, None, None).map_err(Ros2Error::Settings)?,
+                clock: true,
             });
         }
         let mut services = Vec::new();
@@ -167,8 +185,10 @@ impl Ros2 {
             actions,
             served,
             radar: None,
+            followed: settings.use_sim_time.then(FollowedClock::new),
             joined: None,
             queued: Some(queued),
+            clock_tx: settings.publish_clock.then(|| tap.clone()),
             tap: Some(tap),
             tokens: Vec::new(),
             threads: Vec::new(),
@@ -197,6 +217,13 @@ impl Ros2 {
                 .map(|s| (s.response.clone(), s.watch()))
                 .collect(),
         }
+    }
+
+    /// The clock `/clock` drives, when the run follows it (`[ros2]
+    /// use_sim_time`): give it to the system's builder
+    /// ([`SystemBuilder::follow_clock`](crate::SystemBuilder::follow_clock)).
+    pub fn followed_clock(&self) -> Option<FollowedClock> {
+        self.followed.clone()
     }
 
     /// Where each backed response's requests go: give each to the system's
@@ -312,6 +339,7 @@ impl Ros2 {
             .publications
             .iter()
             .zip(check_publications(&self.publications, system)?)
+            .filter(|(p, _)| !p.clock)
             .map(|(p, checked)| Sent {
                 signal: p.signal.clone(),
                 topic: p.topic.clone(),
@@ -355,17 +383,26 @@ impl Ros2 {
             .subscriptions
             .iter()
             .zip(checked_in)
-            .map(|(sub, (path, ty))| Taker {
-                max_bytes: sub.max_bytes,
-                refusals: 0,
-                topic: sub.topic.clone(),
-                message: sub.message.clone(),
-                entry: sub.entry.clone(),
-                path,
-                ty,
-                radar: radar.clone(),
-            })
-            .collect();
+            .map(|(sub, (path, ty))| {
+                let into = Into::Entry {
+                    entry: sub.entry.clone(),
+                    path,
+                    ty,
+                };
+                let taker = Taker {
+                    max_bytes: sub.max_bytes,
+                    refusals: 0,
+                    topic: sub.topic.clone(),
+                    message: sub.message.clone(),
+                    into,
+                    radar: radar.clone(),
+                };
+                (taker, sub.qos.clone())
+            });
+        let mut takers: Vec<(Taker, Qos)> = takers.collect();
+        if let Some(followed) = &self.followed {
+            takers.push(clock_taker(followed.clone(), radar.clone())?);
+        }
         let (joined, wires) = match self.settings.rmw {
             Rmw::Zenoh => self.start_zenoh(network, takers)?,
             Rmw::Dds => self.start_dds(network, takers)?,
@@ -382,6 +419,14 @@ impl Ros2 {
                 warned: false,
                 wire,
             });
+        }
+        let clock = self.publications.iter().position(|p| p.clock);
+        if let (Some(route), Some(tx)) = (clock, self.clock_tx.take()) {
+            let (stop, radar) = (self.stop.clone(), radar.clone());
+            let thread = spawn("radar-ros2-clock", move || {
+                publish_clock(radar, route, tx, stop)
+            })?;
+            self.threads.push(thread);
         }
         if let Some(queued) = self.queued.take() {
             let left_out = self.left_out.clone();
@@ -401,7 +446,7 @@ impl Ros2 {
     fn start_zenoh(
         &mut self,
         network: Option<&Network>,
-        takers: Vec<Taker>,
+        takers: Vec<(Taker, Qos)>,
     ) -> Result<(Joined, Vec<Wire>), Ros2Error> {
         let (session, node) = self.join(network)?;
         let declare = |e: zenoh::Error| Ros2Error::Session(e.to_string());
@@ -413,25 +458,25 @@ impl Ros2 {
                 .map_err(declare)?,
         );
         let mut entity = 1;
-        for (sub, mut taker) in self.subscriptions.iter().zip(takers) {
-            let m = &sub.message;
+        for (mut taker, qos) in takers {
+            let m = &taker.message;
             let token = node.endpoint_token(
                 Endpoint::Subscription,
                 entity,
-                &sub.topic,
+                &taker.topic,
                 &m.name,
                 &m.hash,
-                &sub.qos,
+                &qos,
             );
             entity += 1;
             self.tokens
                 .push(liveliness.declare_token(token).wait().map_err(declare)?);
             // Any type hash: a publisher of another definition is heard,
             // and its messages refused if they do not read.
-            let key = graph::topic_key(node.domain, &sub.topic, &m.name, "*");
+            let key = graph::topic_key(node.domain, &taker.topic, &m.name, "*");
             let inbox = session
                 .declare_subscriber(key)
-                .with(RingChannel::new(sub.qos.depth as usize))
+                .with(RingChannel::new(qos.depth as usize))
                 .wait()
                 .map_err(declare)?;
             let stop = self.stop.clone();
@@ -583,13 +628,14 @@ impl Ros2 {
     fn start_dds(
         &mut self,
         network: Option<&Network>,
-        takers: Vec<Taker>,
+        takers: Vec<(Taker, Qos)>,
     ) -> Result<(Joined, Vec<Wire>), Ros2Error> {
         let settings = &self.settings;
         let name = settings.node_name(network.map(Network::system));
         let mut node = DdsNode::join(settings.domain, &settings.namespace, &name)?;
-        for (sub, taker) in self.subscriptions.iter().zip(takers) {
-            node.subscribe(&sub.topic, &sub.message, &sub.qos, taker)?;
+        for (taker, qos) in takers {
+            let (topic, message) = (taker.topic.clone(), taker.message.clone());
+            node.subscribe(&topic, &message, &qos, taker)?;
         }
         // One writer a topic (see `Wire::Dds`): its routes must agree on
         // its type and QoS.
@@ -678,7 +724,7 @@ impl Ros2 {
     fn start_dds(
         &mut self,
         _: Option<&Network>,
-        _: Vec<Taker>,
+        _: Vec<(Taker, Qos)>,
     ) -> Result<(Joined, Vec<Wire>), Ros2Error> {
         Err(Ros2Error::Settings(
             "[ros2] rmw = \"dds\": this radar was built without DDS (cargo feature `dds`)".into(),
@@ -712,4 +758,22 @@ fn spawn(name: &str, run: impl FnOnce() + Send + 'static) -> Result<JoinHandle<(
         .name(name.into())
         .spawn(run)
         .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))
+}
+
+/// The subscription of `/clock` that drives `followed`: ROS 2's clock QoS
+/// (best effort, keep the last one), so that it hears any publisher.
+fn clock_taker(followed: FollowedClock, radar: Radar) -> Result<(Taker, Qos), Ros2Error> {
+    let message = MessageTypes::default()
+        .load("rosgraph_msgs/msg/Clock")
+        .map_err(|e| Ros2Error::Settings(e.to_string()))?;
+    let qos = Qos::parse(Some("best_effort"), Some(1), None).map_err(Ros2Error::Settings)?;
+    let taker = Taker {
+        max_bytes: 64,
+        refusals: 0,
+        topic: "/clock".to_string(),
+        message,
+        into: Into::Clock(followed),
+        radar,
+    };
+    Ok((taker, qos))
 }

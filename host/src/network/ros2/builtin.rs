@@ -1,5 +1,6 @@
 //! The message definitions Radar knows out of the box: ROS 2 Jazzy's
-//! builtin_interfaces, std_msgs, geometry_msgs, sensor_msgs and nav_msgs,
+//! builtin_interfaces, std_msgs, geometry_msgs, sensor_msgs, nav_msgs and
+//! rosgraph_msgs' Clock (for `/clock`),
 //! std_srvs's services, action_msgs and unique_identifier_msgs (what
 //! every action uses) and test_msgs' Fibonacci action, as `.msg`, `.srv`
 //! and `.action` text under `msg/` (comments left out), embedded in the
@@ -174,6 +175,10 @@ pub(super) const BUILTIN: &[(&str, &str)] = &[
     (
         "nav_msgs/msg/Path",
         include_str!("msg/nav_msgs/msg/Path.msg"),
+    ),
+    (
+        "rosgraph_msgs/msg/Clock",
+        include_str!("msg/rosgraph_msgs/msg/Clock.msg"),
     ),
     (
         "sensor_msgs/msg/BatteryState",

@@ -1,11 +1,14 @@
 //! A subscription's thread at run time: each message read, fitted to its
 //! entry and written to the blackboard on behalf of its topic, or refused
-//! and recorded (`docs/ros2.md#replay-and-the-trace`).
+//! and recorded (`docs/ros2.md#replay-and-the-trace`). `/clock`, when the
+//! run follows it (`[ros2] use_sim_time`), is taken the same way into the
+//! run's clock instead of an entry.
 
 use super::cdr;
 use super::fit::{self, FieldPath};
 use super::graph;
 use super::types::Message;
+use crate::clock::FollowedClock;
 use crate::payload::PayloadType;
 use crate::system::Radar;
 
@@ -14,16 +17,26 @@ use crate::system::Radar;
 const REFUSALS_RECORDED: u64 = 100;
 const REFUSALS_EVERY: u64 = 1000;
 
-/// Takes one topic's messages into its entry.
+/// Takes one topic's messages into its entry (or the run's clock).
 pub(super) struct Taker {
     pub(super) max_bytes: usize,
     pub(super) refusals: u64,
     pub(super) topic: String,
     pub(super) message: Message,
-    pub(super) entry: String,
-    pub(super) path: FieldPath,
-    pub(super) ty: PayloadType,
+    pub(super) into: Into,
     pub(super) radar: Radar,
+}
+
+/// Where a topic's messages go.
+pub(super) enum Into {
+    /// A blackboard entry: the message's value at `path`, of type `ty`.
+    Entry {
+        entry: String,
+        path: FieldPath,
+        ty: PayloadType,
+    },
+    /// The run's clock: `/clock`'s `rosgraph_msgs/msg/Clock`.
+    Clock(FollowedClock),
 }
 
 impl Taker {
@@ -40,11 +53,28 @@ impl Taker {
             return self.refuse(sender(), reason);
         }
         let value = match cdr::decode(&self.message, bytes) {
-            Ok(value) => fit::take(&value, &self.path, &self.ty),
+            Ok(value) => value,
             Err(e) => return self.malformed(Some(bytes.len()), &e.to_string(), sender),
         };
+        let (entry, value) = match &self.into {
+            Into::Entry { entry, path, ty } => (entry, fit::take(&value, path, ty)),
+            Into::Clock(clock) => {
+                let time = &value["clock"];
+                let (sec, nanosec) = (time["sec"].as_i64(), time["nanosec"].as_u64());
+                match (sec.and_then(|s| u64::try_from(s).ok()), nanosec) {
+                    (Some(sec), Some(nanosec)) => {
+                        clock.heard(sec.saturating_mul(1_000_000_000).saturating_add(nanosec))
+                    }
+                    _ => {
+                        let reason = format!("a time before 1970 ({time})");
+                        return self.refuse(sender(), reason);
+                    }
+                }
+                return true;
+            }
+        };
         let by = format!("(ros2 {})", self.topic);
-        match self.radar.board_write_by(&self.entry, value, &by) {
+        match self.radar.board_write_by(entry, value, &by) {
             Ok(()) => true,
             Err(crate::error::RadarError::Stopped) => false,
             Err(e) => self.refuse(sender(), e.to_string()),

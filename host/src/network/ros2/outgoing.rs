@@ -254,6 +254,34 @@ impl Tap {
     }
 }
 
+/// `[ros2] publish_clock`: the run's time on `/clock`, looked at every
+/// [`CLOCK_EVERY`] of wall time and published when it moved on (under the
+/// virtual clock it moves as the run does: paced by `--pace`, or as fast
+/// as the run goes), until the run ends. `route` is `/clock`'s publication.
+pub(super) fn publish_clock(
+    radar: crate::system::Radar,
+    route: usize,
+    queued: Sender<(usize, Json)>,
+    stop: Arc<AtomicBool>,
+) {
+    let mut last = None;
+    while !stop.load(Ordering::Relaxed) {
+        let Ok(now) = radar.now() else {
+            break;
+        };
+        if last.is_none_or(|last| now > last) {
+            last = Some(now);
+            let time = serde_json::json!({ "sec": now.as_secs(), "nanosec": now.subsec_nanos() });
+            // A full queue drops a tick: the next one says the time.
+            let _ = queued.try_send((route, serde_json::json!({ "clock": time })));
+        }
+        std::thread::sleep(CLOCK_EVERY);
+    }
+}
+
+/// How often `/clock` is published at most: 100 Hz, as simulators do.
+const CLOCK_EVERY: Duration = Duration::from_millis(10);
+
 impl TraceSink for Tap {
     fn record(&mut self, record: &Record) {
         if !self.watchers.is_empty() {

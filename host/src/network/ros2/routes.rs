@@ -32,6 +32,9 @@ pub(super) struct Publication {
     pub(super) use_payload: bool,
     pub(super) values: Json,
     pub(super) qos: Qos,
+    /// Publishes the run's time on `/clock` (`[ros2] publish_clock`), not
+    /// a signal: the tap sends it as the run's time goes by.
+    pub(super) clock: bool,
 }
 
 /// A publication checked against the system.
@@ -90,6 +93,17 @@ pub(super) fn check_publications(
 ) -> Result<Vec<Checked>, Ros2Error> {
     let mut checked = Vec::new();
     for p in publications {
+        if p.clock {
+            // The whole message, made by the tap.
+            let base = fit::values(&p.message, &p.values)
+                .map_err(|e| Ros2Error::Mismatch(format!("[ros2] publish_clock: {e}")))?;
+            checked.push(Checked {
+                path: Some(FieldPath::new()),
+                base,
+                unwrap_ok: false,
+            });
+            continue;
+        }
         let route = format!(
             "[[ros2.publish]] signal `{}` to topic `{}` ({})",
             p.signal, p.topic, p.message.name

@@ -43,6 +43,14 @@ pub struct Ros2Settings {
     /// Responses offered to the ROS 2 graph as action or service servers.
     #[serde(default)]
     pub serve: Vec<Serve>,
+    /// The run's (real) clock follows `/clock` (`rosgraph_msgs/msg/Clock`),
+    /// as a ROS 2 node with `use_sim_time` does: a simulator drives it.
+    #[serde(default)]
+    pub use_sim_time: bool,
+    /// The run publishes its (virtual) clock on `/clock`, so that ROS 2
+    /// nodes with `use_sim_time` follow Radar's time.
+    #[serde(default)]
+    pub publish_clock: bool,
     /// The responses ROS 2 backs (`[plugins.X] ros2 = { service = ... }`),
     /// by plugin: filled from the plugins' tables when the manifest is read.
     #[serde(skip)]
@@ -346,6 +354,13 @@ impl Ros2Settings {
 
     /// Checks what can be checked without the system: names and routes.
     pub fn validate(&self) -> Result<(), String> {
+        if self.use_sim_time && self.publish_clock {
+            return Err(
+                "[ros2] use_sim_time and publish_clock: the run either follows \
+                 `/clock` or publishes it, not both"
+                    .into(),
+            );
+        }
         if self.rmw == Rmw::Dds && !cfg!(feature = "dds") {
             return Err(
                 "[ros2] rmw = \"dds\": this radar was built without DDS (cargo feature `dds`)"

@@ -18,6 +18,10 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::task::{Context, Poll, Waker};
 use std::time::Instant;
 
+mod followed;
+
+pub use followed::FollowedClock;
+
 /// A duration as nanoseconds (saturating: longer than 584 years is
 /// forever).
 pub(crate) fn duration_nanos(d: std::time::Duration) -> u64 {
@@ -82,6 +86,12 @@ pub(crate) struct LogLine {
 
 struct Shared {
     kind: ClockKind,
+    /// Real clock: the clock driven from outside it reads instead of the
+    /// wall clock, if any.
+    followed: Option<FollowedClock>,
+    /// Virtual clock: at most this many seconds a second of the wall
+    /// clock, counted from the wall time the run's tasks began.
+    pace: Option<(f64, Mutex<Instant>)>,
     /// Fuel as time (virtual clock only): fuel that stands for one second.
     fuel_per_second: Option<u64>,
     start: Instant,
@@ -197,9 +207,26 @@ impl TimeBase {
     /// virtual, a plugin's compute takes time: the fuel it burns, at that
     /// rate.
     pub fn with_fuel_time(kind: ClockKind, fuel_per_second: Option<u64>) -> Self {
+        Self::following(kind, fuel_per_second, None, None)
+    }
+
+    /// As [`TimeBase::with_fuel_time`]; a real clock with `followed` reads
+    /// its time from it (a simulator's `/clock`) instead of the wall clock;
+    /// a virtual clock with `pace` goes no faster than `pace` times the
+    /// wall clock.
+    pub fn following(
+        kind: ClockKind,
+        fuel_per_second: Option<u64>,
+        followed: Option<FollowedClock>,
+        pace: Option<f64>,
+    ) -> Self {
         let fuel_per_second = fuel_per_second.filter(|r| *r > 0 && kind == ClockKind::Virtual);
+        let followed = followed.filter(|_| kind == ClockKind::Real);
+        let pace = pace.filter(|p| *p > 0.0 && p.is_finite() && kind == ClockKind::Virtual);
         Self(Arc::new(Shared {
             kind,
+            followed,
+            pace: pace.map(|p| (p, Mutex::new(Instant::now()))),
             fuel_per_second,
             start: Instant::now(),
             virtual_now: AtomicU64::new(0),
@@ -225,6 +252,34 @@ impl TimeBase {
 
     pub fn kind(&self) -> ClockKind {
         self.0.kind
+    }
+
+    /// Paced virtual clock: how long, on the wall clock, until virtual time
+    /// `t` is due (none: it is, or the clock is not paced). Meanwhile the
+    /// virtual time goes on with the wall clock up to `t`, so that what
+    /// comes from outside, and whoever watches the time, find it where
+    /// the wall clock says.
+    pub fn paced_wait(&self, t: u64) -> Option<std::time::Duration> {
+        let (pace, from) = self.0.pace.as_ref()?;
+        let from = *lock(from);
+        let walled = from.elapsed().as_secs_f64() * pace * 1e9;
+        let walled = if walled >= u64::MAX as f64 {
+            u64::MAX
+        } else {
+            walled as u64
+        };
+        if walled.min(t) > self.now() {
+            self.advance_to(walled.min(t));
+        }
+        let due = from + std::time::Duration::from_secs_f64(t as f64 / 1e9 / pace);
+        due.checked_duration_since(Instant::now())
+            .filter(|w| !w.is_zero())
+    }
+
+    /// Whether the (real) clock follows one driven from outside: its time
+    /// can stand still, or run faster than the wall clock.
+    pub fn follows(&self) -> bool {
+        self.0.followed.is_some()
     }
 
     /// Whether compute takes virtual time (fuel as time).
@@ -257,7 +312,10 @@ impl TimeBase {
     pub fn now(&self) -> u64 {
         match self.0.kind {
             ClockKind::Virtual => self.0.virtual_now.load(Ordering::Relaxed),
-            ClockKind::Real => u64::try_from(self.0.start.elapsed().as_nanos()).unwrap_or(u64::MAX),
+            ClockKind::Real => match &self.0.followed {
+                Some(followed) => followed.now(),
+                None => u64::try_from(self.0.start.elapsed().as_nanos()).unwrap_or(u64::MAX),
+            },
         }
     }
 
@@ -348,6 +406,9 @@ impl TimeBase {
     /// Real clock: the run's tasks begin now (a replay begins them at 0),
     /// so what they do is this much behind a clock that is never late.
     pub fn tasks_begin(&self) {
+        if let Some((_, from)) = &self.0.pace {
+            *lock(from) = Instant::now();
+        }
         if self.0.kind == ClockKind::Real {
             let behind = self.now();
             let mut t = self.lock();
