@@ -22,6 +22,8 @@ mod ros2_actions;
 mod ros2_clock;
 #[cfg(feature = "dds")]
 mod ros2_dds;
+#[cfg(feature = "dds")]
+mod ros2_dds_time;
 mod ros2_replay;
 mod ros2_services;
 mod scaffold;

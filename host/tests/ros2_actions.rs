@@ -22,7 +22,8 @@ fn a_response_backed_by_an_action_on_rmw_zenoh_is_accepted_gets_feedback_and_is_
     let python = python();
     // A goal that succeeds, one interrupted half-way (cancelled), one the
     // server rejects (order above 40), one still running when `--for` ends
-    // the run (the node cancels it before it goes).
+    // the run (the node cancels it as the run ends: the server sees it
+    // accepted, then canceled).
     let run = Running::start(
         |ep| {
             format!(

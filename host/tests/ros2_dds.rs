@@ -46,7 +46,7 @@ const DISTROS: [&str; 2] = ["jazzy", "kilted"];
 /// The Python that has `distro`'s rclpy, installed by the project's own
 /// set-up script, if a private network namespace can be made here; else
 /// why not.
-fn rclpy_in_namespace(distro: &str) -> Result<String, String> {
+pub(super) fn rclpy_in_namespace(distro: &str) -> Result<String, String> {
     let netns = Command::new(client("netns"))
         .arg("true")
         .output()
@@ -79,7 +79,7 @@ fn rclpy(distro: &str) -> Result<String, String> {
 /// Runs `test` (given the distribution and its Python) on each ROS 2
 /// distribution that `have` finds here; one that it does not find is
 /// skipped with one line saying why.
-fn each_distro(have: fn(&str) -> Result<String, String>, test: fn(&str, &str)) {
+pub(super) fn each_distro(have: fn(&str) -> Result<String, String>, test: fn(&str, &str)) {
     for distro in DISTROS {
         match have(distro) {
             Ok(python) => test(&python, distro),
@@ -101,6 +101,20 @@ fn drive(
     radar_args: &[&str],
     trace: &Path,
 ) -> Json {
+    let run = ["--clock", "real", "--for", "20s"];
+    drive_run(python, script, args, manifest, &run, radar_args, trace)
+}
+
+/// As [`drive`], the run's clock and length given (`run`).
+pub(super) fn drive_run(
+    python: &str,
+    script: &str,
+    args: &[&str],
+    manifest: &str,
+    run: &[&str],
+    radar_args: &[&str],
+    trace: &Path,
+) -> Json {
     let mut driver = Command::new(client("netns"));
     // The caller's own ROS 2 settings stay out of the test's namespace.
     for var in ROS_ENVIRONMENT {
@@ -113,7 +127,8 @@ fn drive(
         .args(args)
         .arg("--")
         .arg(env!("CARGO_BIN_EXE_radar"))
-        .args(["run", manifest, "--clock", "real", "--for", "20s", "-q"])
+        .args(["run", manifest, "-q"])
+        .args(run)
         .arg("--trace")
         .arg(trace)
         .args(radar_args)

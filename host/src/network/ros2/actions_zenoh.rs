@@ -34,7 +34,7 @@ use super::types::{MessageTypes, Service};
 use crate::plugin::Answer;
 
 /// A goal's id (`unique_identifier_msgs/msg/UUID`).
-type GoalId = [u8; 16];
+pub(super) type GoalId = [u8; 16];
 
 /// What an action client on rmw_zenoh needs besides its link: the
 /// session, the key expressions of the action's services, and the client's
@@ -213,23 +213,26 @@ impl Shared {
     /// Hands a feedback message (`<Action>_FeedbackMessage`'s CDR) to the
     /// goal it names, if that goal is under way.
     fn feedback(&self, bytes: &[u8]) {
-        let Ok(message) = cdr::decode(&self.link.action.feedback_message, bytes) else {
-            // A message that does not read names no goal.
+        let read = cdr::decode(&self.link.action.feedback_message, bytes);
+        // The goal's id is the message's first 16 bytes, read or not.
+        let id = match &read {
+            Ok(message) => goal_id(&message["goal-id"]),
+            Err(_) => bytes.get(4..20).and_then(|id| id.try_into().ok()),
+        };
+        let call = id.and_then(|id| {
+            let under_way = self.under_way.lock().unwrap_or_else(|e| e.into_inner());
+            under_way.get(&id).copied()
+        });
+        let Some(call) = call.filter(|c| !self.link.abandoned(*c)) else {
             return;
         };
-        let Some(id) = goal_id(&message["goal-id"]) else {
-            return;
+        let answer = match read {
+            Ok(message) => Answer::Feedback(message["feedback"].clone()),
+            // The plugin faults; its goal, no longer waited for, is
+            // cancelled (`Backing::abandon`).
+            Err(e) => Answer::Failed(format!("a feedback does not read: {e}")),
         };
-        let call = self
-            .under_way
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .get(&id)
-            .copied();
-        if let Some(call) = call.filter(|c| !self.link.abandoned(*c)) {
-            self.link
-                .answer(call, Answer::Feedback(message["feedback"].clone()));
-        }
+        self.link.answer(call, answer);
     }
 
     /// Whether nobody waits for call `call` any more, or the run ends.
@@ -308,6 +311,7 @@ impl Shared {
             answered: false,
             cancel: false,
             cancel_sent: false,
+            ending: None,
             cancelled,
         }
         .run(goal);
@@ -329,6 +333,8 @@ struct GoalThread<'a> {
     cancel: bool,
     /// The cancel went out.
     cancel_sent: bool,
+    /// When the thread saw the run end.
+    ending: Option<Instant>,
     cancelled: Receiver<()>,
 }
 
@@ -340,6 +346,15 @@ impl GoalThread<'_> {
             link.answer(self.call, answer);
         }
         self.answered = true;
+    }
+
+    /// Whether to go on waiting for an answer: always while the run goes
+    /// on; once it ends, for [`AT_END`] from then.
+    fn still_waiting(&mut self) -> bool {
+        if !self.shared.stop.load(Ordering::Relaxed) {
+            return true;
+        }
+        self.ending.get_or_insert_with(Instant::now).elapsed() < AT_END
     }
 
     /// Whether a cancel was asked for (now or before).
@@ -391,8 +406,10 @@ impl GoalThread<'_> {
             .lock()
             .unwrap_or_else(|e| e.into_inner())
             .insert(self.id, self.call);
+        // Once the run ends, the answer is waited for a while: a goal the
+        // server accepts then is cancelled, not left running.
         let reply = shared.ask("send_goal", &action.send_goal, request, || {
-            !shared.stop.load(Ordering::Relaxed)
+            self.still_waiting()
         });
         let accepted = match reply {
             Asked::Reply(bytes) => match cdr::decode(&action.send_goal.response, &bytes) {
@@ -403,8 +420,8 @@ impl GoalThread<'_> {
                 }
             },
             Asked::Failed(why) => return self.end(Answer::Failed(why)),
-            // The run ended before the server answered: if it accepted,
-            // the goal is cancelled.
+            // No answer before the run's end: in case it accepts, the
+            // goal is asked to cancel.
             Asked::Ended => return self.send_cancel(),
         };
         if !accepted {
@@ -420,16 +437,12 @@ impl GoalThread<'_> {
         };
         // The result, cancelling the goal on the way when asked to; once
         // the run ends, waited for a while only.
-        let mut ending: Option<Instant> = None;
         let reply = shared.ask("get_result", &action.get_result, request, || {
+            let waiting = self.still_waiting();
             if self.cancel_asked() && !self.cancel_sent {
                 self.send_cancel();
             }
-            if shared.stop.load(Ordering::Relaxed) {
-                let at = *ending.get_or_insert_with(Instant::now);
-                return at.elapsed() < AT_END;
-            }
-            true
+            waiting
         });
         match reply {
             Asked::Reply(bytes) => match cdr::decode(&action.get_result.response, &bytes) {
@@ -440,9 +453,9 @@ impl GoalThread<'_> {
                 Err(e) => self.end(Answer::Failed(format!("the result does not read: {e}"))),
             },
             Asked::Failed(why) => {
+                self.end(Answer::Failed(why));
                 // The goal may still run: it is asked to stop.
                 self.send_cancel();
-                self.end(Answer::Failed(why));
             }
             Asked::Ended => {}
         }
@@ -462,9 +475,14 @@ impl GoalThread<'_> {
         let Ok(request) = cdr::encode(&cancel_goal.request, &asked) else {
             return;
         };
+        // At the run's end, within what is left of its while.
         let began = Instant::now();
+        let limit = match self.ending {
+            Some(at) => AT_END.saturating_sub(at.elapsed()),
+            None => CANCEL_ANSWER,
+        };
         let reply = shared.ask("cancel_goal", cancel_goal, request, || {
-            began.elapsed() < CANCEL_ANSWER
+            began.elapsed() < limit
         });
         let Asked::Reply(bytes) = reply else {
             return;
@@ -475,11 +493,8 @@ impl GoalThread<'_> {
         // `action_msgs/srv/CancelGoal`: 0 none (cancelling), 1 rejected,
         // 2 unknown goal, 3 already ended.
         if let Some(code @ (1 | 2)) = code {
-            let said = if code == 1 {
-                "rejected"
-            } else {
-                "unknown goal"
-            };
+            // Said as ros2-client says it on DDS.
+            let said = if code == 1 { "Rejected" } else { "UnknownGoal" };
             let why =
                 format!("the server refused to cancel the goal ({said}): it may still be running");
             self.end(Answer::Failed(why));

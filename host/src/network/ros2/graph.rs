@@ -127,10 +127,12 @@ impl Node {
 impl Qos {
     /// The QoS as rmw_zenoh writes it in a token: reliability, durability,
     /// `history,depth`, deadline, lifespan and liveliness, a field left
-    /// empty where it is ROS 2's default (reliable, volatile, infinite).
+    /// empty where it is ROS 2's default (reliable, volatile, infinite);
+    /// best effort is 2, transient local 1.
     pub fn token(&self) -> String {
         let reliability = if self.best_effort { "2" } else { "" };
-        format!("{reliability}::,{}:,:,:,,", self.depth)
+        let durability = if self.transient_local { "1" } else { "" };
+        format!("{reliability}:{durability}:,{}:,:,:,,", self.depth)
     }
 }
 

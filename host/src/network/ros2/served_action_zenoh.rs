@@ -12,7 +12,7 @@ use zenoh::liveliness::LivelinessToken;
 use zenoh::qos::CongestionControl;
 use zenoh::Wait;
 
-use super::actions_zenoh::{goal_id, ZenohAction};
+use super::actions_zenoh::{goal_id, GoalId, ZenohAction};
 use super::cdr;
 use super::error::Ros2Error;
 use super::graph::{self, attachment, Endpoint, Node};
@@ -22,9 +22,6 @@ use super::served_service::{Requests, ZenohRequests};
 use super::services::wall_ns;
 use super::settings::Qos;
 use super::types::{Action, Message, MessageTypes, Service};
-
-/// A goal's id (`unique_identifier_msgs/msg/UUID`).
-type GoalId = [u8; 16];
 
 /// Which of the three services a request came to, and its number there.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -43,11 +40,25 @@ pub(super) struct ZenohActionServer {
     send_goals: ZenohRequests,
     cancels: ZenohRequests,
     results: ZenohRequests,
-    feedback_out: zenoh::pubsub::Publisher<'static>,
-    status_out: zenoh::pubsub::Publisher<'static>,
-    /// The publishers' GID and sequence number, for their attachments.
+    feedback_out: Out,
+    status_out: Out,
+}
+
+/// One of the server's publishers, with its own GID and sequence number
+/// for rmw_zenoh's attachment (a subscriber counts lost messages from gaps
+/// in a publisher's numbers).
+struct Out {
+    publisher: zenoh::pubsub::Publisher<'static>,
     gid: [u8; 16],
     sequence: i64,
+}
+
+impl Out {
+    fn put(&mut self, bytes: Vec<u8>) {
+        self.sequence += 1;
+        let attachment = attachment(self.sequence, wall_ns(), &self.gid);
+        let _ = self.publisher.put(bytes).attachment(attachment).wait();
+    }
 }
 
 impl ZenohActionServer {
@@ -62,8 +73,9 @@ impl ZenohActionServer {
         served: &Served,
     ) -> Result<(Self, Vec<LivelinessToken>), Ros2Error> {
         let Offered::Action(action) = &served.offered else {
+            // The bridge declares only served actions here.
             return Err(Ros2Error::Settings(format!(
-                "{}: not an action",
+                "[[ros2.serve]] `{}`: not an action",
                 served.name
             )));
         };
@@ -100,40 +112,56 @@ impl ZenohActionServer {
         let results = queryable("get_result", &action.get_result)?;
         let feedback_out = publisher("feedback", &action.feedback_message)?;
         let status_out = publisher("status", &status)?;
+        // rcl's status subscription keeps the last status for clients that
+        // come later (transient local, depth 1): the token says the same.
+        let status_qos = Qos {
+            depth: 1,
+            transient_local: true,
+            ..qos.clone()
+        };
         let parts = [
             (
                 Endpoint::ServiceServer,
                 "send_goal",
                 &action.send_goal.name,
                 &action.send_goal.hash,
+                &qos,
             ),
             (
                 Endpoint::ServiceServer,
                 "cancel_goal",
                 &cancel_goal.name,
                 &cancel_goal.hash,
+                &qos,
             ),
             (
                 Endpoint::ServiceServer,
                 "get_result",
                 &action.get_result.name,
                 &action.get_result.hash,
+                &qos,
             ),
             (
                 Endpoint::Publisher,
                 "feedback",
                 &action.feedback_message.name,
                 &action.feedback_message.hash,
+                &qos,
             ),
-            (Endpoint::Publisher, "status", &status.name, &status.hash),
+            (
+                Endpoint::Publisher,
+                "status",
+                &status.name,
+                &status.hash,
+                &status_qos,
+            ),
         ];
         let mut tokens = Vec::new();
-        // The publishers share the first one's GID.
-        let mut gid = None;
-        for (kind, part, type_name, hash) in parts {
-            let token = node.endpoint_token(kind, *entity, &name(part), type_name, hash, &qos);
+        let mut gids = Vec::new();
+        for (kind, part, type_name, hash, qos) in parts {
+            let token = node.endpoint_token(kind, *entity, &name(part), type_name, hash, qos);
             if kind == Endpoint::Publisher {
-                gid.get_or_insert(node.gid(*entity));
+                gids.push(node.gid(*entity));
             }
             *entity += 1;
             tokens.push(
@@ -144,7 +172,13 @@ impl ZenohActionServer {
                     .map_err(declare)?,
             );
         }
-        let gid = gid.unwrap_or_default();
+        let out = |publisher, gid: Option<&[u8; 16]>| Out {
+            publisher,
+            gid: gid.copied().unwrap_or_default(),
+            sequence: 0,
+        };
+        let feedback_out = out(feedback_out, gids.first());
+        let status_out = out(status_out, gids.get(1));
         let server = Self {
             action: (**action).clone(),
             cancel_goal,
@@ -154,22 +188,8 @@ impl ZenohActionServer {
             results,
             feedback_out,
             status_out,
-            gid,
-            sequence: 0,
         };
         Ok((server, tokens))
-    }
-
-    /// Publishes `bytes` with rmw_zenoh's attachment.
-    fn publish(&mut self, status: bool, bytes: Vec<u8>) {
-        self.sequence += 1;
-        let attachment = attachment(self.sequence, wall_ns(), &self.gid);
-        let publisher = if status {
-            &self.status_out
-        } else {
-            &self.feedback_out
-        };
-        let _ = publisher.put(bytes).attachment(attachment).wait();
     }
 }
 
@@ -280,7 +300,7 @@ impl GoalWire for ZenohActionServer {
         let mut bytes = feedback.get(..4).unwrap_or(&[0, 1, 0, 0]).to_vec();
         bytes.extend_from_slice(&id);
         bytes.extend_from_slice(feedback.get(4..).unwrap_or_default());
-        self.publish(false, bytes);
+        self.feedback_out.put(bytes);
     }
 
     fn statuses(&mut self, goals: &[(GoalId, i8)]) {
@@ -291,7 +311,7 @@ impl GoalWire for ZenohActionServer {
             })
             .collect();
         if let Ok(bytes) = cdr::encode(&self.status, &json!({ "status-list": list })) {
-            self.publish(true, bytes);
+            self.status_out.put(bytes);
         }
     }
 }
