@@ -2,8 +2,8 @@
 //! simulator's `/clock` (`[ros2] use_sim_time`), and a paced virtual-clock
 //! run that publishes its own (`[ros2] publish_clock`, `--pace`), against
 //! zenoh-ros2-sdk's publisher and subscriber (`tests/clients/ros2/`).
-//! Loopback only, on ports picked free. (The DDS side is in `ros2_dds.rs`,
-//! against rclpy.)
+//! Loopback only, on ports picked free. (The DDS side is in
+//! `ros2_dds_time.rs`, against rclpy.)
 
 use std::time::{Duration, Instant};
 

@@ -43,7 +43,7 @@ fn follows_radar(python: &str, distro: &str) {
         .map(|t| t.iter().filter_map(|t| t.as_f64()).collect())
         .unwrap_or_default();
     // rclpy's clock read Radar's time (which began at 0, not the wall
-    // clock's 1.8e9 s), going on as the run went for 3 s.
+    // clock's 1.8e9 s), going on as the paced run went.
     assert!(times.len() >= 10, "{distro}: {report:#}");
     assert!(times.iter().all(|t| *t < 6.5), "{distro}: {report:#}");
     assert!(
@@ -51,7 +51,7 @@ fn follows_radar(python: &str, distro: &str) {
         "{distro}: {report:#}"
     );
     let span = times[times.len() - 1] - times[0];
-    assert!((1.0..4.0).contains(&span), "{distro}: {report:#}");
+    assert!(span >= 1.0, "{distro}: {report:#}");
     assert_eq!(
         report["topics"]["/clock"],
         serde_json::json!(["rosgraph_msgs/msg/Clock"]),

@@ -424,7 +424,9 @@ pub fn run(args: RunArgs) -> Result<()> {
                          ROS 2 nodes have the wall clock): leave out --clock real"
                     );
                 }
-                builder = builder.trace_to(bridge.tap());
+                builder = builder
+                    .trace_to(bridge.tap())
+                    .watch_clock(bridge.run_clock());
                 for (plugin, link) in bridge.backings() {
                     if args.clock == ClockKind::Virtual {
                         // Its server answers in real time, and its bounds

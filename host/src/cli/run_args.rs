@@ -81,12 +81,12 @@ pub fn parse_injection(text: &str) -> Result<Injection, String> {
     })
 }
 
-/// `--pace FACTOR`: a number above 0.
+/// `--pace FACTOR`: from 0.001 to 1000000 times the wall clock.
 pub fn parse_pace(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
-        Ok(factor) if factor > 0.0 && factor.is_finite() => Ok(factor),
+        Ok(factor) if (0.001..=1_000_000.0).contains(&factor) => Ok(factor),
         _ => Err(format!(
-            "`{text}` is not a pace: a number above 0 (1: as fast as the wall clock)"
+            "`{text}` is not a pace: a number from 0.001 to 1000000 (1: as fast as the wall clock)"
         )),
     }
 }

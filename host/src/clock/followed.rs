@@ -57,6 +57,22 @@ impl FollowedClock {
         self.0.origin.load(Ordering::Acquire) != NONE
     }
 
+    /// The run begins now: its time 0 is the latest time heard (none yet:
+    /// the first to come), not one heard while the system was set up.
+    pub fn begin(&self) {
+        if self.started() {
+            let latest = self.0.latest.load(Ordering::Acquire);
+            self.0.origin.store(latest, Ordering::Release);
+        }
+    }
+
+    /// The latest time heard, on the followed clock's own scale (a
+    /// message stamped in simulated time carries it).
+    pub fn latest(&self) -> Option<u64> {
+        self.started()
+            .then(|| self.0.latest.load(Ordering::Acquire))
+    }
+
     /// Nanoseconds since the first time heard (0 before it).
     pub fn now(&self) -> u64 {
         match self.0.origin.load(Ordering::Acquire) {
@@ -85,5 +101,11 @@ mod tests {
         let shared = clock.clone();
         shared.heard(6_000_000_000);
         assert_eq!(clock.now(), 1_000_000_000);
+        assert_eq!(clock.latest(), Some(6_000_000_000));
+        // The run begins: what was heard while it was set up is before 0.
+        clock.begin();
+        assert_eq!(clock.now(), 0);
+        clock.heard(6_500_000_000);
+        assert_eq!(clock.now(), 500_000_000);
     }
 }

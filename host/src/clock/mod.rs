@@ -1,4 +1,7 @@
-//! Scheduler time: one timer queue for the virtual and the real clock.
+//! Scheduler time: one timer queue for the virtual and the real clock. The
+//! real clock is the wall's, or one driven from outside that it follows
+//! (`followed`: a simulator's ROS 2 `/clock`); the virtual clock may be
+//! paced to the wall's (`--pace`), so that others can keep up with it.
 //!
 //! Every wait in a run (a guest's `sleep`, an event's check cadence, a
 //! deliberative `sleep` or `waitfor` timeout) is a `Sleep` on this queue, so
@@ -19,8 +22,11 @@ use std::task::{Context, Poll, Waker};
 use std::time::Instant;
 
 mod followed;
+mod paced;
+mod watched;
 
 pub use followed::FollowedClock;
+pub use watched::RunClock;
 
 /// A duration as nanoseconds (saturating: longer than 584 years is
 /// forever).
@@ -92,6 +98,10 @@ struct Shared {
     /// Virtual clock: at most this many seconds a second of the wall
     /// clock, counted from the wall time the run's tasks began.
     pace: Option<(f64, Mutex<Instant>)>,
+    /// Followed clock: once the run stops, its time goes on at least as
+    /// the wall clock does from then (this time, that instant), so that a
+    /// paused or vanished simulator cannot hold its exits for good.
+    stopping: Mutex<Option<(u64, Instant)>>,
     /// Fuel as time (virtual clock only): fuel that stands for one second.
     fuel_per_second: Option<u64>,
     start: Instant,
@@ -222,11 +232,15 @@ impl TimeBase {
     ) -> Self {
         let fuel_per_second = fuel_per_second.filter(|r| *r > 0 && kind == ClockKind::Virtual);
         let followed = followed.filter(|_| kind == ClockKind::Real);
+        if let Some(followed) = &followed {
+            followed.begin();
+        }
         let pace = pace.filter(|p| *p > 0.0 && p.is_finite() && kind == ClockKind::Virtual);
         Self(Arc::new(Shared {
             kind,
             followed,
             pace: pace.map(|p| (p, Mutex::new(Instant::now()))),
+            stopping: Mutex::new(None),
             fuel_per_second,
             start: Instant::now(),
             virtual_now: AtomicU64::new(0),
@@ -254,26 +268,13 @@ impl TimeBase {
         self.0.kind
     }
 
-    /// Paced virtual clock: how long, on the wall clock, until virtual time
-    /// `t` is due (none: it is, or the clock is not paced). Meanwhile the
-    /// virtual time goes on with the wall clock up to `t`, so that what
-    /// comes from outside, and whoever watches the time, find it where
-    /// the wall clock says.
-    pub fn paced_wait(&self, t: u64) -> Option<std::time::Duration> {
-        let (pace, from) = self.0.pace.as_ref()?;
-        let from = *lock(from);
-        let walled = from.elapsed().as_secs_f64() * pace * 1e9;
-        let walled = if walled >= u64::MAX as f64 {
-            u64::MAX
-        } else {
-            walled as u64
-        };
-        if walled.min(t) > self.now() {
-            self.advance_to(walled.min(t));
+    /// The run begins to stop: a followed clock goes on at least as the
+    /// wall clock does from now (see `Shared::stopping`).
+    pub fn stopping(&self) {
+        if self.0.followed.is_some() {
+            let now = self.now();
+            lock(&self.0.stopping).get_or_insert((now, Instant::now()));
         }
-        let due = from + std::time::Duration::from_secs_f64(t as f64 / 1e9 / pace);
-        due.checked_duration_since(Instant::now())
-            .filter(|w| !w.is_zero())
     }
 
     /// Whether the (real) clock follows one driven from outside: its time
@@ -313,7 +314,15 @@ impl TimeBase {
         match self.0.kind {
             ClockKind::Virtual => self.0.virtual_now.load(Ordering::Relaxed),
             ClockKind::Real => match &self.0.followed {
-                Some(followed) => followed.now(),
+                Some(followed) => {
+                    let followed = followed.now();
+                    match *lock(&self.0.stopping) {
+                        Some((at, since)) => {
+                            followed.max(at.saturating_add(duration_nanos(since.elapsed())))
+                        }
+                        None => followed,
+                    }
+                }
                 None => u64::try_from(self.0.start.elapsed().as_nanos()).unwrap_or(u64::MAX),
             },
         }

@@ -157,6 +157,7 @@ impl State {
             return;
         }
         self.watch.winding();
+        self.base.stopping();
         let now = self.now();
         let mut waiting = Vec::new();
         let mut cap = now;

@@ -122,6 +122,11 @@ impl SpinWindow {
 /// `/clock`) looks at its time while it waits for a deadline.
 const FOLLOWED_LOOK: Duration = Duration::from_millis(1);
 
+/// How often a paced virtual clock moves its time on with the wall clock
+/// while it waits for its next deadline: what reads the time from outside
+/// (`/clock` at 100 Hz) sees it move this often.
+const PACED_STEP: Duration = Duration::from_millis(5);
+
 /// Owns the executor and the command channel; [`Scheduler::run`] is the
 /// scheduler's thread.
 pub(crate) struct Scheduler {
@@ -393,7 +398,13 @@ impl Scheduler {
             }
             if kind == ClockKind::Real {
                 let now = self.core.base.now();
-                if limit.is_some_and(|l| now >= l) {
+                if let Some(l) = limit.filter(|l| now >= *l) {
+                    if self.core.base.follows() {
+                        // A followed clock moves in steps (a simulator's
+                        // ticks): what was due up to the limit still runs.
+                        self.core.base.fire_due(l);
+                        while self.run_ready() {}
+                    }
                     break;
                 }
                 self.core.base.fire_due(now);
@@ -504,7 +515,13 @@ impl Scheduler {
     }
 
     pub(super) fn finish(self) -> RunEnd {
-        let ended_at = self.core.base.now();
+        // A followed clock may have stepped past the limit (not while the
+        // run stopped: its exits may run past it).
+        let winding = self.core.with(|st| st.winding.is_some());
+        let ended_at = match self.limit {
+            Some(l) if self.core.base.follows() && !winding => self.core.base.now().min(l),
+            _ => self.core.base.now(),
+        };
         let computed_ahead = self.computed_ahead;
         // End every wait so that blocked deliberative threads see the stop.
         let livelock = self.core.with(|st| st.instant.livelock);
@@ -584,9 +601,6 @@ impl Scheduler {
         }
     }
 
-    /// Waits at most `wait` for a command; a stop asked for from another
-    /// thread (a signal) ends the wait too, as a timeout the loop's top
-    /// then sees.
     /// Paced virtual clock (`--pace`): whether virtual time `t` is not due
     /// yet on the wall clock; then the scheduler has waited for it a while,
     /// taking a command that came meanwhile (an input from outside comes in
@@ -595,16 +609,17 @@ impl Scheduler {
         let Some(wait) = self.core.base.paced_wait(t) else {
             return false;
         };
-        match self.wait_for_command(wait.min(crate::watchdog::TICK)) {
+        match self.wait_for_command(wait.min(PACED_STEP)) {
             Ok(cmd) => self.handle(cmd),
             Err(RecvTimeoutError::Timeout) => {}
-            Err(RecvTimeoutError::Disconnected) => {
-                std::thread::sleep(wait.min(crate::watchdog::TICK))
-            }
+            Err(RecvTimeoutError::Disconnected) => std::thread::sleep(wait.min(PACED_STEP)),
         }
         true
     }
 
+    /// Waits at most `wait` for a command; a stop asked for from another
+    /// thread (a signal) ends the wait too, as a timeout the loop's top
+    /// then sees.
     fn wait_for_command(&self, wait: Duration) -> Result<Command, RecvTimeoutError> {
         crossbeam_channel::select_biased! {
             recv(self.commands) -> command => {

@@ -19,7 +19,7 @@ use super::parts::Source;
 use super::parts::{Deliberative, Plugin};
 use super::run::System;
 use crate::clock::duration_nanos;
-use crate::clock::{ClockKind, FollowedClock};
+use crate::clock::{ClockKind, FollowedClock, RunClock};
 use crate::error::RadarError;
 use crate::limiter::MemoryBudget;
 use crate::plugin::remote::Remote;
@@ -38,6 +38,7 @@ pub struct SystemBuilder {
     clock: ClockKind,
     followed: Option<FollowedClock>,
     pace: Option<f64>,
+    watched: Option<RunClock>,
     plugins: Vec<Plugin>,
     links: Vec<Link>,
     /// Injections, blackboard writes and swaps at given times, in the
@@ -84,6 +85,7 @@ impl Default for SystemBuilder {
             clock: ClockKind::Virtual,
             followed: None,
             pace: None,
+            watched: None,
             plugins: Vec::new(),
             links: Vec::new(),
             inputs: Vec::new(),
@@ -196,6 +198,13 @@ impl SystemBuilder {
     /// heard, 0 until then. Ignored under the virtual clock.
     pub fn follow_clock(mut self, clock: FollowedClock) -> Self {
         self.followed = Some(clock);
+        self
+    }
+
+    /// `clock` reads the run's time from now on, from any thread, without
+    /// a command to the scheduler (see [`RunClock`]).
+    pub fn watch_clock(mut self, clock: RunClock) -> Self {
+        self.watched = Some(clock);
         self
     }
 
@@ -706,6 +715,7 @@ impl SystemBuilder {
             clock: self.clock,
             followed: self.followed,
             pace: self.pace,
+            watched: self.watched,
             plugins: defs,
             links: self.links.into_iter().map(|l| l.spec).collect(),
             inputs,

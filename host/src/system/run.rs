@@ -39,6 +39,8 @@ pub struct System {
     pub(super) followed: Option<crate::clock::FollowedClock>,
     /// Virtual clock: at most this many times as fast as the wall clock.
     pub(super) pace: Option<f64>,
+    /// Reads the run's time from outside the scheduler, once it runs.
+    pub(super) watched: Option<crate::clock::RunClock>,
     pub(super) plugins: Vec<PluginDef>,
     pub(super) links: Vec<LinkSpec>,
     pub(super) inputs: Vec<StaticInput>,
@@ -250,6 +252,9 @@ impl System {
             self.followed.take(),
             self.pace,
         );
+        if let Some(watched) = &self.watched {
+            watched.set(&base);
+        }
         if let Some(code) = self.program.take() {
             let stops_run = Arc::new(std::sync::atomic::AtomicBool::new(false));
             let setup = deliberative::ProgramRun {

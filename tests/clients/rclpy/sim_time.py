@@ -6,13 +6,14 @@ Fast DDS) and Radar, both ways, on /clock (rosgraph_msgs/msg/Clock)
     sim_time.py [--timeout S] --drive [--factor F] -- RADAR_COMMAND...
 
 --follow: an rclpy node with use_sim_time follows the /clock Radar
-publishes (`[ros2] publish_clock`, a paced virtual-clock run). For 3 s it
-reads its own clock every 50 ms; the report has `times`, the distinct
-readings in seconds.
+publishes (`[ros2] publish_clock`, a paced virtual-clock run). Until the run
+ends it reads its own clock every 50 ms; the report has `times`, the
+distinct readings in seconds.
 
 --drive: an rclpy node publishes /clock as a simulator does, 100 times a
-second, its time starting at 1000 s and running F times as fast as the
-wall clock; Radar follows it (`[ros2] use_sim_time`). The report has
+second, its time starting at 1000 s and moving 10 ms x F each time (F
+times as fast as the wall clock, slower when ticks come late); Radar
+follows it (`[ros2] use_sim_time`). The report has
 `wall`, the wall-clock seconds from the first tick to the end of Radar's
 run.
 
@@ -38,7 +39,7 @@ from rosgraph_msgs.msg import Clock
 def follow(node, radar, report):
     times = []
     began = time.time()
-    while time.time() - began < 3.0:
+    while radar.poll() is None and time.time() - began < 30.0:
         rclpy.spin_once(node, timeout_sec=0.05)
         now = node.get_clock().now().nanoseconds / 1e9
         if now > 0 and (not times or now != times[-1]):
@@ -49,8 +50,12 @@ def follow(node, radar, report):
 def drive(node, radar, report, factor):
     clock = node.create_publisher(Clock, "/clock", 10)
     began = time.time()
+    # A fixed step a tick: a late tick slows the simulator, never makes
+    # its time jump.
+    sim = 0.0
     while radar.poll() is None and time.time() - began < 60:
-        now = 1000.0 + (time.time() - began) * factor
+        now = 1000.0 + sim
+        sim += 0.01 * factor
         sec = int(now)
         clock.publish(Clock(clock=Time(sec=sec, nanosec=int((now - sec) * 1e9))))
         rclpy.spin_once(node, timeout_sec=0.01)

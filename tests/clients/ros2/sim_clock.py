@@ -7,10 +7,11 @@ nodes with use_sim_time.
 
 Connects to the Zenoh peer at tcp/127.0.0.1:P and prints `ready`. Then,
 every 10 ms of wall time, publishes a simulated time that starts at S
-seconds and runs F times as fast as the wall clock; with --pause-at, the
-simulated time stands still at T seconds (after the start) for W seconds of
-wall time, as a paused simulator's does. Exits 0 when --timeout seconds of
-wall time have passed.
+seconds and moves 10 ms x F each tick (F times as fast as the wall clock,
+slower when ticks come late); with --pause-at, the simulated time stands
+still at T seconds (after the start) for W seconds' worth of ticks, as a
+paused simulator's does. Exits 0 when --timeout seconds of wall time have
+passed.
 """
 
 import argparse
@@ -38,21 +39,22 @@ def main():
         router_ip="127.0.0.1", router_port=args.port)
     time_cls = clock.session_mgr.register_message_type(None, "builtin_interfaces/msg/Time")
     print("ready", flush=True)
+    # Each tick moves the simulated time by a fixed step, whatever the
+    # wall clock did meanwhile: a late tick slows the simulator down, it
+    # never makes its time jump.
+    step = 0.01 * args.factor
+    sim, paused, pause_ticks = 0.0, 0, int(args.pause_for / 0.01)
     began = time.monotonic()
-    paused = 0.0
     while time.monotonic() - began < args.timeout:
-        wall = time.monotonic() - began
-        sim = wall * args.factor
-        if args.pause_at is not None and sim >= args.pause_at:
-            # Stands still for pause-for seconds of wall time, then goes on.
-            stood = wall - args.pause_at / args.factor
-            paused = min(stood, args.pause_for)
-            sim = args.pause_at + max(0.0, stood - args.pause_for) * args.factor
         now = args.start + sim
         sec = int(now)
         clock.publish(clock=time_cls(sec=sec, nanosec=int((now - sec) * 1e9)))
+        if args.pause_at is not None and sim >= args.pause_at and paused < pause_ticks:
+            paused += 1
+        else:
+            sim += step
         time.sleep(0.01)
-    print(f"paused {paused:.1f} s", flush=True)
+    print(f"paused {paused * 0.01:.1f} s", flush=True)
     return 0
 
 

@@ -26,8 +26,8 @@ use super::actions_zenoh::ZenohAction;
 use super::dds::{DdsNode, DdsPublisher};
 use super::error::Ros2Error;
 use super::graph::{self, Endpoint, Node};
-use super::incoming::{zenoh_sender, Into, Taker};
-use super::outgoing::{has_header, publish, publish_clock, Outgoing, Tap, Wire};
+use super::incoming::{clock_taker, no_clock_yet, zenoh_sender, Destination, Taker};
+use super::outgoing::{has_header, publish, publish_clock, Outgoing, Stamps, Tap, Wire};
 use super::recorded::{RecordedTopics, Sent, Taken};
 use super::routes::{check_publications, check_subscriptions, Publication, Subscription};
 use super::served::{Offered, Served};
@@ -35,9 +35,9 @@ use super::served_action_zenoh::ZenohActionServer;
 use super::services::{backed_response, Server, ServiceLink};
 use super::settings::{Qos, Rmw, Ros2Settings};
 use super::types::MessageTypes;
-use crate::clock::FollowedClock;
+use crate::clock::{FollowedClock, RunClock};
 use crate::network::{session, Network};
-use crate::system::{Radar, System};
+use crate::system::System;
 use crate::trace::TraceSink;
 
 /// Signals waiting to be published, at most.
@@ -64,6 +64,9 @@ pub struct Ros2 {
     radar: Option<crate::system::Radar>,
     /// `[ros2] use_sim_time`: the clock `/clock` drives, for the run.
     followed: Option<FollowedClock>,
+    /// The run's time, read from outside the scheduler (`/clock`'s
+    /// thread, stamps): give it to the builder ([`Ros2::run_clock`]).
+    run_clock: RunClock,
     /// Emissions the tap queued, taken by the publishing thread.
     queued: Option<Receiver<(usize, Json)>>,
     tap: Option<Sender<(usize, Json)>>,
@@ -186,6 +189,7 @@ impl Ros2 {
             served,
             radar: None,
             followed: settings.use_sim_time.then(FollowedClock::new),
+            run_clock: RunClock::new(),
             joined: None,
             queued: Some(queued),
             clock_tx: settings.publish_clock.then(|| tap.clone()),
@@ -224,6 +228,12 @@ impl Ros2 {
     /// ([`SystemBuilder::follow_clock`](crate::SystemBuilder::follow_clock)).
     pub fn followed_clock(&self) -> Option<FollowedClock> {
         self.followed.clone()
+    }
+
+    /// The run's time as the bridge reads it: give it to the system's
+    /// builder ([`SystemBuilder::watch_clock`](crate::SystemBuilder::watch_clock)).
+    pub fn run_clock(&self) -> RunClock {
+        self.run_clock.clone()
     }
 
     /// Where each backed response's requests go: give each to the system's
@@ -384,7 +394,7 @@ impl Ros2 {
             .iter()
             .zip(checked_in)
             .map(|(sub, (path, ty))| {
-                let into = Into::Entry {
+                let into = Destination::Entry {
                     entry: sub.entry.clone(),
                     path,
                     ty,
@@ -402,6 +412,9 @@ impl Ros2 {
         let mut takers: Vec<(Taker, Qos)> = takers.collect();
         if let Some(followed) = &self.followed {
             takers.push(clock_taker(followed.clone(), radar.clone())?);
+            let (followed, stop) = (followed.clone(), self.stop.clone());
+            let thread = spawn("radar-ros2-clock", move || no_clock_yet(followed, stop))?;
+            self.threads.push(thread);
         }
         let (joined, wires) = match self.settings.rmw {
             Rmw::Zenoh => self.start_zenoh(network, takers)?,
@@ -422,17 +435,22 @@ impl Ros2 {
         }
         let clock = self.publications.iter().position(|p| p.clock);
         if let (Some(route), Some(tx)) = (clock, self.clock_tx.take()) {
-            let (stop, radar) = (self.stop.clone(), radar.clone());
+            let (stop, run_clock) = (self.stop.clone(), self.run_clock.clone());
             let thread = spawn("radar-ros2-clock", move || {
-                publish_clock(radar, route, tx, stop)
+                publish_clock(run_clock, route, tx, stop)
             })?;
             self.threads.push(thread);
         }
+        let stamps = match (&self.followed, self.settings.publish_clock) {
+            (Some(followed), _) => Stamps::Followed(followed.clone()),
+            (None, true) => Stamps::Run(self.run_clock.clone()),
+            (None, false) => Stamps::Wall,
+        };
         if let Some(queued) = self.queued.take() {
             let left_out = self.left_out.clone();
             let stop = self.stop.clone();
             let thread = spawn("radar-ros2-out", move || {
-                publish(out, queued, left_out, stop)
+                publish(out, queued, stamps, left_out, stop)
             })?;
             self.threads.push(thread);
         }
@@ -758,22 +776,4 @@ fn spawn(name: &str, run: impl FnOnce() + Send + 'static) -> Result<JoinHandle<(
         .name(name.into())
         .spawn(run)
         .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))
-}
-
-/// The subscription of `/clock` that drives `followed`: ROS 2's clock QoS
-/// (best effort, keep the last one), so that it hears any publisher.
-fn clock_taker(followed: FollowedClock, radar: Radar) -> Result<(Taker, Qos), Ros2Error> {
-    let message = MessageTypes::default()
-        .load("rosgraph_msgs/msg/Clock")
-        .map_err(|e| Ros2Error::Settings(e.to_string()))?;
-    let qos = Qos::parse(Some("best_effort"), Some(1), None).map_err(Ros2Error::Settings)?;
-    let taker = Taker {
-        max_bytes: 64,
-        refusals: 0,
-        topic: "/clock".to_string(),
-        message,
-        into: Into::Clock(followed),
-        radar,
-    };
-    Ok((taker, qos))
 }

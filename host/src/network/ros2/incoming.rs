@@ -4,10 +4,15 @@
 //! run follows it (`[ros2] use_sim_time`), is taken the same way into the
 //! run's clock instead of an entry.
 
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
 use super::cdr;
+use super::error::Ros2Error;
 use super::fit::{self, FieldPath};
 use super::graph;
-use super::types::Message;
+use super::settings::Qos;
+use super::types::{Message, MessageTypes};
 use crate::clock::FollowedClock;
 use crate::payload::PayloadType;
 use crate::system::Radar;
@@ -23,12 +28,12 @@ pub(super) struct Taker {
     pub(super) refusals: u64,
     pub(super) topic: String,
     pub(super) message: Message,
-    pub(super) into: Into,
+    pub(super) into: Destination,
     pub(super) radar: Radar,
 }
 
 /// Where a topic's messages go.
-pub(super) enum Into {
+pub(super) enum Destination {
     /// A blackboard entry: the message's value at `path`, of type `ty`.
     Entry {
         entry: String,
@@ -57,8 +62,8 @@ impl Taker {
             Err(e) => return self.malformed(Some(bytes.len()), &e.to_string(), sender),
         };
         let (entry, value) = match &self.into {
-            Into::Entry { entry, path, ty } => (entry, fit::take(&value, path, ty)),
-            Into::Clock(clock) => {
+            Destination::Entry { entry, path, ty } => (entry, fit::take(&value, path, ty)),
+            Destination::Clock(clock) => {
                 let time = &value["clock"];
                 let (sec, nanosec) = (time["sec"].as_i64(), time["nanosec"].as_u64());
                 match (sec.and_then(|s| u64::try_from(s).ok()), nanosec) {
@@ -66,7 +71,7 @@ impl Taker {
                         clock.heard(sec.saturating_mul(1_000_000_000).saturating_add(nanosec))
                     }
                     _ => {
-                        let reason = format!("a time before 1970 ({time})");
+                        let reason = format!("a negative time ({time})");
                         return self.refuse(sender(), reason);
                     }
                 }
@@ -121,6 +126,47 @@ impl Taker {
             .is_ok()
     }
 }
+
+/// The subscription of `/clock` that drives `followed`: ROS 2's clock QoS
+/// (best effort, keep the last one), so that it hears any publisher.
+pub(super) fn clock_taker(
+    followed: FollowedClock,
+    radar: Radar,
+) -> Result<(Taker, Qos), Ros2Error> {
+    let message = MessageTypes::default()
+        .load("rosgraph_msgs/msg/Clock")
+        .map_err(|e| Ros2Error::Settings(e.to_string()))?;
+    let qos = Qos::parse(Some("best_effort"), Some(1), None).map_err(Ros2Error::Settings)?;
+    let taker = Taker {
+        max_bytes: 64,
+        refusals: 0,
+        topic: "/clock".to_string(),
+        message,
+        into: Destination::Clock(followed),
+        radar,
+    };
+    Ok((taker, qos))
+}
+
+/// With `[ros2] use_sim_time`, says once on stderr if no `/clock` has come
+/// within [`CLOCK_AWAITED`]: the run's time stands at 0 until one does.
+pub(super) fn no_clock_yet(followed: FollowedClock, stop: Arc<AtomicBool>) {
+    let began = std::time::Instant::now();
+    while !stop.load(Ordering::Relaxed) && !followed.started() {
+        if began.elapsed() >= CLOCK_AWAITED {
+            eprintln!(
+                "radar: ros2: no /clock in {} s: with use_sim_time the run's time stands at 0 \
+                 until a simulator publishes it",
+                CLOCK_AWAITED.as_secs()
+            );
+            return;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+}
+
+/// How long a run following `/clock` waits before it says none came.
+const CLOCK_AWAITED: std::time::Duration = std::time::Duration::from_secs(5);
 
 /// Who sent a message on rmw_zenoh, from its attachment.
 pub(super) fn zenoh_sender(attachment: Option<&[u8]>) -> String {

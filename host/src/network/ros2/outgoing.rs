@@ -17,6 +17,7 @@ use super::fit::{self, FieldPath};
 use super::graph;
 use super::msg::Base;
 use super::types::Message;
+use crate::clock::{FollowedClock, RunClock};
 use crate::trace::{Entry, Record, TraceSink};
 
 /// A publication as the run uses it, once checked.
@@ -73,11 +74,34 @@ impl Wire {
     }
 }
 
+/// Which time a header left without a stamp gets: the wall clock's, as a
+/// ROS 2 node stamps what it publishes; the simulator's a run follows
+/// (`[ros2] use_sim_time`); or the run's own, which it publishes on
+/// `/clock` (`[ros2] publish_clock`), so that nodes with `use_sim_time`
+/// take the stamps in the time they follow.
+pub(super) enum Stamps {
+    Wall,
+    Followed(FollowedClock),
+    Run(RunClock),
+}
+
+impl Stamps {
+    /// Now, on this clock; `wall` is the wall clock's now.
+    fn now(&self, wall: Duration) -> Duration {
+        match self {
+            Stamps::Wall => wall,
+            Stamps::Followed(clock) => clock.latest().map_or(Duration::ZERO, Duration::from_nanos),
+            Stamps::Run(clock) => clock.now().unwrap_or_default(),
+        }
+    }
+}
+
 /// The publishing thread: each queued emission as a message, until the
 /// run ends.
 pub(super) fn publish(
     mut out: Vec<Outgoing>,
     queued: Receiver<(usize, Json)>,
+    stamps: Stamps,
     left_out: Arc<AtomicU64>,
     stop: Arc<AtomicBool>,
 ) {
@@ -104,7 +128,11 @@ pub(super) fn publish(
         let now = SystemTime::now()
             .duration_since(UNIX_EPOCH)
             .unwrap_or_default();
-        let value = if o.stamp { stamped(value, now) } else { value };
+        let value = if o.stamp {
+            stamped(value, stamps.now(now))
+        } else {
+            value
+        };
         let bytes = match cdr::encode(&o.message, &value) {
             Ok(bytes) => bytes,
             Err(e) => {
@@ -257,17 +285,21 @@ impl Tap {
 /// `[ros2] publish_clock`: the run's time on `/clock`, looked at every
 /// [`CLOCK_EVERY`] of wall time and published when it moved on (under the
 /// virtual clock it moves as the run does: paced by `--pace`, or as fast
-/// as the run goes), until the run ends. `route` is `/clock`'s publication.
+/// as the run goes), until the bridge stops. `route` is `/clock`'s
+/// publication. The time is read through `clock`, never asked of the
+/// scheduler, so the run is the same with or without it.
 pub(super) fn publish_clock(
-    radar: crate::system::Radar,
+    clock: RunClock,
     route: usize,
     queued: Sender<(usize, Json)>,
     stop: Arc<AtomicBool>,
 ) {
     let mut last = None;
     while !stop.load(Ordering::Relaxed) {
-        let Ok(now) = radar.now() else {
-            break;
+        let Some(now) = clock.now() else {
+            // The run has not begun yet.
+            std::thread::sleep(CLOCK_EVERY);
+            continue;
         };
         if last.is_none_or(|last| now > last) {
             last = Some(now);
