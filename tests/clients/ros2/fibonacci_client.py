@@ -29,10 +29,9 @@ import time
 import uuid as uuids
 
 import ros2_common as rc
-from fibonacci_server import CANCEL_GOAL, FEEDBACK, GET_RESULT, SEND_GOAL
+from fibonacci_server import CANCEL_GOAL, FEEDBACK, GET_RESULT, SEND_GOAL, messages
 from zenoh_ros2_sdk import ROS2ServiceClient, ROS2Subscriber
 from zenoh_ros2_sdk.discovery import get_service_info
-from zenoh_ros2_sdk.session import ZenohSession
 
 # rosidl's hash of action_msgs/msg/GoalStatusArray.
 STATUS = "RIHS01_6c1684b00f177d37438febe6e709fc4e2b0d4248dca4854946f9ed8b30cda83e"
@@ -54,24 +53,7 @@ def main():
     def part(name):
         return f"{args.action}/_action/{name}"
 
-    store = ZenohSession.get_instance("127.0.0.1", args.port)
-    for definition, name in [
-        ("int32 order\n", "test_msgs/msg/Fibonacci_Goal"),
-        ("int32[] sequence\n", "test_msgs/msg/Fibonacci_Result"),
-        ("int32[] sequence\n", "test_msgs/msg/Fibonacci_Feedback"),
-        (None, "unique_identifier_msgs/msg/UUID"),
-        (None, "builtin_interfaces/msg/Time"),
-        (None, "action_msgs/msg/GoalInfo"),
-        (None, "action_msgs/msg/GoalStatus"),
-    ]:
-        store.register_message_type(definition, name)
-
-    def message(name, **fields):
-        return store.register_message_type(None, name)(**fields)
-
-    def uuid_msg(uuid):
-        return message("unique_identifier_msgs/msg/UUID",
-                       uuid=rc.numpy.frombuffer(uuid, dtype=rc.numpy.uint8).copy())
+    message, uuid_msg = messages(args.port)
 
     lock = threading.Lock()
     feedback = {}  # uuid bytes -> count

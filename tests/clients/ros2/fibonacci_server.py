@@ -42,6 +42,33 @@ SUCCEEDED, CANCELED = 4, 5
 NONE, UNKNOWN_GOAL = 0, 2
 
 
+def messages(port):
+    """The action's parts' messages on the SDK's session at `port`, nested
+    as rosidl nests them (rosbags reads `pkg/Name` as `pkg/msg/Name`),
+    registered before the parts are made; returns `message(name, **fields)`
+    and `uuid_msg(bytes)` to make them."""
+    store = ZenohSession.get_instance("127.0.0.1", port)
+    for definition, name in [
+        ("int32 order\n", "test_msgs/msg/Fibonacci_Goal"),
+        ("int32[] sequence\n", "test_msgs/msg/Fibonacci_Result"),
+        ("int32[] sequence\n", "test_msgs/msg/Fibonacci_Feedback"),
+        (None, "unique_identifier_msgs/msg/UUID"),
+        (None, "builtin_interfaces/msg/Time"),
+        (None, "action_msgs/msg/GoalInfo"),
+        (None, "action_msgs/msg/GoalStatus"),
+    ]:
+        store.register_message_type(definition, name)
+
+    def message(name, **fields):
+        return store.register_message_type(None, name)(**fields)
+
+    def uuid_msg(uuid):
+        return message("unique_identifier_msgs/msg/UUID",
+                       uuid=rc.numpy.frombuffer(uuid, dtype=rc.numpy.uint8).copy())
+
+    return message, uuid_msg
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--port", type=int, required=True)
@@ -62,21 +89,7 @@ def main():
     def part(name):
         return f"{args.action}/_action/{name}"
 
-    # The parts' messages, nested as rosidl nests them (rosbags reads
-    # `pkg/Name` as `pkg/msg/Name`), registered before the parts.
-    store = ZenohSession.get_instance("127.0.0.1", args.port)
-    for definition, name in [
-        ("int32 order\n", "test_msgs/msg/Fibonacci_Goal"),
-        ("int32[] sequence\n", "test_msgs/msg/Fibonacci_Result"),
-        ("int32[] sequence\n", "test_msgs/msg/Fibonacci_Feedback"),
-        (None, "unique_identifier_msgs/msg/UUID"),
-        (None, "builtin_interfaces/msg/Time"),
-        (None, "action_msgs/msg/GoalInfo"),
-    ]:
-        store.register_message_type(definition, name)
-
-    def message(name, **fields):
-        return store.register_message_type(None, name)(**fields)
+    message, uuid_msg = messages(args.port)
 
     feedback_pub = ROS2Publisher(
         part("feedback"), "test_msgs/action/Fibonacci_FeedbackMessage",
@@ -109,10 +122,6 @@ def main():
                                  feedback=fibonacci("Feedback", sequence))
         with lock:
             finish(uuid, SUCCEEDED, sequence)
-
-    def uuid_msg(uuid):
-        return message("unique_identifier_msgs/msg/UUID",
-                       uuid=rc.numpy.frombuffer(uuid, dtype=rc.numpy.uint8).copy())
 
     def fibonacci(kind, sequence):
         return message(f"test_msgs/msg/Fibonacci_{kind}",

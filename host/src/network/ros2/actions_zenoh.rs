@@ -27,8 +27,8 @@ use zenoh::Wait;
 use super::actions::{ActionLink, Order, AT_END};
 use super::cdr;
 use super::error::Ros2Error;
-use super::graph::{self, attachment, Endpoint, Node};
-use super::services::{server_seen, wall_ns, DISCOVERY, LOOK};
+use super::graph::{self, Endpoint, Node};
+use super::services::{server_seen, wall_ns, zenoh_request, DISCOVERY, LOOK};
 use super::settings::Qos;
 use super::types::{MessageTypes, Service};
 use crate::plugin::Answer;
@@ -64,9 +64,7 @@ impl ZenohAction {
         link: &ActionLink,
     ) -> Result<(Self, Vec<LivelinessToken>), Ros2Error> {
         let declare = |e: zenoh::Error| Ros2Error::Session(e.to_string());
-        let cancel_goal = MessageTypes::default()
-            .load_service("action_msgs/srv/CancelGoal")
-            .map_err(|e| Ros2Error::Settings(e.to_string()))?;
+        let cancel_goal = cancel_goal()?;
         let action = &link.action;
         let qos = Qos::parse(None, None, None).map_err(Ros2Error::Settings)?;
         let feedback = &action.feedback_message;
@@ -253,16 +251,7 @@ impl Shared {
         let name = ZenohAction::part(&self.link.name, part);
         let key = graph::topic_key(self.wire.domain, &name, &service.name, &service.hash);
         let number = self.sequence.fetch_add(1, Ordering::Relaxed) + 1;
-        let replies = self
-            .wire
-            .session
-            .get(&key)
-            .payload(bytes)
-            .attachment(attachment(number, wall_ns(), &self.wire.gid))
-            .target(zenoh::query::QueryTarget::AllComplete)
-            .consolidation(zenoh::query::ConsolidationMode::None)
-            .timeout(Duration::from_secs(24 * 3600))
-            .wait();
+        let replies = zenoh_request(&self.wire.session, &key, bytes, number, &self.wire.gid);
         let replies = match replies {
             Ok(replies) => replies,
             Err(e) => return Asked::Failed(format!("the {part} request was not sent: {e}")),
@@ -500,6 +489,13 @@ impl GoalThread<'_> {
             self.end(Answer::Failed(why));
         }
     }
+}
+
+/// `action_msgs/srv/CancelGoal`, every action's cancel service.
+pub(super) fn cancel_goal() -> Result<Service, Ros2Error> {
+    MessageTypes::default()
+        .load_service("action_msgs/srv/CancelGoal")
+        .map_err(|e| Ros2Error::Settings(e.to_string()))
 }
 
 /// How long a cancel waits for the server's answer to it.

@@ -12,7 +12,7 @@ use zenoh::liveliness::LivelinessToken;
 use zenoh::qos::CongestionControl;
 use zenoh::Wait;
 
-use super::actions_zenoh::{goal_id, GoalId, ZenohAction};
+use super::actions_zenoh::{cancel_goal, goal_id, GoalId, ZenohAction};
 use super::cdr;
 use super::error::Ros2Error;
 use super::graph::{self, attachment, Endpoint, Node};
@@ -81,9 +81,7 @@ impl ZenohActionServer {
         };
         let declare = |e: zenoh::Error| Ros2Error::Session(e.to_string());
         let types = MessageTypes::default();
-        let cancel_goal = types
-            .load_service("action_msgs/srv/CancelGoal")
-            .map_err(|e| Ros2Error::Settings(e.to_string()))?;
+        let cancel_goal = cancel_goal()?;
         let status = types
             .load("action_msgs/msg/GoalStatusArray")
             .map_err(|e| Ros2Error::Settings(e.to_string()))?;

@@ -394,16 +394,7 @@ impl ZenohCall {
             std::thread::sleep(LOOK);
         }
         let number = self.sequence.fetch_add(1, Ordering::Relaxed) + 1;
-        let attachment = super::graph::attachment(number, wall_ns(), &self.gid);
-        let replies = self
-            .session
-            .get(&self.key)
-            .payload(bytes)
-            .attachment(attachment)
-            .target(zenoh::query::QueryTarget::AllComplete)
-            .consolidation(zenoh::query::ConsolidationMode::None)
-            .timeout(Duration::from_secs(24 * 3600))
-            .wait();
+        let replies = zenoh_request(&self.session, &self.key, bytes, number, &self.gid);
         let replies = match replies {
             Ok(replies) => replies,
             Err(e) => {
@@ -433,6 +424,27 @@ impl ZenohCall {
         };
         link.answer(call, answer);
     }
+}
+
+/// rmw_zenoh: sends request number `number` (CDR `bytes`) of the client
+/// `gid` to the service's key `key`, as rmw_zenoh's clients do: a query
+/// of every complete queryable, unconsolidated, with the attachment, that
+/// ends with its reply or with none (the server gone), never by a timeout.
+pub(super) fn zenoh_request(
+    session: &zenoh::Session,
+    key: &str,
+    bytes: Vec<u8>,
+    number: i64,
+    gid: &[u8; 16],
+) -> zenoh::Result<zenoh::handlers::FifoChannelHandler<zenoh::query::Reply>> {
+    session
+        .get(key)
+        .payload(bytes)
+        .attachment(super::graph::attachment(number, wall_ns(), gid))
+        .target(zenoh::query::QueryTarget::AllComplete)
+        .consolidation(zenoh::query::ConsolidationMode::None)
+        .timeout(Duration::from_secs(24 * 3600))
+        .wait()
 }
 
 /// rmw_zenoh: whether the liveliness token of a server that `servers`
