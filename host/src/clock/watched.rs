@@ -7,11 +7,12 @@
 use std::sync::{Arc, OnceLock};
 use std::time::Duration;
 
-use super::TimeBase;
+/// Reads the run's time, in nanoseconds since it began.
+type Reader = Box<dyn Fn() -> u64 + Send + Sync>;
 
 /// The run's clock, once the run has made it.
 #[derive(Clone, Default)]
-pub struct RunClock(Arc<OnceLock<TimeBase>>);
+pub struct RunClock(Arc<OnceLock<Reader>>);
 
 impl RunClock {
     /// A clock to be given to the system's builder
@@ -20,13 +21,13 @@ impl RunClock {
         Self::default()
     }
 
-    /// The run's clock is `base`.
-    pub(crate) fn set(&self, base: &TimeBase) {
-        let _ = self.0.set(base.clone());
+    /// The run's time is what `now` reads (the run's `TimeBase`).
+    pub(crate) fn set(&self, now: impl Fn() -> u64 + Send + Sync + 'static) {
+        let _ = self.0.set(Box::new(now));
     }
 
     /// The run's time since it began (none before the run has begun).
     pub fn now(&self) -> Option<Duration> {
-        self.0.get().map(|base| Duration::from_nanos(base.now()))
+        self.0.get().map(|now| Duration::from_nanos(now()))
     }
 }

@@ -253,7 +253,8 @@ impl System {
             self.pace,
         );
         if let Some(watched) = &self.watched {
-            watched.set(&base);
+            let base = base.clone();
+            watched.set(move || base.now());
         }
         if let Some(code) = self.program.take() {
             let stops_run = Arc::new(std::sync::atomic::AtomicBool::new(false));
