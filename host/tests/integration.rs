@@ -19,6 +19,7 @@ mod network;
 mod program_end;
 mod ros2;
 mod ros2_actions;
+mod ros2_agents;
 mod ros2_clock;
 #[cfg(feature = "dds")]
 mod ros2_dds;

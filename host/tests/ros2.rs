@@ -158,6 +158,17 @@ impl Running {
         }
     }
 
+    /// Its trace, as written so far.
+    pub(crate) fn trace(&self) -> PathBuf {
+        self.dir.path().join("trace.jsonl")
+    }
+
+    /// Kills it, as a power cut or `kill -9` would.
+    pub(crate) fn kill(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+
     /// Waits for the run to end by itself (at most `limit`).
     pub(crate) fn finish(mut self, limit: Duration) -> (Output, tempfile::TempDir) {
         let out = wait_within(&mut self.child, limit);
@@ -508,7 +519,7 @@ fn the_obstacle_example_runs_against_zenoh_ros2_sdks_publisher_and_subscriber() 
 
 /// zenoh-ros2-sdk subscribed to `/cmd_vel` (Twists) at `port`, ready:
 /// it ends after `count` messages or `timeout` seconds.
-fn twists_on_cmd_vel(python: &str, port: u16, count: u32, timeout: u32) -> Client {
+pub(crate) fn twists_on_cmd_vel(python: &str, port: u16, count: u32, timeout: u32) -> Client {
     let client = Client::start(
         python,
         "subscribe.py",

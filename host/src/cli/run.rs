@@ -446,6 +446,9 @@ pub fn run(args: RunArgs) -> Result<()> {
                 .map_err(|e| super::fixes::building(e, &manifest, path, args.release))?;
             if let Some(bridge) = &mut ros2 {
                 bridge.start(&system, network.as_ref())?;
+                if let Some(net) = &network {
+                    net.brief_agents(bridge.agent_briefs());
+                }
             }
             if let (Some(slot), Some(settings)) = (&mcap_topics, &manifest.ros2) {
                 recorded_topics(slot, ros2.as_ref(), settings, &manifest, &system);

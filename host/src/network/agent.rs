@@ -20,8 +20,9 @@ use zenoh::{Session, Wait};
 use super::alone::{reporter, Reports};
 use super::error::NetworkError;
 use super::keys;
-use super::link::{logs, Link, Outbox};
+use super::link::{logs, Link, Outbox, Published};
 use super::protocol::split;
+use super::ros2::outlets::{AgentNodes, Outlets};
 use crate::capability::running;
 use crate::clock::{ClockKind, StopFlag, TimeBase};
 use crate::limiter::MemoryBudget;
@@ -73,6 +74,7 @@ impl Agent {
         let threads: Arc<Mutex<Vec<JoinHandle<()>>>> = Arc::default();
         let reports = Arc::new(Reports::default());
         let running = Arc::new(AtomicBool::new(true));
+        let ros2 = Arc::new(AgentNodes::default());
         reporter(
             reports.clone(),
             session.clone(),
@@ -89,6 +91,7 @@ impl Agent {
             let callback_workers = workers.clone();
             let threads = threads.clone();
             let reports = reports.clone();
+            let ros2 = ros2.clone();
             session
                 .clone()
                 .declare_subscriber(keys::agent_in(name))
@@ -96,7 +99,12 @@ impl Agent {
                     let bytes = sample.payload().to_bytes();
                     let (head, component) = split(&bytes);
                     let Ok(message) = serde_json::from_slice::<ToAgent>(head) else {
-                        eprintln!("radar agent {node}: a message it cannot read was ignored");
+                        match serde_json::from_slice::<Outlets>(head) {
+                            Ok(outlets) => join_ros2(&ros2, &session, &node, outlets),
+                            Err(_) => eprintln!(
+                                "radar agent {node}: a message it cannot read was ignored"
+                            ),
+                        }
                         return;
                     };
                     if let ToAgent::ReportTaken { plugin, .. } = &message {
@@ -118,6 +126,7 @@ impl Agent {
                             loader: loader.clone(),
                             node: node.clone(),
                             reports: reports.clone(),
+                            ros2: ros2.clone(),
                         };
                         let label = format!("radar-agent-{}", key.1);
                         if let Ok(thread) = std::thread::Builder::new()
@@ -244,6 +253,28 @@ struct Place {
     loader: Arc<Mutex<Loader>>,
     node: String,
     reports: Arc<Reports>,
+    /// The agent's own ROS 2 nodes, which publish what a plugin emits on a
+    /// published signal once the coordinator is lost.
+    ros2: Arc<AgentNodes>,
+}
+
+/// Joins the ROS 2 graph as `outlets` says, on a thread of its own (not in
+/// the Zenoh callback that took the message: a DDS participant takes a
+/// while to make); a failure is said on stderr, and the plugin's exits
+/// alone publish nothing.
+fn join_ros2(ros2: &Arc<AgentNodes>, session: &Session, node: &str, outlets: Outlets) {
+    let (ros2, session, node) = (ros2.clone(), session.clone(), node.to_string());
+    let _ = std::thread::Builder::new()
+        .name("radar-agent-ros2".into())
+        .spawn(move || {
+            let (system, plugin) = (outlets.system.clone(), outlets.plugin.clone());
+            if let Err(e) = ros2.take(&session, &node, outlets) {
+                eprintln!(
+                    "radar agent {node}: system `{system}`: cannot publish `{plugin}`'s ROS 2 \
+                     routes from this agent: {e}"
+                );
+            }
+        });
 }
 
 /// One placed plugin: instantiates, then serves calls until dropped. If
@@ -257,6 +288,7 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
         loader,
         node,
         reports,
+        ros2,
     } = place;
     let Ok((
         ToAgent::Instantiate {
@@ -291,6 +323,12 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
         alone: RefCell::new(None),
         exit_limit,
         stop: stop.clone(),
+        ros2: Published {
+            nodes: ros2,
+            agent: node.clone(),
+            system: system.clone(),
+            plugin: plugin_name.clone(),
+        },
     });
     // Named signals and the blackboard are the coordinator's.
     let _running = running::enter(link.clone());
@@ -436,6 +474,8 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
     if !activation {
         return;
     }
+    // As the coordinator would at `node-lost`: the fail-safe routes first.
+    link.faulted("node-lost: the agent lost its coordinator");
     // Alone, in the middle of an activation: its exit, on a fresh instance
     // if the store died.
     if dead {

@@ -56,6 +56,9 @@ pub(super) struct ZenohAgents {
     /// This run's name (see [`AgentLink::run_id`]).
     run: String,
     system: String,
+    /// What an agent is told before an instance of a plugin, by the
+    /// plugin's name (see [`ZenohAgents::brief`]).
+    briefs: Mutex<HashMap<String, Vec<u8>>>,
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
@@ -79,6 +82,7 @@ impl ZenohAgents {
             reports: Mutex::default(),
             run: crate::plugin::remote::nonce(),
             system: system.to_string(),
+            briefs: Mutex::default(),
         });
         let declare = |what: &str, e: zenoh::Error| NetworkError::Declare {
             what: what.to_string(),
@@ -179,6 +183,37 @@ impl ZenohAgents {
         );
     }
 
+    /// Tells each agent, before every instance of a plugin named in
+    /// `briefs` it is sent, that plugin's brief (the ROS 2 routes an agent
+    /// publishes itself once it has lost the coordinator: `ros2::outlets`);
+    /// the agents that run one already are told now.
+    pub(super) fn brief(&self, briefs: Vec<(String, Vec<u8>)>) {
+        let briefs: HashMap<String, Vec<u8>> = briefs.into_iter().collect();
+        let placed: HashSet<(String, String)> = lock(&self.inboxes)
+            .keys()
+            .filter_map(|(node, route)| {
+                let (plugin, _) = route.split_once('#')?;
+                Some((node.clone(), plugin.to_string()))
+            })
+            .collect();
+        for (node, plugin) in placed {
+            if let Some(brief) = briefs.get(&plugin) {
+                let _ = self.put(&node, brief.clone());
+            }
+        }
+        *lock(&self.briefs) = briefs;
+    }
+
+    /// Puts `bytes` in agent `node`'s inbox.
+    fn put(&self, node: &str, bytes: Vec<u8>) -> Result<(), String> {
+        self.session
+            .put(keys::agent_in(node), bytes)
+            .congestion_control(CongestionControl::Block)
+            .express(true)
+            .wait()
+            .map_err(|e| format!("cannot be sent to: {e}"))
+    }
+
     /// Waits until every agent in `nodes` is alive, at most `limit`; the
     /// ones still missing.
     pub(super) fn wait_for(&self, nodes: &[String], limit: Duration) -> Vec<String> {
@@ -211,17 +246,18 @@ impl AgentLink for ZenohAgents {
         if !self.is_alive(node) {
             return Err("is not reachable (no liveliness token)".into());
         }
+        if let ToAgent::Instantiate { name, .. } = message {
+            let brief = lock(&self.briefs).get(name).cloned();
+            if let Some(brief) = brief {
+                self.put(node, brief)?;
+            }
+        }
         let mut bytes = serde_json::to_vec(message).map_err(|e| e.to_string())?;
         if !component.is_empty() {
             bytes.push(b'\n');
             bytes.extend_from_slice(component);
         }
-        self.session
-            .put(keys::agent_in(node), bytes)
-            .congestion_control(CongestionControl::Block)
-            .express(true)
-            .wait()
-            .map_err(|e| format!("cannot be sent to: {e}"))
+        self.put(node, bytes)
     }
 
     fn open(&self, node: &str, route: &str) {

@@ -122,6 +122,13 @@ impl Network {
         )
     }
 
+    /// Tells the agents what they need to know of each plugin before an
+    /// instance of it: given by plugin name, the bytes of what the ROS 2
+    /// bridge has for agents ([`Ros2::agent_briefs`](super::ros2::Ros2::agent_briefs)).
+    pub fn brief_agents(&self, briefs: Vec<(String, Vec<u8>)>) {
+        self.agents.brief(briefs);
+    }
+
     /// Waits until the agents named are alive, at most `limit`: those
     /// still missing (their plugins fault `node-lost` until they come).
     pub fn wait_for_agents(&self, nodes: &[String], limit: Duration) -> Vec<String> {

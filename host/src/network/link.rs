@@ -1,7 +1,8 @@
 //! A placed plugin's worker's line to its coordinator (`super::agent`):
 //! the calls driven with the coordinator's time, what a call asks of the
 //! running system, and, once the coordinator is lost, the same call driven
-//! alone on the wall clock, with what it did kept for the report
+//! alone on the wall clock, with what it did kept for the report and what
+//! it emitted on a published signal sent from the agent's own ROS 2 node
 //! (`docs/network.md#when-an-agent-and-its-coordinator-lose-each-other`).
 
 use std::cell::{Cell, RefCell};
@@ -12,10 +13,12 @@ use std::task::{Context, Poll, Wake, Waker};
 use std::time::{Duration, Instant};
 
 use crossbeam_channel::Receiver;
+use serde_json::Value as Json;
 use wasmtime::component::Val;
 use zenoh::qos::CongestionControl;
 use zenoh::{Session, Wait};
 
+use super::ros2::outlets::AgentNodes;
 use crate::capability::running::RunningSystem;
 use crate::clock::{StopFlag, StopReason, TimeBase};
 use crate::plugin::remote::{mirror_stop, ExitReport, FromAgent, ToAgent, WireLog, WireVal};
@@ -66,6 +69,43 @@ pub(super) struct Link {
     pub(super) exit_limit: Duration,
     /// Its stop request, mirrored from the coordinator's.
     pub(super) stop: Arc<StopFlag>,
+    /// Where what it emits alone on a published signal goes.
+    pub(super) ros2: Published,
+}
+
+/// The agent's own ROS 2 node, as one plugin's worker publishes from it
+/// once the coordinator is lost (`super::ros2::outlets`).
+pub(super) struct Published {
+    pub(super) nodes: Arc<AgentNodes>,
+    pub(super) agent: String,
+    pub(super) system: String,
+    pub(super) plugin: String,
+}
+
+impl Published {
+    /// Publishes `signal`'s emission on its routes, said on stderr; what
+    /// the report says of it (`None`: the signal has no route).
+    fn publish(&self, signal: &str, payload: &Json) -> Option<String> {
+        let sent = self
+            .nodes
+            .publish(&self.system, &self.plugin, signal, payload);
+        if sent.is_empty() {
+            return None;
+        }
+        let said: Vec<String> = sent
+            .into_iter()
+            .map(|(topic, result)| match result {
+                Ok(()) => format!("published on {topic}"),
+                Err(why) => format!("not published on {topic} ({why})"),
+            })
+            .collect();
+        let said = format!("{} from the agent's own ROS 2 node", said.join(", "));
+        eprintln!(
+            "radar agent {}: `{}` {signal} while the coordinator of system `{}` was lost: {said}",
+            self.agent, self.plugin, self.system
+        );
+        Some(said)
+    }
 }
 
 /// A worker without its coordinator.
@@ -294,6 +334,20 @@ impl Link {
     }
 }
 
+impl Link {
+    /// Alone, in the middle of an activation: what the coordinator would
+    /// have done at `node-lost` with the routes of `faulted` (a fail-safe's
+    /// fixed message), done from the agent's own ROS 2 node.
+    pub(super) fn faulted(&self, cause: &str) {
+        if let Some(said) = self
+            .ros2
+            .publish("faulted", &Json::String(cause.to_string()))
+        {
+            self.note(format!("faulted ({cause}): {said}"));
+        }
+    }
+}
+
 impl RunningSystem for Link {
     fn emit(
         &self,
@@ -301,13 +355,17 @@ impl RunningSystem for Link {
         signal: SignalName,
         payload: Option<Val>,
     ) -> wasmtime::Result<()> {
-        let shown = payload.as_ref().map_or(String::new(), |v| {
-            format!("({})", crate::payload::trace_json(v))
-        });
-        if self.note(format!(
-            "emitted {}{shown} while the coordinator was lost (not routed)",
-            signal.as_str()
-        )) {
+        let json = payload.as_ref().map(crate::payload::val_to_json);
+        let shown = json.as_ref().map_or(String::new(), |v| format!("({v})"));
+        if self.is_alone() {
+            let published = self
+                .ros2
+                .publish(signal.as_str(), json.as_ref().unwrap_or(&Json::Null));
+            let said = published.unwrap_or_else(|| "not routed".to_string());
+            self.note(format!(
+                "emitted {}{shown} while the coordinator was lost ({said})",
+                signal.as_str()
+            ));
             return Ok(());
         }
         let payload = payload

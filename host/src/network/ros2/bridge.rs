@@ -17,17 +17,21 @@ use std::time::Duration;
 use crossbeam_channel::{bounded, Receiver, Sender};
 use serde_json::Value as Json;
 use zenoh::handlers::RingChannel;
-use zenoh::qos::CongestionControl;
 use zenoh::{Session, Wait};
 
 use super::actions::ActionLink;
 use super::actions_zenoh::ZenohAction;
 #[cfg(feature = "dds")]
-use super::dds::{DdsNode, DdsPublisher};
+use super::dds::DdsNode;
 use super::error::Ros2Error;
 use super::graph::{self, Endpoint, Node};
 use super::incoming::{clock_taker, no_clock_yet, zenoh_sender, Destination, Taker};
-use super::outgoing::{has_header, publish, publish_clock, Outgoing, Stamps, Tap, Wire};
+#[cfg(feature = "dds")]
+use super::outgoing::dds_wires;
+use super::outgoing::{
+    has_header, publish, publish_clock, zenoh_wire, Outgoing, Stamps, Tap, Wire,
+};
+use super::outlets::{briefs, NodeSpec};
 use super::recorded::{RecordedTopics, Sent, Taken};
 use super::routes::{check_publications, check_subscriptions, Publication, Subscription};
 use super::served::{Offered, Served};
@@ -78,6 +82,8 @@ pub struct Ros2 {
     /// Emissions not published: the queue was full, the payload was cut
     /// from the trace, or it did not encode.
     left_out: Arc<AtomicU64>,
+    /// Once started: what agents are told of their plugins' routes.
+    briefs: Vec<(String, Vec<u8>)>,
 }
 
 impl Ros2 {
@@ -198,6 +204,7 @@ impl Ros2 {
             threads: Vec::new(),
             stop: Arc::new(AtomicBool::new(false)),
             left_out: Arc::new(AtomicU64::new(0)),
+            briefs: Vec::new(),
         })
     }
 
@@ -363,6 +370,14 @@ impl Ros2 {
         Ok(Box::new(RecordedTopics::new(taken, sent)))
     }
 
+    /// What each agent is told before an instance of a plugin whose
+    /// signals are published, so that it can publish them itself once it
+    /// has lost the coordinator (`docs/ros2.md#an-agents-own-node`): give
+    /// them to the network ([`Network::brief_agents`]) once started.
+    pub fn agent_briefs(&self) -> Vec<(String, Vec<u8>)> {
+        self.briefs.clone()
+    }
+
     /// Emissions not published (see [`Ros2`]'s fields).
     pub fn left_out(&self) -> u64 {
         self.left_out.load(Ordering::Relaxed)
@@ -378,6 +393,14 @@ impl Ros2 {
     pub fn start(&mut self, system: &System, network: Option<&Network>) -> Result<(), Ros2Error> {
         let checked_in = check_subscriptions(&self.subscriptions, system)?;
         let outgoing = check_publications(&self.publications, system)?;
+        let spec = NodeSpec {
+            rmw: self.settings.rmw,
+            domain: self.settings.domain,
+            namespace: self.settings.namespace.clone(),
+            name: self.settings.node_name(network.map(Network::system)),
+        };
+        let system_name = network.map_or("radar", Network::system);
+        self.briefs = briefs(&self.publications, &outgoing, &spec, system_name);
         for served in &self.served {
             served.check(system)?;
         }
@@ -517,31 +540,10 @@ impl Ros2 {
             self.threads.push(thread);
         }
         let mut wires = Vec::new();
-        for publication in &self.publications {
-            let m = &publication.message;
-            let token = node.endpoint_token(
-                Endpoint::Publisher,
-                entity,
-                &publication.topic,
-                &m.name,
-                &m.hash,
-                &publication.qos,
-            );
-            self.tokens
-                .push(liveliness.declare_token(token).wait().map_err(declare)?);
-            let key = graph::topic_key(node.domain, &publication.topic, &m.name, &m.hash);
-            let publisher = session
-                .declare_publisher(key)
-                .congestion_control(CongestionControl::Drop)
-                // Sent at once, not batched: a reaction is late otherwise.
-                .express(true)
-                .wait()
-                .map_err(declare)?;
-            wires.push(Wire::Zenoh {
-                publisher,
-                gid: node.gid(entity),
-                sequence: 0,
-            });
+        for p in &self.publications {
+            let (wire, token) = zenoh_wire(&session, &node, entity, &p.topic, &p.message, &p.qos)?;
+            self.tokens.push(token);
+            wires.push(wire);
             entity += 1;
         }
         for served in &self.served {
@@ -655,28 +657,11 @@ impl Ros2 {
             let (topic, message) = (taker.topic.clone(), taker.message.clone());
             node.subscribe(&topic, &message, &qos, taker)?;
         }
-        // One writer a topic (see `Wire::Dds`): its routes must agree on
-        // its type and QoS.
-        let mut writers: HashMap<&str, (&Publication, Arc<DdsPublisher>)> = HashMap::new();
-        let mut wires = Vec::new();
-        for p in &self.publications {
-            let writer = match writers.get(p.topic.as_str()) {
-                Some((first, _)) if first.message.name != p.message.name || first.qos != p.qos => {
-                    return Err(Ros2Error::Settings(format!(
-                        "[[ros2.publish]] routes on topic `{}` differ in type or QoS ({} and \
-                         {}): on DDS a topic has one writer, so they must agree",
-                        p.topic, first.signal, p.signal
-                    )))
-                }
-                Some((_, writer)) => writer.clone(),
-                None => {
-                    let writer = Arc::new(node.publisher(&p.topic, &p.message, &p.qos)?);
-                    writers.insert(&p.topic, (p, writer.clone()));
-                    writer
-                }
-            };
-            wires.push(Wire::Dds(writer));
-        }
+        let routes = self.publications.iter();
+        let wires = dds_wires(
+            &mut node,
+            routes.map(|p| (&*p.signal, &*p.topic, &p.message, &p.qos)),
+        )?;
         for link in &self.services {
             let (client, server) = node.client(&link.name, &link.service)?;
             let requests = link.taken.lock().unwrap_or_else(|e| e.into_inner()).take();

@@ -10,7 +10,7 @@
 //! or a signal (`fit`), rmw_zenoh's names (`graph`), and the bridge that
 //! runs them (`bridge`), with its subscriptions' threads (`incoming`) and
 //! its publishing (`outgoing`), and what an MCAP trace
-//! writes on the topics (`recorded`); on DDS, the node (`dds`) and the bytes
+//! writes on the topics (`recorded`), and an agent's own node (`outlets`); on DDS, the node (`dds`) and the bytes
 //! through RustDDS's CDR (`dds_cdr`). Responses backed by services and
 //! actions (`services`, `actions`, `actions_zenoh`) and served as them
 //! (`served`, `served_service`, `served_action`, `served_action_zenoh`)
@@ -32,6 +32,7 @@ mod hash;
 mod incoming;
 pub mod msg;
 mod outgoing;
+pub(crate) mod outlets;
 mod recorded;
 mod routes;
 mod served;

@@ -9,6 +9,8 @@
 
 use std::fmt;
 
+use serde::{Deserialize, Serialize};
+
 /// The largest fixed array or sequence bound a definition may give.
 pub const MAX_ARRAY: u32 = 1 << 24;
 
@@ -16,7 +18,7 @@ pub const MAX_ARRAY: u32 = 1 << 24;
 pub const EMPTY_MEMBER: &str = "structure_needs_at_least_one_member";
 
 /// A primitive ROS 2 type.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Primitive {
     /// `bool`
     Bool,
@@ -87,7 +89,7 @@ impl Primitive {
 }
 
 /// What one element of a field is.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Base {
     /// A number or a bool.
     Primitive(Primitive),
@@ -101,7 +103,7 @@ pub enum Base {
 }
 
 /// How many elements a field has.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Shape {
     /// One value.
     One,
@@ -114,7 +116,7 @@ pub enum Shape {
 }
 
 /// One field of a message.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Field {
     /// Its name, as the `.msg` file writes it (`frame_id`).
     pub name: String,
@@ -125,7 +127,7 @@ pub struct Field {
 }
 
 /// A message type's fields, in order.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct MessageDef {
     /// `pkg/msg/Name`.
     pub name: String,

@@ -13,9 +13,11 @@ use serde_json::Value as Json;
 use zenoh::Wait;
 
 use super::cdr;
+use super::error::Ros2Error;
 use super::fit::{self, FieldPath};
 use super::graph;
 use super::msg::Base;
+use super::settings::Qos;
 use super::types::Message;
 use crate::clock::{FollowedClock, RunClock};
 use crate::trace::{Entry, Record, TraceSink};
@@ -74,6 +76,70 @@ impl Wire {
     }
 }
 
+/// rmw_zenoh: node `node`'s publisher of `topic`, its endpoint `entity`,
+/// with the liveliness token that shows it in the graph.
+pub(super) fn zenoh_wire(
+    session: &zenoh::Session,
+    node: &graph::Node,
+    entity: u32,
+    topic: &str,
+    message: &Message,
+    qos: &Qos,
+) -> Result<(Wire, zenoh::liveliness::LivelinessToken), Ros2Error> {
+    let declare = |e: zenoh::Error| Ros2Error::Session(e.to_string());
+    let (name, hash) = (&message.name, &message.hash);
+    let token = node.endpoint_token(graph::Endpoint::Publisher, entity, topic, name, hash, qos);
+    let token = session
+        .liveliness()
+        .declare_token(token)
+        .wait()
+        .map_err(declare)?;
+    let publisher = session
+        .declare_publisher(graph::topic_key(node.domain, topic, name, hash))
+        .congestion_control(zenoh::qos::CongestionControl::Drop)
+        // Sent at once, not batched: a reaction is late otherwise.
+        .express(true)
+        .wait()
+        .map_err(declare)?;
+    let wire = Wire::Zenoh {
+        publisher,
+        gid: node.gid(entity),
+        sequence: 0,
+    };
+    Ok((wire, token))
+}
+
+/// DDS: a wire for each route (`signal`, `topic`, its type and QoS), one
+/// writer a topic (see [`Wire::Dds`]): a topic's routes must agree on its
+/// type and QoS.
+#[cfg(feature = "dds")]
+pub(super) fn dds_wires<'a>(
+    node: &mut super::dds::DdsNode,
+    routes: impl Iterator<Item = (&'a str, &'a str, &'a Message, &'a Qos)>,
+) -> Result<Vec<Wire>, Ros2Error> {
+    type Writer<'a> = (&'a str, &'a Message, &'a Qos, Arc<super::dds::DdsPublisher>);
+    let mut writers: HashMap<&str, Writer> = HashMap::new();
+    let mut wires = Vec::new();
+    for (signal, topic, message, qos) in routes {
+        let writer = match writers.get(topic) {
+            Some((first, m, q, _)) if m.name != message.name || *q != qos => {
+                return Err(Ros2Error::Settings(format!(
+                    "[[ros2.publish]] routes on topic `{topic}` differ in type or QoS ({first} \
+                     and {signal}): on DDS a topic has one writer, so they must agree"
+                )))
+            }
+            Some((_, _, _, writer)) => writer.clone(),
+            None => {
+                let writer = Arc::new(node.publisher(topic, message, qos)?);
+                writers.insert(topic, (signal, message, qos, writer.clone()));
+                writer
+            }
+        };
+        wires.push(Wire::Dds(writer));
+    }
+    Ok(wires)
+}
+
 /// Which time a header left without a stamp gets: the wall clock's, as a
 /// ROS 2 node stamps what it publishes; the simulator's a run follows
 /// (`[ros2] use_sim_time`); or the run's own, which it publishes on
@@ -117,32 +183,8 @@ pub(super) fn publish(
         let Some(o) = out.get_mut(route) else {
             continue;
         };
-        let value = match message(o.unwrap_ok, o.path.as_ref(), &o.base, payload) {
-            Ok(Some(value)) => value,
-            Ok(None) => continue,
-            Err(why) => {
-                o.not_published(why, &left_out);
-                continue;
-            }
-        };
-        let now = SystemTime::now()
-            .duration_since(UNIX_EPOCH)
-            .unwrap_or_default();
-        let value = if o.stamp {
-            stamped(value, stamps.now(now))
-        } else {
-            value
-        };
-        let bytes = match cdr::encode(&o.message, &value) {
-            Ok(bytes) => bytes,
-            Err(e) => {
-                o.not_published(&e.to_string(), &left_out);
-                continue;
-            }
-        };
-        let nanos = i64::try_from(now.as_nanos()).unwrap_or(i64::MAX);
-        if let Err(e) = o.wire.put(bytes, nanos) {
-            o.not_published(&e, &left_out);
+        if let Err(why) = o.send(payload, &stamps) {
+            o.not_published(&why, &left_out);
         }
     }
 }
@@ -177,6 +219,26 @@ pub(super) fn message(
 }
 
 impl Outgoing {
+    /// Makes `payload` this route's message and sends it: `Ok(false)` when
+    /// nothing goes out (see [`message`]), `Err` why it was not sent.
+    pub(super) fn send(&mut self, payload: Json, stamps: &Stamps) -> Result<bool, String> {
+        let Some(value) = message(self.unwrap_ok, self.path.as_ref(), &self.base, payload)? else {
+            return Ok(false);
+        };
+        let now = SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .unwrap_or_default();
+        let value = if self.stamp {
+            stamped(value, stamps.now(now))
+        } else {
+            value
+        };
+        let bytes = cdr::encode(&self.message, &value).map_err(|e| e.to_string())?;
+        let nanos = i64::try_from(now.as_nanos()).unwrap_or(i64::MAX);
+        self.wire.put(bytes, nanos)?;
+        Ok(true)
+    }
+
     /// Counts an emission not published, and says why the first time.
     fn not_published(&mut self, why: &str, left_out: &AtomicU64) {
         left_out.fetch_add(1, Ordering::Relaxed);

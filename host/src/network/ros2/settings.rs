@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// The `[ros2]` table: Radar as a node of a ROS 2 graph, on rmw_zenoh or
 /// DDS.
@@ -127,7 +127,7 @@ impl BackedBy {
 }
 
 /// ROS 2's middleware, as `RMW_IMPLEMENTATION` chooses it for a ROS 2 node.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Rmw {
     /// rmw_zenoh (`rmw_zenoh_cpp`).
@@ -262,7 +262,7 @@ pub const MAX_BYTES: usize = 4 << 20;
 
 /// A route's quality of service: rmw_zenoh's default (reliable, keep the
 /// last 10) or best effort.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Qos {
     /// Best effort rather than reliable.
     pub best_effort: bool,

@@ -22,8 +22,9 @@ pub struct MessageTypes {
     paths: Vec<PathBuf>,
 }
 
-/// A message type, ready for the wire.
-#[derive(Clone, Debug)]
+/// A message type, ready for the wire (and, whole, for an agent's own
+/// node: `super::outlets`).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Message {
     /// `pkg/msg/Name`.
     pub name: String,

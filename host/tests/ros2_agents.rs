@@ -1,0 +1,100 @@
+//! An agent's own ROS 2 node (`docs/ros2.md#an-agents-own-node`): once an
+//! agent has lost its coordinator, what the exit it runs alone commands,
+//! and a fail-safe route's fixed message, leave from the agent's node,
+//! next to the hardware, with no coordinator to send them.
+
+use std::process::{Command, Stdio};
+use std::time::Duration;
+
+use serde_json::Value as Json;
+
+use super::ros2::{python, twists_on_cmd_vel, Running};
+use crate::common::{self, free_port, lines};
+
+#[test]
+fn a_killed_coordinators_agent_stops_the_base_from_its_own_ros2_node() {
+    let python = python();
+    let agent_port = free_port();
+    let mut agent = Command::new(env!("CARGO_BIN_EXE_radar"))
+        .args(["agent", "--name", "base", "--listen"])
+        .arg(format!("tcp/127.0.0.1:{agent_port}"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("radar agent starts");
+    let agent_up = lines(agent.stdout.take().expect("stdout"));
+    let stderr = agent.stderr.take().expect("stderr");
+    let agent_said = std::thread::spawn(move || {
+        let read = std::io::BufReader::new(stderr);
+        std::io::BufRead::lines(read)
+            .map_while(Result::ok)
+            .collect::<Vec<String>>()
+    });
+    assert!(agent_up
+        .recv_timeout(Duration::from_secs(30))
+        .is_ok_and(|l| l.starts_with("agent base on")));
+    // Connected to the agent alone (Radar's sessions do not gossip): it
+    // hears only the agent's node, which outlives the coordinator.
+    let twists = twists_on_cmd_vel(&python, agent_port, 2, 60);
+    let mut run = Running::start(
+        |ep| {
+            format!(
+                "[plugins.M]\nwasm = \"{}\"\nnode = \"base\"\nconfig = {{ drive_s = 60 }}\n\n\
+                 [network]\nsystem = \"orphan\"\nlisten = [\"{ep}\"]\n\
+                 connect = [\"tcp/127.0.0.1:{agent_port}\"]\n\n\
+                 [ros2]\nnode = \"radar_base\"\n\n\
+                 [[ros2.publish]]\nsignal = \"M.command\"\ntopic = \"/cmd_vel\"\n\
+                 type = \"geometry_msgs/msg/Twist\"\nfield = \"linear.x\"\n\n\
+                 [[ros2.publish]]\nsignal = \"M.faulted\"\ntopic = \"/cmd_vel\"\n\
+                 type = \"geometry_msgs/msg/Twist\"\nmessage = {{}}\n",
+                radar_fixtures::plugins::MOTOR_RESPONSE
+            )
+        },
+        &["--clock", "real", "--for", "60s", "--inject", "5s:M.start"],
+    );
+    let trace = run.trace();
+    common::wait_for("M runs on the agent", Duration::from_secs(40), || {
+        std::fs::read_to_string(&trace)
+            .is_ok_and(|t| t.contains(r#""plugin":"M","signal":"started""#))
+    });
+    run.kill();
+    let (ok, said, stderr) = twists.finish();
+    let _ = agent.kill();
+    let _ = agent.wait();
+    let agent_said = agent_said.join().expect("the agent's stderr");
+    assert!(ok, "{stderr}\n{said:?}\n{agent_said:?}");
+    let messages: Vec<Json> = said
+        .iter()
+        .filter(|l| l.starts_with('{'))
+        .map(|l| serde_json::from_str(l).expect("JSON"))
+        .collect();
+    // Nothing while the coordinator was there (it published the backing
+    // away itself); then, from the agent's node: the fail-safe's zero
+    // Twist, as the coordinator sends at `node-lost`, and the stop the
+    // exit run alone commands.
+    assert_eq!(messages.len(), 2, "{said:?}\n{agent_said:?}");
+    assert_eq!(
+        messages[0],
+        serde_json::json!({"linear": {"x": 0.0, "y": 0.0, "z": 0.0}, "angular": {"x": 0.0, "y": 0.0, "z": 0.0}}),
+        "{said:?}"
+    );
+    assert_eq!(messages[1]["linear"]["x"].as_f64(), Some(0.0), "{said:?}");
+    let trace = std::fs::read_to_string(&trace).expect("the coordinator's trace");
+    assert!(
+        trace.contains(r#""plugin":"M","signal":"command","payload":-0.2"#),
+        "{trace}"
+    );
+    for said_on_stderr in [
+        "radar agent base: `M` faulted while the coordinator of system `orphan` was lost: \
+         published on /cmd_vel from the agent's own ROS 2 node",
+        "radar agent base: `M` command while the coordinator of system `orphan` was lost: \
+         published on /cmd_vel from the agent's own ROS 2 node",
+        "radar agent base: lost the coordinator of system `orphan`: ran `M`'s exit alone \
+         (completed",
+    ] {
+        assert!(
+            agent_said.iter().any(|l| l.starts_with(said_on_stderr)),
+            "{said_on_stderr}\n{agent_said:?}"
+        );
+    }
+}
