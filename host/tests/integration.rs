@@ -25,6 +25,7 @@ mod ros2_clock;
 mod ros2_dds;
 #[cfg(feature = "dds")]
 mod ros2_dds_time;
+mod ros2_parameters;
 mod ros2_replay;
 mod ros2_services;
 mod scaffold;

@@ -409,6 +409,11 @@ pub fn run(args: RunArgs) -> Result<()> {
             // recording holds every message that came in.
             if let Some(settings) = manifest.ros2.as_ref().filter(|_| replay.is_none()) {
                 let mut bridge = Ros2::open(settings, manifest.dir())?;
+                let config = manifest
+                    .plugins
+                    .iter()
+                    .map(|(n, p)| (n.clone(), p.config.clone()));
+                bridge.parameters_from(&config.collect());
                 if let Some(followed) = bridge.followed_clock() {
                     if args.clock == ClockKind::Virtual {
                         anyhow::bail!(

@@ -55,7 +55,8 @@ class Filler:
                 "octet",
                 "uint8",
             ):
-                return bytes(items) if slot.value_type.typename == "octet" else items
+                # An octet is one byte of its own (see `basic`).
+                return b"".join(items) if slot.value_type.typename == "octet" else items
             return items
         if isinstance(slot, d.AbstractString):
             self.n += 1

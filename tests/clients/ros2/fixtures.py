@@ -46,7 +46,8 @@ class Values:
         if kind in (Nodetype.ARRAY, Nodetype.SEQUENCE):
             sub, length = rest
             if kind == Nodetype.SEQUENCE:
-                length = next(self.sequences)
+                # `length` is a bounded sequence's bound (0: unbounded).
+                length = min(next(self.sequences), length or 3)
             return [self.value(sub, name) for _ in range(length)]
         self.n += 1
         return self.base(rest[0], name, self.n)
@@ -69,6 +70,12 @@ class Values:
         }[base]
 
 
+# zenoh-ros2-sdk's hash of these differs from rosidl's (rcl_interfaces'
+# .json files) and rosbags', which agree: it leaves out that a field has a
+# default value.
+SDK_HASH_WRONG = {"rcl_interfaces/msg/ParameterDescriptor"}
+
+
 def sdk_hash(typename):
     registry = get_registry()
     definition = registry.get_msg_file_path(typename).read_text()
@@ -88,7 +95,7 @@ def fixture(typename):
         if back != value:
             raise ValueError(f"{typename}: {key} round trip gave {back}, expected {value}")
         out[key] = raw.hex()
-    if out["hash"] != sdk_hash(typename):
+    if typename not in SDK_HASH_WRONG and out["hash"] != sdk_hash(typename):
         raise ValueError(f"{typename}: rosbags hash {out['hash']} != SDK hash {sdk_hash(typename)}")
     return out
 

@@ -7,7 +7,7 @@
 //! input like any other, so a replay needs neither ROS nor the network)
 //! and `outgoing` (each emission of a published signal, a message).
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
@@ -32,6 +32,7 @@ use super::outgoing::{
     has_header, publish, publish_clock, zenoh_wire, Outgoing, Stamps, Tap, Wire,
 };
 use super::outlets::{briefs, NodeSpec};
+use super::parameters::{self, Parameters};
 use super::recorded::{RecordedTopics, Sent, Taken};
 use super::routes::{check_publications, check_subscriptions, Publication, Subscription};
 use super::served::{Offered, Served};
@@ -84,6 +85,8 @@ pub struct Ros2 {
     left_out: Arc<AtomicU64>,
     /// Once started: what agents are told of their plugins' routes.
     briefs: Vec<(String, Vec<u8>)>,
+    /// The node's parameters: the plugins' config values.
+    parameters: Arc<Parameters>,
 }
 
 impl Ros2 {
@@ -205,6 +208,7 @@ impl Ros2 {
             stop: Arc::new(AtomicBool::new(false)),
             left_out: Arc::new(AtomicU64::new(0)),
             briefs: Vec::new(),
+            parameters: Arc::new(Parameters::new(&Default::default(), settings.use_sim_time)),
         })
     }
 
@@ -368,6 +372,13 @@ impl Ros2 {
             })
             .collect();
         Ok(Box::new(RecordedTopics::new(taken, sent)))
+    }
+
+    /// Makes each plugin's config values (`radar.toml`'s `config` tables,
+    /// by plugin) parameters of the node (`docs/ros2.md#parameters`).
+    pub fn parameters_from(&mut self, config: &BTreeMap<String, BTreeMap<String, toml::Value>>) {
+        let parameters = Parameters::new(config, self.settings.use_sim_time);
+        self.parameters = Arc::new(parameters);
     }
 
     /// What each agent is told before an instance of a plugin whose
@@ -593,6 +604,13 @@ impl Ros2 {
             })?;
             self.threads.push(thread);
         }
+        if let Some(radar) = self.radar.clone() {
+            let (params, stop) = (self.parameters.clone(), self.stop.clone());
+            let (thread, tokens) =
+                parameters::start_zenoh(&session, &node, &mut entity, params, radar, stop)?;
+            self.threads.push(thread);
+            self.tokens.extend(tokens);
+        }
         for link in &self.services {
             let service = &link.service;
             let qos = Qos::parse(None, None, None).map_err(Ros2Error::Settings)?;
@@ -711,8 +729,13 @@ impl Ros2 {
             })?;
             self.threads.push(thread);
         }
-        node.start(self.stop.clone())?;
         let name = format!("{}/{name}", settings.namespace.trim_end_matches('/'));
+        if let Some(radar) = self.radar.clone() {
+            let (params, stop) = (self.parameters.clone(), self.stop.clone());
+            let thread = parameters::start_dds(&mut node, &name, params, radar, stop)?;
+            self.threads.push(thread);
+        }
+        node.start(self.stop.clone())?;
         Ok((
             Joined {
                 name,

@@ -1,6 +1,7 @@
 //! The message definitions Radar knows out of the box: ROS 2 Jazzy's
 //! builtin_interfaces, std_msgs, geometry_msgs, sensor_msgs, nav_msgs and
-//! rosgraph_msgs' Clock (for `/clock`),
+//! rosgraph_msgs' Clock (for `/clock`), rcl_interfaces' parameter types
+//! and services (the node's parameters: `parameters`),
 //! std_srvs's services, action_msgs and unique_identifier_msgs (what
 //! every action uses) and test_msgs' Fibonacci action, as `.msg`, `.srv`
 //! and `.action` text under `msg/` (comments left out), embedded in the
@@ -175,6 +176,34 @@ pub(super) const BUILTIN: &[(&str, &str)] = &[
     (
         "nav_msgs/msg/Path",
         include_str!("msg/nav_msgs/msg/Path.msg"),
+    ),
+    (
+        "rcl_interfaces/msg/FloatingPointRange",
+        include_str!("msg/rcl_interfaces/msg/FloatingPointRange.msg"),
+    ),
+    (
+        "rcl_interfaces/msg/IntegerRange",
+        include_str!("msg/rcl_interfaces/msg/IntegerRange.msg"),
+    ),
+    (
+        "rcl_interfaces/msg/ListParametersResult",
+        include_str!("msg/rcl_interfaces/msg/ListParametersResult.msg"),
+    ),
+    (
+        "rcl_interfaces/msg/Parameter",
+        include_str!("msg/rcl_interfaces/msg/Parameter.msg"),
+    ),
+    (
+        "rcl_interfaces/msg/ParameterDescriptor",
+        include_str!("msg/rcl_interfaces/msg/ParameterDescriptor.msg"),
+    ),
+    (
+        "rcl_interfaces/msg/ParameterValue",
+        include_str!("msg/rcl_interfaces/msg/ParameterValue.msg"),
+    ),
+    (
+        "rcl_interfaces/msg/SetParametersResult",
+        include_str!("msg/rcl_interfaces/msg/SetParametersResult.msg"),
     ),
     (
         "rosgraph_msgs/msg/Clock",
@@ -415,11 +444,36 @@ pub(super) const BUILTIN: &[(&str, &str)] = &[
 ];
 
 /// `(pkg/srv/Name, .srv text)`, sorted by name: the services of std_srvs,
-/// and action_msgs' CancelGoal (every action's cancel).
+/// action_msgs' CancelGoal (every action's cancel) and rcl_interfaces'
+/// parameter services.
 pub(super) const BUILTIN_SERVICES: &[(&str, &str)] = &[
     (
         "action_msgs/srv/CancelGoal",
         include_str!("msg/action_msgs/srv/CancelGoal.srv"),
+    ),
+    (
+        "rcl_interfaces/srv/DescribeParameters",
+        include_str!("msg/rcl_interfaces/srv/DescribeParameters.srv"),
+    ),
+    (
+        "rcl_interfaces/srv/GetParameterTypes",
+        include_str!("msg/rcl_interfaces/srv/GetParameterTypes.srv"),
+    ),
+    (
+        "rcl_interfaces/srv/GetParameters",
+        include_str!("msg/rcl_interfaces/srv/GetParameters.srv"),
+    ),
+    (
+        "rcl_interfaces/srv/ListParameters",
+        include_str!("msg/rcl_interfaces/srv/ListParameters.srv"),
+    ),
+    (
+        "rcl_interfaces/srv/SetParameters",
+        include_str!("msg/rcl_interfaces/srv/SetParameters.srv"),
+    ),
+    (
+        "rcl_interfaces/srv/SetParametersAtomically",
+        include_str!("msg/rcl_interfaces/srv/SetParametersAtomically.srv"),
     ),
     (
         "std_srvs/srv/Empty",

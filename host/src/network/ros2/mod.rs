@@ -14,7 +14,8 @@
 //! through RustDDS's CDR (`dds_cdr`). Responses backed by services and
 //! actions (`services`, `actions`, `actions_zenoh`) and served as them
 //! (`served`, `served_service`, `served_action`, `served_action_zenoh`)
-//! each keep one loop for both middlewares where the protocol allows.
+//! each keep one loop for both middlewares where the protocol allows, as
+//! the node's parameters do (`parameters`).
 
 mod actions;
 mod actions_zenoh;
@@ -33,6 +34,7 @@ mod incoming;
 pub mod msg;
 mod outgoing;
 pub(crate) mod outlets;
+mod parameters;
 mod recorded;
 mod routes;
 mod served;

@@ -107,33 +107,46 @@ pub(super) fn serve_dds(
     seen: Receiver<Seen>,
     stop: Arc<AtomicBool>,
 ) {
-    use super::dds_cdr::{Answered, Encoded};
+    let Offered::Service(service) = &served.offered else {
+        return;
+    };
+    let wire = DdsRequests {
+        server,
+        request: Arc::new(service.request.clone()),
+    };
+    serve(wire, served, radar, seen, stop);
+}
 
-    struct Dds(ros2_client::dds::Server<Answered, Encoded>);
+/// The requests of one service on DDS: ros2-client's service server, which
+/// reads each request as `request` (one thread may take several services'
+/// requests, each read as its own type).
+#[cfg(feature = "dds")]
+pub(super) struct DdsRequests {
+    pub(super) server: ros2_client::dds::Server<super::dds_cdr::Answered, super::dds_cdr::Encoded>,
+    pub(super) request: Arc<super::types::Message>,
+}
 
-    impl Requests for Dds {
-        type Id = ros2_client::RmwRequestId;
+#[cfg(feature = "dds")]
+impl Requests for DdsRequests {
+    type Id = ros2_client::RmwRequestId;
 
-        fn take(&mut self) -> Vec<(Self::Id, Vec<u8>)> {
-            let mut taken = Vec::new();
-            while let Ok(Some((id, request))) = self.0.receive_request() {
-                taken.push((id, request.0));
-            }
-            taken
+    fn take(&mut self) -> Vec<(Self::Id, Vec<u8>)> {
+        super::dds_cdr::Answered::read_on_this_thread(self.request.clone());
+        let mut taken = Vec::new();
+        while let Ok(Some((id, request))) = self.server.receive_request() {
+            taken.push((id, request.0));
         }
-
-        fn reply(&mut self, id: Self::Id, bytes: Vec<u8>) {
-            let _ = self.0.send_response(id, Encoded(bytes));
-        }
-
-        // DDS has no way to end a request unanswered.
-        fn no_reply(&mut self, _: Self::Id, _: Option<String>) {}
+        taken
     }
 
-    if let Offered::Service(service) = &served.offered {
-        Answered::read_on_this_thread(Arc::new(service.request.clone()));
+    fn reply(&mut self, id: Self::Id, bytes: Vec<u8>) {
+        let _ = self
+            .server
+            .send_response(id, super::dds_cdr::Encoded(bytes));
     }
-    serve(Dds(server), served, radar, seen, stop);
+
+    // DDS has no way to end a request unanswered.
+    fn no_reply(&mut self, _: Self::Id, _: Option<String>) {}
 }
 
 /// rmw_zenoh: the service's queryable (declared complete, as rmw_zenoh
