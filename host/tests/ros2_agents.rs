@@ -46,7 +46,7 @@ fn a_killed_coordinators_agent_stops_the_base_from_its_own_ros2_node() {
                  [[ros2.publish]]\nsignal = \"M.command\"\ntopic = \"/cmd_vel\"\n\
                  type = \"geometry_msgs/msg/Twist\"\nfield = \"linear.x\"\n\n\
                  [[ros2.publish]]\nsignal = \"M.faulted\"\ntopic = \"/cmd_vel\"\n\
-                 type = \"geometry_msgs/msg/Twist\"\nmessage = {{}}\n",
+                 type = \"geometry_msgs/msg/Twist\"\nmessage = {{ linear = {{ z = 1.0 }} }}\n",
                 radar_fixtures::plugins::MOTOR_RESPONSE
             )
         },
@@ -69,32 +69,39 @@ fn a_killed_coordinators_agent_stops_the_base_from_its_own_ros2_node() {
         .map(|l| serde_json::from_str(l).expect("JSON"))
         .collect();
     // Nothing while the coordinator was there (it published the backing
-    // away itself); then, from the agent's node: the fail-safe's zero
-    // Twist, as the coordinator sends at `node-lost`, and the stop the
-    // exit run alone commands.
+    // away itself); then, from the agent's node: the fail-safe's fixed
+    // message (a vertical speed, which a base ignores, so that the test
+    // tells it from the stop), as the coordinator sends at `node-lost`,
+    // and then the stop the exit run alone commands.
     assert_eq!(messages.len(), 2, "{said:?}\n{agent_said:?}");
-    assert_eq!(
-        messages[0],
-        serde_json::json!({"linear": {"x": 0.0, "y": 0.0, "z": 0.0}, "angular": {"x": 0.0, "y": 0.0, "z": 0.0}}),
-        "{said:?}"
-    );
+    let fail_safe = &messages[0]["linear"];
+    assert_eq!(fail_safe["z"].as_f64(), Some(1.0), "{said:?}");
+    assert_eq!(fail_safe["x"].as_f64(), Some(0.0), "{said:?}");
     assert_eq!(messages[1]["linear"]["x"].as_f64(), Some(0.0), "{said:?}");
+    assert_eq!(messages[1]["linear"]["z"].as_f64(), Some(0.0), "{said:?}");
     let trace = std::fs::read_to_string(&trace).expect("the coordinator's trace");
     assert!(
         trace.contains(r#""plugin":"M","signal":"command","payload":-0.2"#),
         "{trace}"
     );
-    for said_on_stderr in [
-        "radar agent base: `M` faulted while the coordinator of system `orphan` was lost: \
-         published on /cmd_vel from the agent's own ROS 2 node",
-        "radar agent base: `M` command while the coordinator of system `orphan` was lost: \
-         published on /cmd_vel from the agent's own ROS 2 node",
-        "radar agent base: lost the coordinator of system `orphan`: ran `M`'s exit alone \
-         (completed",
-    ] {
-        assert!(
-            agent_said.iter().any(|l| l.starts_with(said_on_stderr)),
-            "{said_on_stderr}\n{agent_said:?}"
-        );
-    }
+    // Said on the agent's stderr, in that order.
+    let at = |line: &str| {
+        agent_said
+            .iter()
+            .position(|l| l.starts_with(line))
+            .unwrap_or_else(|| panic!("{line}\n{agent_said:?}"))
+    };
+    let fail_safe = at(
+        "radar agent base: `M` faulted while the coordinator of system `orphan` \
+                        was lost: published on /cmd_vel from the agent's own ROS 2 node",
+    );
+    let stop = at(
+        "radar agent base: `M` command while the coordinator of system `orphan` was \
+                   lost: published on /cmd_vel from the agent's own ROS 2 node",
+    );
+    let exit = at(
+        "radar agent base: lost the coordinator of system `orphan`: ran `M`'s exit \
+                   alone (completed",
+    );
+    assert!(fail_safe < stop && stop < exit, "{agent_said:?}");
 }

@@ -92,6 +92,7 @@ impl Agent {
             let threads = threads.clone();
             let reports = reports.clone();
             let ros2 = ros2.clone();
+            let briefs = join_ros2(&ros2, &session, name);
             session
                 .clone()
                 .declare_subscriber(keys::agent_in(name))
@@ -100,7 +101,9 @@ impl Agent {
                     let (head, component) = split(&bytes);
                     let Ok(message) = serde_json::from_slice::<ToAgent>(head) else {
                         match serde_json::from_slice::<Outlets>(head) {
-                            Ok(outlets) => join_ros2(&ros2, &session, &node, outlets),
+                            Ok(outlets) => {
+                                let _ = briefs.send(outlets);
+                            }
                             Err(_) => eprintln!(
                                 "radar agent {node}: a message it cannot read was ignored"
                             ),
@@ -258,23 +261,28 @@ struct Place {
     ros2: Arc<AgentNodes>,
 }
 
-/// Joins the ROS 2 graph as `outlets` says, on a thread of its own (not in
-/// the Zenoh callback that took the message: a DDS participant takes a
-/// while to make); a failure is said on stderr, and the plugin's exits
-/// alone publish nothing.
-fn join_ros2(ros2: &Arc<AgentNodes>, session: &Session, node: &str, outlets: Outlets) {
+/// Where the coordinators' briefs go: taken in order on a thread of its
+/// own (not in the Zenoh callback that took them: a DDS participant takes
+/// a while to make), each joining the ROS 2 graph as it says; a failure is
+/// said on stderr, and the plugin's exits alone publish nothing. The
+/// thread ends with the sender.
+fn join_ros2(ros2: &Arc<AgentNodes>, session: &Session, node: &str) -> Sender<Outlets> {
+    let (tx, rx) = unbounded::<Outlets>();
     let (ros2, session, node) = (ros2.clone(), session.clone(), node.to_string());
     let _ = std::thread::Builder::new()
         .name("radar-agent-ros2".into())
         .spawn(move || {
-            let (system, plugin) = (outlets.system.clone(), outlets.plugin.clone());
-            if let Err(e) = ros2.take(&session, &node, outlets) {
-                eprintln!(
-                    "radar agent {node}: system `{system}`: cannot publish `{plugin}`'s ROS 2 \
-                     routes from this agent: {e}"
-                );
+            for outlets in rx {
+                let (system, plugin) = (outlets.system.clone(), outlets.plugin.clone());
+                if let Err(e) = ros2.take(&session, &node, outlets) {
+                    eprintln!(
+                        "radar agent {node}: system `{system}`: cannot publish `{plugin}`'s ROS 2 \
+                         routes from this agent: {e}"
+                    );
+                }
             }
         });
+    tx
 }
 
 /// One placed plugin: instantiates, then serves calls until dropped. If
@@ -328,7 +336,10 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
             agent: node.clone(),
             system: system.clone(),
             plugin: plugin_name.clone(),
+            run: run.clone(),
         },
+        activation: Cell::new(false),
+        exiting: Cell::new(false),
     });
     // Named signals and the blackboard are the coordinator's.
     let _running = running::enter(link.clone());
@@ -394,9 +405,9 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
             return;
         }
     };
-    // An activation runs on this instance: `start` was called, `exit` has
-    // not returned.
-    let mut activation = false;
+    // An activation runs on this instance (`start` was called, `exit` has
+    // not returned): kept by the link, which sends the fail-safe routes
+    // when it goes alone in the middle of one.
     // The store died in a call that ended alone.
     let mut dead = false;
     let mut exit_began = None;
@@ -430,10 +441,11 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
             continue;
         };
         match export {
-            Export::Start => activation = true,
+            Export::Start => link.activation.set(true),
             Export::Exit => exit_began = Some(link.now()),
             _ => {}
         }
+        link.exiting.set(export == Export::Exit);
         let args: Vec<Val> = args.into_iter().map(WireVal::into_val).collect();
         let Some(result) = link.drive(instance.call_export(export, &args, has_result)) else {
             return; // dropped by the coordinator in the middle of the call
@@ -455,7 +467,7 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
         if export == Export::Exit
             || (result.is_err() && matches!(export, Export::Start | Export::Interrupt))
         {
-            activation = false;
+            link.activation.set(false);
         }
         let result = result
             .and_then(|v| {
@@ -471,11 +483,9 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
             logs: logs(&base),
         });
     }
-    if !activation {
+    if !link.activation.get() {
         return;
     }
-    // As the coordinator would at `node-lost`: the fail-safe routes first.
-    link.faulted("node-lost: the agent lost its coordinator");
     // Alone, in the middle of an activation: its exit, on a fresh instance
     // if the store died.
     if dead {
@@ -503,6 +513,7 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
     stop.clear_fault();
     link.bound(exit_limit);
     let began = link.now();
+    link.exiting.set(true);
     let ended = link.drive(instance.call_export(Export::Exit, &[], false));
     let ended = ended.unwrap_or_else(|| Err(Fault::new("dropped")));
     let report = link.report(&name, began, ended.map(drop));

@@ -188,7 +188,21 @@ impl ZenohAgents {
     /// publishes itself once it has lost the coordinator: `ros2::outlets`);
     /// the agents that run one already are told now.
     pub(super) fn brief(&self, briefs: Vec<(String, Vec<u8>)>) {
-        let briefs: HashMap<String, Vec<u8>> = briefs.into_iter().collect();
+        // Each carries the run it is for: an agent publishes none of an
+        // earlier run's routes.
+        let briefs: HashMap<String, Vec<u8>> = briefs
+            .into_iter()
+            .map(|(plugin, bytes)| {
+                let mut brief: serde_json::Value =
+                    serde_json::from_slice(&bytes).unwrap_or_default();
+                if let Some(fields) = brief.as_object_mut() {
+                    fields.insert("run".into(), self.run.clone().into());
+                }
+                (plugin, serde_json::to_vec(&brief).unwrap_or(bytes))
+            })
+            .collect();
+        // Kept first: an instance sent from now on is briefed.
+        *lock(&self.briefs) = briefs.clone();
         let placed: HashSet<(String, String)> = lock(&self.inboxes)
             .keys()
             .filter_map(|(node, route)| {
@@ -201,7 +215,6 @@ impl ZenohAgents {
                 let _ = self.put(&node, brief.clone());
             }
         }
-        *lock(&self.briefs) = briefs;
     }
 
     /// Puts `bytes` in agent `node`'s inbox.
@@ -249,7 +262,8 @@ impl AgentLink for ZenohAgents {
         if let ToAgent::Instantiate { name, .. } = message {
             let brief = lock(&self.briefs).get(name).cloned();
             if let Some(brief) = brief {
-                self.put(node, brief)?;
+                // Lost, the instantiation that follows says so.
+                let _ = self.put(node, brief);
             }
         }
         let mut bytes = serde_json::to_vec(message).map_err(|e| e.to_string())?;

@@ -71,6 +71,11 @@ pub(super) struct Link {
     pub(super) stop: Arc<StopFlag>,
     /// Where what it emits alone on a published signal goes.
     pub(super) ros2: Published,
+    /// An activation runs on the instance: `start` was called, `exit` has
+    /// not returned.
+    pub(super) activation: Cell<bool>,
+    /// The slot running is `exit`: alone, only what it emits is published.
+    pub(super) exiting: Cell<bool>,
 }
 
 /// The agent's own ROS 2 node, as one plugin's worker publishes from it
@@ -80,6 +85,9 @@ pub(super) struct Published {
     pub(super) agent: String,
     pub(super) system: String,
     pub(super) plugin: String,
+    /// The coordinator's run the instance belongs to: the routes of
+    /// another run are not its own.
+    pub(super) run: String,
 }
 
 impl Published {
@@ -88,7 +96,7 @@ impl Published {
     fn publish(&self, signal: &str, payload: &Json) -> Option<String> {
         let sent = self
             .nodes
-            .publish(&self.system, &self.plugin, signal, payload);
+            .publish(&self.system, &self.run, &self.plugin, signal, payload);
         if sent.is_empty() {
             return None;
         }
@@ -162,6 +170,11 @@ impl Link {
             bound: Instant::now() + self.exit_limit,
             lines: Vec::new(),
         });
+        if self.activation.get() {
+            // As the coordinator would at `node-lost`, before the slot
+            // running goes on: the fail-safe routes.
+            self.faulted("node-lost: the agent lost its coordinator");
+        }
         self.catch_up();
         mirror_stop(&self.stop, Some(StopReason::Exit as u8), None);
     }
@@ -335,6 +348,28 @@ impl Link {
 }
 
 impl Link {
+    /// Alone: what the slot emitted, kept for the report, and published
+    /// from the agent's own ROS 2 node if the slot is the exit (the slot
+    /// that was running when the coordinator went may still command the
+    /// motors: it is not).
+    fn emitted_alone(&self, signal: &str, payload: Option<&Val>) {
+        let json = payload.map(crate::payload::trace_json);
+        let shown = json.as_ref().map_or(String::new(), |v| format!("({v})"));
+        let said = if self.exiting.get() {
+            let published = self
+                .ros2
+                .publish(signal, json.as_ref().unwrap_or(&Json::Null));
+            published.unwrap_or_else(|| "not routed".to_string())
+        } else {
+            "not routed; not published either: once the coordinator is lost only the exit's \
+             emissions are"
+                .to_string()
+        };
+        self.note(format!(
+            "emitted {signal}{shown} while the coordinator was lost ({said})"
+        ));
+    }
+
     /// Alone, in the middle of an activation: what the coordinator would
     /// have done at `node-lost` with the routes of `faulted` (a fail-safe's
     /// fixed message), done from the agent's own ROS 2 node.
@@ -355,31 +390,26 @@ impl RunningSystem for Link {
         signal: SignalName,
         payload: Option<Val>,
     ) -> wasmtime::Result<()> {
-        let json = payload.as_ref().map(crate::payload::val_to_json);
-        let shown = json.as_ref().map_or(String::new(), |v| format!("({v})"));
         if self.is_alone() {
-            let published = self
-                .ros2
-                .publish(signal.as_str(), json.as_ref().unwrap_or(&Json::Null));
-            let said = published.unwrap_or_else(|| "not routed".to_string());
-            self.note(format!(
-                "emitted {}{shown} while the coordinator was lost ({said})",
-                signal.as_str()
-            ));
+            self.emitted_alone(signal.as_str(), payload.as_ref());
             return Ok(());
         }
-        let payload = payload
+        let wire = payload
             .as_ref()
             .map(WireVal::from_val)
             .transpose()
             .map_err(|e| wasmtime::format_err!("{e}"))?;
-        self.ask(FromAgent::Emit {
+        let asked = self.ask(FromAgent::Emit {
             plugin: self.plugin.clone(),
             signal: signal.as_str().to_string(),
-            payload,
+            payload: wire,
             logs: logs(&self.base),
-        })
-        .map(drop)
+        });
+        if self.is_alone() {
+            // The link went while it asked: the emission reached no one.
+            self.emitted_alone(signal.as_str(), payload.as_ref());
+        }
+        asked.map(drop)
     }
 
     fn board_read(&self, _plugin: &str, entry: &str) -> wasmtime::Result<Option<Val>> {

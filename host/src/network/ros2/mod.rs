@@ -9,9 +9,9 @@
 //! type hash (`hash`) and wire form (`cdr`), how a message fits an entry
 //! or a signal (`fit`), rmw_zenoh's names (`graph`), and the bridge that
 //! runs them (`bridge`), with its subscriptions' threads (`incoming`) and
-//! its publishing (`outgoing`), and what an MCAP trace
-//! writes on the topics (`recorded`), and an agent's own node (`outlets`); on DDS, the node (`dds`) and the bytes
-//! through RustDDS's CDR (`dds_cdr`). Responses backed by services and
+//! its publishing (`outgoing`), what an MCAP trace writes on the topics
+//! (`recorded`), and an agent's own node (`outlets`); on DDS, the node
+//! (`dds`) and the bytes through RustDDS's CDR (`dds_cdr`). Responses backed by services and
 //! actions (`services`, `actions`, `actions_zenoh`) and served as them
 //! (`served`, `served_service`, `served_action`, `served_action_zenoh`)
 //! each keep one loop for both middlewares where the protocol allows, as

@@ -11,6 +11,7 @@
 //! machine next to the hardware when the coordinator is gone.
 
 use std::collections::{BTreeMap, HashMap};
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
 
 use serde::{Deserialize, Serialize};
@@ -31,6 +32,11 @@ use super::types::Message;
 #[serde(tag = "m", rename = "outlets")]
 pub(crate) struct Outlets {
     pub(crate) system: String,
+    /// The coordinator's run it is for (the network adds it: see
+    /// `ZenohAgents::brief`); an instance of another run publishes none of
+    /// these routes.
+    #[serde(default)]
+    pub(crate) run: String,
     /// The plugin's name.
     pub(crate) plugin: String,
     pub(crate) node: NodeSpec,
@@ -89,6 +95,7 @@ pub(super) fn briefs(
         .map(|(plugin, routes)| {
             let outlets = Outlets {
                 system: system.to_string(),
+                run: String::new(),
                 plugin: plugin.to_string(),
                 node: node.clone(),
                 routes,
@@ -104,24 +111,34 @@ pub(super) fn briefs(
 #[derive(Default)]
 pub(crate) struct AgentNodes {
     nodes: Mutex<HashMap<String, SystemNode>>,
+    /// The next endpoint's id (rmw_zenoh), for every node of the agent's
+    /// one Zenoh session.
+    entity: AtomicU32,
 }
 
-/// An agent's node for one system.
+/// An agent's node for one system, in one of its coordinator's runs.
 struct SystemNode {
     spec: NodeSpec,
+    run: String,
     joined: Joined,
-    /// The next endpoint's id (rmw_zenoh).
-    entity: u32,
     /// Each plugin's routes as sent (to tell a change), and its publishers.
-    plugins: HashMap<String, (Json, Vec<(String, Outgoing)>)>,
+    plugins: HashMap<String, PluginRoutes>,
 }
 
-/// The node on its middleware: its liveliness tokens, or its DDS
+/// One plugin's publishers, by its signal, and what shows them in the
+/// graph (rmw_zenoh), which goes with them.
+struct PluginRoutes {
+    sent: Json,
+    routes: Vec<(String, Outgoing)>,
+    _tokens: Vec<zenoh::liveliness::LivelinessToken>,
+}
+
+/// The node on its middleware: its liveliness token, or its DDS
 /// participant.
 enum Joined {
     Zenoh {
         node: graph::Node,
-        _tokens: Vec<zenoh::liveliness::LivelinessToken>,
+        _token: zenoh::liveliness::LivelinessToken,
     },
     #[cfg(feature = "dds")]
     Dds(Box<super::dds::DdsNode>),
@@ -133,59 +150,63 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 
 impl AgentNodes {
     /// Takes `outlets` for agent `agent` (its Zenoh session `session`):
-    /// joins the graph as the system's node if it has not (or the
-    /// coordinator's node changed), and declares the plugin's publishers
-    /// unless it has them as sent.
+    /// joins the graph as the system's node for the run if it has not (a
+    /// node of an earlier run leaves, with its routes), and declares the
+    /// plugin's publishers unless it has them as sent. Called from one
+    /// thread, in the order the briefs came.
     pub(crate) fn take(
         &self,
         session: &zenoh::Session,
         agent: &str,
         outlets: Outlets,
     ) -> Result<(), Ros2Error> {
-        let mut nodes = lock(&self.nodes);
-        if nodes
+        let current = lock(&self.nodes)
             .get(&outlets.system)
-            .is_some_and(|n| n.spec != outlets.node)
-        {
-            nodes.remove(&outlets.system);
+            .is_some_and(|n| n.spec == outlets.node && n.run == outlets.run);
+        if !current {
+            // Joined without the lock: a DDS participant takes a while, and
+            // a fail-safe's publish must not wait for it.
+            let node = SystemNode::join(session, agent, &outlets)?;
+            lock(&self.nodes).insert(outlets.system.clone(), node);
         }
-        let node = match nodes.entry(outlets.system.clone()) {
-            std::collections::hash_map::Entry::Occupied(node) => node.into_mut(),
-            std::collections::hash_map::Entry::Vacant(place) => {
-                place.insert(SystemNode::join(session, agent, outlets.node.clone())?)
-            }
+        let mut nodes = lock(&self.nodes);
+        let Some(node) = nodes.get_mut(&outlets.system) else {
+            return Ok(());
         };
         let sent = serde_json::to_value(&outlets.routes).unwrap_or_default();
         if node
             .plugins
             .get(&outlets.plugin)
-            .is_some_and(|(s, _)| *s == sent)
+            .is_some_and(|p| p.sent == sent)
         {
             return Ok(());
         }
-        let routes = node.declare(session, &outlets.routes)?;
-        node.plugins.insert(outlets.plugin, (sent, routes));
+        let declared = node.declare(session, &self.entity, &outlets.routes)?;
+        node.plugins.insert(outlets.plugin, declared.with(sent));
         Ok(())
     }
 
-    /// Publishes what `plugin` of `system` emitted on `signal` (`payload`
-    /// as the trace writes it) on each of its routes, from the agent's
-    /// node: for each route, the topic, and why if it was not sent.
+    /// Publishes what `plugin` of `system` emitted on `signal` in `run`
+    /// (`payload` as the trace writes it) on each of its routes, from the
+    /// agent's node: for each route, the topic, and why if it was not sent.
     pub(crate) fn publish(
         &self,
         system: &str,
+        run: &str,
         plugin: &str,
         signal: &str,
         payload: &Json,
     ) -> Vec<(String, Result<(), String>)> {
         let mut nodes = lock(&self.nodes);
-        let Some((_, routes)) = nodes
+        let Some(routes) = nodes
             .get_mut(system)
+            .filter(|n| n.run == run)
             .and_then(|n| n.plugins.get_mut(plugin))
         else {
             return Vec::new();
         };
         routes
+            .routes
             .iter_mut()
             .filter(|(s, _)| s == signal)
             .map(|(_, route)| {
@@ -198,7 +219,8 @@ impl AgentNodes {
 
 impl SystemNode {
     /// Joins the graph as `<spec.name>_<agent>`.
-    fn join(session: &zenoh::Session, agent: &str, spec: NodeSpec) -> Result<Self, Ros2Error> {
+    fn join(session: &zenoh::Session, agent: &str, outlets: &Outlets) -> Result<Self, Ros2Error> {
+        let spec = outlets.node.clone();
         let name = format!("{}_{}", spec.name, agent.replace('-', "_"));
         let joined = match spec.rmw {
             Rmw::Zenoh => {
@@ -215,7 +237,7 @@ impl SystemNode {
                     .map_err(|e| Ros2Error::Session(e.to_string()))?;
                 Joined::Zenoh {
                     node,
-                    _tokens: vec![token],
+                    _token: token,
                 }
             }
             #[cfg(feature = "dds")]
@@ -235,26 +257,29 @@ impl SystemNode {
         };
         Ok(Self {
             spec,
+            run: outlets.run.clone(),
             joined,
-            entity: 1,
             plugins: HashMap::new(),
         })
     }
 
-    /// A publisher for each route, by its signal.
+    /// A publisher for each route, by its signal (endpoint ids from
+    /// `entity`).
     fn declare(
         &mut self,
         session: &zenoh::Session,
+        entity: &AtomicU32,
         routes: &[Outlet],
-    ) -> Result<Vec<(String, Outgoing)>, Ros2Error> {
+    ) -> Result<Declared, Ros2Error> {
+        let mut tokens = Vec::new();
         let wires: Vec<Wire> = match &mut self.joined {
-            Joined::Zenoh { node, _tokens } => {
+            Joined::Zenoh { node, .. } => {
                 let mut wires = Vec::new();
                 for r in routes {
+                    let id = entity.fetch_add(1, Ordering::Relaxed) + 1;
                     let (wire, token) =
-                        zenoh_wire(session, node, self.entity, &r.topic, &r.message, &r.qos)?;
-                    self.entity += 1;
-                    _tokens.push(token);
+                        zenoh_wire(session, node, id, &r.topic, &r.message, &r.qos)?;
+                    tokens.push(token);
                     wires.push(wire);
                 }
                 wires
@@ -267,7 +292,7 @@ impl SystemNode {
                     .map(|r| (&*r.signal, &*r.topic, &r.message, &r.qos)),
             )?,
         };
-        Ok(routes
+        let routes = routes
             .iter()
             .zip(wires)
             .map(|(r, wire)| {
@@ -283,7 +308,24 @@ impl SystemNode {
                 };
                 (r.signal.clone(), out)
             })
-            .collect())
+            .collect();
+        Ok(Declared { routes, tokens })
+    }
+}
+
+/// A plugin's publishers as declared, before they are kept.
+struct Declared {
+    routes: Vec<(String, Outgoing)>,
+    tokens: Vec<zenoh::liveliness::LivelinessToken>,
+}
+
+impl Declared {
+    fn with(self, sent: Json) -> PluginRoutes {
+        PluginRoutes {
+            sent,
+            routes: self.routes,
+            _tokens: self.tokens,
+        }
     }
 }
 
@@ -364,14 +406,15 @@ mod tests {
         nodes
             .take(&session, "base", outlets.clone())
             .expect("joins");
-        // Taken again as sent (a second instance): still one publisher a
-        // route, as `sent` below shows.
+        // Taken again as sent (a second instance): the same publishers,
+        // one a route, declared once.
         nodes.take(&session, "base", outlets).expect("again");
+        assert_eq!(nodes.entity.load(Ordering::Relaxed), 2);
         let inbox = session
             .declare_subscriber(graph::topic_key(0, "/cmd_vel", &twist.name, &twist.hash))
             .wait()
             .expect("subscriber");
-        let sent = nodes.publish("rover", "M", "command", &json!(-0.2));
+        let sent = nodes.publish("rover", "", "M", "command", &json!(-0.2));
         assert_eq!(sent, [("/cmd_vel".to_string(), Ok(()))]);
         let sample = inbox
             .recv_timeout(std::time::Duration::from_secs(5))
@@ -379,14 +422,20 @@ mod tests {
             .expect("a sample");
         let message = cdr::decode(&twist, &sample.payload().to_bytes()).expect("a Twist");
         assert_eq!(message["linear"]["x"], json!(-0.2));
-        assert!(nodes
-            .publish("rover", "M", "started", &json!(null))
-            .is_empty());
-        assert!(nodes
-            .publish("rover", "N", "command", &json!(1.0))
-            .is_empty());
-        assert!(nodes
-            .publish("other", "M", "command", &json!(1.0))
-            .is_empty());
+        let nothing = |system: &str, run: &str, plugin: &str, signal: &str| {
+            nodes
+                .publish(system, run, plugin, signal, &json!(1.0))
+                .is_empty()
+        };
+        assert!(
+            nothing("rover", "", "M", "started"),
+            "a signal with no route"
+        );
+        assert!(nothing("rover", "", "N", "command"), "another plugin");
+        assert!(nothing("other", "", "M", "command"), "another system");
+        assert!(
+            nothing("rover", "another run", "M", "command"),
+            "another run"
+        );
     }
 }
