@@ -608,17 +608,7 @@ fn a_fail_safe_route_sends_its_fixed_message_when_a_response_faults_and_the_exit
 fn a_killed_agent_faults_its_response_and_the_fail_safe_route_stops_the_base() {
     let python = python();
     let agent_port = free_port();
-    let mut agent = Command::new(env!("CARGO_BIN_EXE_radar"))
-        .args(["agent", "--name", "base", "--listen"])
-        .arg(format!("tcp/127.0.0.1:{agent_port}"))
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("radar agent starts");
-    let agent_up = lines(agent.stdout.take().expect("stdout"));
-    assert!(agent_up
-        .recv_timeout(Duration::from_secs(30))
-        .is_ok_and(|l| l.starts_with("agent base on")));
+    let mut agent = agent_base(agent_port, Stdio::null());
     let run = Running::start(
         |ep| {
             format!(
@@ -668,6 +658,23 @@ fn a_killed_agent_faults_its_response_and_the_fail_safe_route_stops_the_base() {
         !trace.contains(r#""slot":"exit""#),
         "the coordinator never runs a remote plugin's exit: {trace}"
     );
+}
+
+/// `radar agent --name base` listening on `port`, once it is up (its
+/// stdout read to there; its stderr to `stderr`).
+pub(crate) fn agent_base(port: u16, stderr: Stdio) -> Child {
+    let mut agent = Command::new(env!("CARGO_BIN_EXE_radar"))
+        .args(["agent", "--name", "base", "--listen"])
+        .arg(format!("tcp/127.0.0.1:{port}"))
+        .stdout(Stdio::piped())
+        .stderr(stderr)
+        .spawn()
+        .expect("radar agent starts");
+    let up = lines(agent.stdout.take().expect("stdout"));
+    assert!(up
+        .recv_timeout(Duration::from_secs(30))
+        .is_ok_and(|l| l.starts_with("agent base on")));
+    agent
 }
 
 /// `plugins/NAME` (C or C++) built by `guest-sdk/c/build` into `dir`.

@@ -3,26 +3,19 @@
 //! and a fail-safe route's fixed message, leave from the agent's node,
 //! next to the hardware, with no coordinator to send them.
 
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::time::Duration;
 
 use serde_json::Value as Json;
 
-use super::ros2::{python, twists_on_cmd_vel, Running};
-use crate::common::{self, free_port, lines};
+use super::ros2::{agent_base, python, twists_on_cmd_vel, Running};
+use crate::common::{self, free_port};
 
 #[test]
 fn a_killed_coordinators_agent_stops_the_base_from_its_own_ros2_node() {
     let python = python();
     let agent_port = free_port();
-    let mut agent = Command::new(env!("CARGO_BIN_EXE_radar"))
-        .args(["agent", "--name", "base", "--listen"])
-        .arg(format!("tcp/127.0.0.1:{agent_port}"))
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("radar agent starts");
-    let agent_up = lines(agent.stdout.take().expect("stdout"));
+    let mut agent = agent_base(agent_port, Stdio::piped());
     let stderr = agent.stderr.take().expect("stderr");
     let agent_said = std::thread::spawn(move || {
         let read = std::io::BufReader::new(stderr);
@@ -30,9 +23,6 @@ fn a_killed_coordinators_agent_stops_the_base_from_its_own_ros2_node() {
             .map_while(Result::ok)
             .collect::<Vec<String>>()
     });
-    assert!(agent_up
-        .recv_timeout(Duration::from_secs(30))
-        .is_ok_and(|l| l.starts_with("agent base on")));
     // Connected to the agent alone (Radar's sessions do not gossip): it
     // hears only the agent's node, which outlives the coordinator.
     let twists = twists_on_cmd_vel(&python, agent_port, 2, 60);

@@ -19,19 +19,13 @@ import json
 import time
 
 import radar_run
+from radar_run import spin_until
 
 import rclpy
 from rclpy.action import ActionClient
 from rclpy.action.graph import get_action_server_names_and_types_by_node
 from rclpy.node import Node
 from test_msgs.action import Fibonacci
-
-
-def spin_until(node, future, timeout):
-    deadline = time.time() + timeout
-    while not future.done() and time.time() < deadline:
-        rclpy.spin_once(node, timeout_sec=0.05)
-    return future.result() if future.done() else None
 
 
 def main():

@@ -13,20 +13,13 @@ namespace (tests/clients/rclpy/netns).
 """
 
 import argparse
-import time
 
 import radar_run
+from radar_run import spin_until
 import rclpy
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
-
-
-def spin_until(node, future, timeout):
-    deadline = time.time() + timeout
-    while not future.done() and time.time() < deadline:
-        rclpy.spin_once(node, timeout_sec=0.05)
-    return future.result() if future.done() else None
 
 
 def main():

@@ -33,6 +33,15 @@ def start(command, timeout=60):
     return radar, None
 
 
+def spin_until(node, future, timeout):
+    """Spins `node` until `future` is done, at most `timeout` seconds: its
+    result, or None."""
+    deadline = time.time() + timeout
+    while not future.done() and time.time() < deadline:
+        rclpy.spin_once(node, timeout_sec=0.05)
+    return future.result() if future.done() else None
+
+
 def finish(radar, timeout):
     """Waits for the run to end by itself (its `--for`), stopping it past
     `timeout` seconds; returns its exit code and stderr."""

@@ -19,16 +19,10 @@ import json
 import time
 
 import radar_run
+from radar_run import spin_until
 import rclpy
 from rclpy.node import Node
 from std_srvs.srv import SetBool
-
-
-def spin_until(node, future, timeout):
-    deadline = time.time() + timeout
-    while not future.done() and time.time() < deadline:
-        rclpy.spin_once(node, timeout_sec=0.05)
-    return future.result() if future.done() else None
 
 
 def main():

@@ -37,6 +37,7 @@ use super::recorded::{RecordedTopics, Sent, Taken};
 use super::routes::{check_publications, check_subscriptions, Publication, Subscription};
 use super::served::{Offered, Served};
 use super::served_action_zenoh::ZenohActionServer;
+use super::served_service::zenoh_server;
 use super::services::{backed_response, Server, ServiceLink};
 use super::settings::{Qos, Rmw, Ros2Settings};
 use super::types::MessageTypes;
@@ -580,24 +581,9 @@ impl Ros2 {
                     continue;
                 }
             };
-            let qos = Qos::parse(None, None, None).map_err(Ros2Error::Settings)?;
-            let token = node.endpoint_token(
-                Endpoint::ServiceServer,
-                entity,
-                &served.name,
-                &service.name,
-                &service.hash,
-                &qos,
-            );
+            let (queryable, token) = zenoh_server(&session, &node, entity, &served.name, service)?;
             entity += 1;
-            self.tokens
-                .push(liveliness.declare_token(token).wait().map_err(declare)?);
-            let key = graph::topic_key(node.domain, &served.name, &service.name, &service.hash);
-            let queryable = session
-                .declare_queryable(key)
-                .complete(true)
-                .wait()
-                .map_err(declare)?;
+            self.tokens.push(token);
             let (served, stop) = (served.clone(), self.stop.clone());
             let thread = spawn("radar-ros2-serve", move || {
                 super::served_service::serve_zenoh(queryable, served, radar, seen, stop)

@@ -22,7 +22,7 @@ use super::cdr;
 use super::error::Ros2Error;
 #[cfg(feature = "dds")]
 use super::served_service::DdsRequests;
-use super::served_service::{Requests, ZenohRequests};
+use super::served_service::{zenoh_server, Requests, ZenohRequests};
 use super::types::{MessageTypes, Service};
 use crate::system::Radar;
 
@@ -30,13 +30,13 @@ use crate::system::Radar;
 /// a person's (`ros2 param`), so 20 ms is soon enough.
 const LOOK_EVERY: Duration = Duration::from_millis(20);
 
-/// rcl_interfaces' `ParameterType` constants (byte arrays, 5, are never
-/// made: a TOML array of small integers is an integer array).
-const NOT_SET: u8 = 0;
+/// rcl_interfaces' `ParameterType` constants (byte arrays are only read,
+/// in a set: a TOML array of small integers is an integer array).
 const BOOL: u8 = 1;
 const INTEGER: u8 = 2;
 const DOUBLE: u8 = 3;
 const STRING: u8 = 4;
+const BYTE_ARRAY: u8 = 5;
 const BOOL_ARRAY: u8 = 6;
 const INTEGER_ARRAY: u8 = 7;
 const DOUBLE_ARRAY: u8 = 8;
@@ -126,8 +126,9 @@ impl Parameters {
         Self { values }
     }
 
-    /// The answer to `call`'s `request` (both as JSON); `Err`: a set, with
-    /// what it tried, to be recorded as refused.
+    /// The answer to `call`'s `request` (both as JSON), and for a set, what
+    /// it tried (`ros2 param set NAME = VALUE, ...`), to be recorded as
+    /// refused.
     pub(super) fn answer(&self, call: Call, request: &Json) -> (Json, Option<String>) {
         let names = || -> Vec<&str> {
             request["names"]
@@ -135,8 +136,14 @@ impl Parameters {
                 .map(|n| n.iter().filter_map(Json::as_str).collect())
                 .unwrap_or_default()
         };
-        let unset = (NOT_SET, value(NOT_SET, Json::Null));
-        let of = |name: &str| self.values.get(name).unwrap_or(&unset);
+        // As rclpy answers: nothing at all if any name is not a parameter.
+        let known = || -> Vec<(&str, &(u8, Json))> {
+            let found: Option<Vec<_>> = names()
+                .into_iter()
+                .map(|n| self.values.get(n).map(|v| (n, v)))
+                .collect();
+            found.unwrap_or_default()
+        };
         match call {
             Call::List => {
                 let prefixes: Vec<&str> = request["prefixes"]
@@ -147,17 +154,17 @@ impl Parameters {
                 (json!({ "result": self.list(&prefixes, depth) }), None)
             }
             Call::Get => {
-                let values: Vec<&Json> = names().into_iter().map(|n| &of(n).1).collect();
+                let values: Vec<&Json> = known().into_iter().map(|(_, v)| &v.1).collect();
                 (json!({ "values": values }), None)
             }
             Call::GetTypes => {
-                let types: Vec<u8> = names().into_iter().map(|n| of(n).0).collect();
+                let types: Vec<u8> = known().into_iter().map(|(_, v)| v.0).collect();
                 (json!({ "types": types }), None)
             }
             Call::Describe => {
-                let descriptors: Vec<Json> = names()
+                let descriptors: Vec<Json> = known()
                     .into_iter()
-                    .map(|name| describe(name, of(name).0))
+                    .map(|(name, v)| describe(name, v.0))
                     .collect();
                 (json!({ "descriptors": descriptors }), None)
             }
@@ -167,12 +174,14 @@ impl Parameters {
                     .map(|ps| ps.iter().map(shown).collect())
                     .unwrap_or_default();
                 let refused = json!({ "successful": false, "reason": READ_ONLY });
-                let reply = if call == Call::Set {
-                    json!({ "results": vec![refused; tried.len()] })
+                let (reply, how) = if call == Call::Set {
+                    let results = vec![refused; tried.len()];
+                    (json!({ "results": results }), "ros2 param set")
                 } else {
-                    json!({ "result": refused })
+                    (json!({ "result": refused }), "ros2 param set (atomically)")
                 };
-                (reply, Some(tried.join(", ")))
+                let said = (!tried.is_empty()).then(|| format!("{how} {}", tried.join(", ")));
+                (reply, said)
             }
         }
     }
@@ -245,6 +254,8 @@ fn typed(v: &toml::Value) -> (u8, Json) {
     match v {
         T::Boolean(b) => (BOOL, json!(b)),
         T::Integer(i) => (INTEGER, json!(i)),
+        // JSON has no infinity or NaN: said as text, as the plugin reads it.
+        T::Float(f) if !f.is_finite() => (STRING, json!(v.to_string())),
         T::Float(f) => (DOUBLE, json!(f)),
         T::String(s) => (STRING, json!(s)),
         T::Array(items) if !items.is_empty() => {
@@ -254,7 +265,10 @@ fn typed(v: &toml::Value) -> (u8, Json) {
                 (INTEGER_ARRAY, json!(all))
             } else if let Some(all) = items
                 .iter()
-                .map(|i| i.as_float().or(i.as_integer().map(|n| n as f64)))
+                .map(|i| {
+                    let f = i.as_float().or(i.as_integer().map(|n| n as f64));
+                    f.filter(|f| f.is_finite())
+                })
                 .collect::<Option<Vec<_>>>()
             {
                 (DOUBLE_ARRAY, json!(all))
@@ -295,6 +309,7 @@ fn shown(parameter: &Json) -> String {
         Some(INTEGER) => "integer-value",
         Some(DOUBLE) => "double-value",
         Some(STRING) => "string-value",
+        Some(BYTE_ARRAY) => "byte-array-value",
         Some(BOOL_ARRAY) => "bool-array-value",
         Some(INTEGER_ARRAY) => "integer-array-value",
         Some(DOUBLE_ARRAY) => "double-array-value",
@@ -327,7 +342,7 @@ pub(super) fn serve<R: Requests>(
                 let (reply, tried) = parameters.answer(service.call, &request);
                 if let Some(tried) = tried {
                     let _ = radar.refused(
-                        format!("ros2 param set {tried}"),
+                        tried,
                         format!("a ROS 2 parameter client ({})", service.name),
                         READ_ONLY,
                     );
@@ -352,40 +367,14 @@ pub(super) fn start_zenoh(
     radar: Radar,
     stop: Arc<AtomicBool>,
 ) -> Result<(JoinHandle<()>, Vec<zenoh::liveliness::LivelinessToken>), Ros2Error> {
-    use zenoh::Wait;
-    let declare = |e: zenoh::Error| Ros2Error::Session(e.to_string());
-    let qos = super::settings::Qos::parse(None, None, None).map_err(Ros2Error::Settings)?;
     let full = format!("{}/{}", node.namespace.trim_end_matches('/'), node.name);
     let mut tokens = Vec::new();
     let mut wires = Vec::new();
     for service in services(&full)? {
-        let (name, ty) = (&service.name, &service.service);
-        let token = node.endpoint_token(
-            super::graph::Endpoint::ServiceServer,
-            *entity,
-            name,
-            &ty.name,
-            &ty.hash,
-            &qos,
-        );
+        let (queryable, token) =
+            zenoh_server(session, node, *entity, &service.name, &service.service)?;
         *entity += 1;
-        tokens.push(
-            session
-                .liveliness()
-                .declare_token(token)
-                .wait()
-                .map_err(declare)?,
-        );
-        let queryable = session
-            .declare_queryable(super::graph::topic_key(
-                node.domain,
-                name,
-                &ty.name,
-                &ty.hash,
-            ))
-            .complete(true)
-            .wait()
-            .map_err(declare)?;
+        tokens.push(token);
         wires.push((service, ZenohRequests::new(queryable)));
     }
     let thread = spawn(move || serve(wires, parameters, radar, stop))?;
@@ -459,17 +448,22 @@ mod tests {
         assert_eq!(dock["result"]["names"], json!(["Dock.station"]));
         let (top, _) = p.answer(Call::List, &json!({"prefixes": [], "depth": 1}));
         assert_eq!(top["result"]["names"], json!(["use_sim_time"]));
-        let names = json!({"names": ["Avoid.distance", "Avoid.retries", "Avoid.steps", "nope"]});
+        let names = json!({"names": ["Avoid.distance", "Avoid.retries", "Avoid.steps"]});
         let (types, _) = p.answer(Call::GetTypes, &names);
-        assert_eq!(
-            types["types"],
-            json!([DOUBLE, INTEGER, DOUBLE_ARRAY, NOT_SET])
-        );
+        assert_eq!(types["types"], json!([DOUBLE, INTEGER, DOUBLE_ARRAY]));
         let (got, _) = p.answer(Call::Get, &names);
         assert_eq!(got["values"][0]["double-value"], json!(0.5));
         assert_eq!(got["values"][1]["integer-value"], json!(3));
         assert_eq!(got["values"][2]["double-array-value"], json!([1.0, 2.5]));
-        assert_eq!(got["values"][3]["type"], json!(NOT_SET));
+        // A name that is not a parameter: nothing at all, as rclpy answers.
+        let unknown = json!({"names": ["Avoid.distance", "nope"]});
+        for (call, field) in [
+            (Call::Get, "values"),
+            (Call::GetTypes, "types"),
+            (Call::Describe, "descriptors"),
+        ] {
+            assert_eq!(p.answer(call, &unknown).0[field], json!([]), "{call:?}");
+        }
         let (described, _) = p.answer(Call::Describe, &json!({"names": ["Avoid.name"]}));
         assert_eq!(described["descriptors"][0]["read-only"], json!(true));
         assert_eq!(described["descriptors"][0]["type"], json!(STRING));
@@ -490,10 +484,13 @@ mod tests {
             .is_some_and(|r| r.contains("read-only")));
         assert_eq!(
             tried.as_deref(),
-            Some("Avoid.distance = 0.8, Avoid.brave = false")
+            Some("ros2 param set Avoid.distance = 0.8, Avoid.brave = false")
         );
-        let (reply, _) = p.answer(Call::SetAtomically, &set);
+        let (reply, tried) = p.answer(Call::SetAtomically, &set);
         assert_eq!(reply["result"]["successful"], json!(false));
+        assert!(tried.is_some_and(|t| t.starts_with("ros2 param set (atomically) ")));
+        let (_, tried) = p.answer(Call::Set, &json!({"parameters": []}));
+        assert_eq!(tried, None, "a set of nothing is not recorded");
     }
 
     #[test]

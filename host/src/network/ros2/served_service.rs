@@ -161,6 +161,37 @@ pub(super) fn serve_zenoh(
     serve(ZenohRequests::new(queryable), served, radar, seen, stop);
 }
 
+/// rmw_zenoh: node `node`'s server of service `name` (its full name) of
+/// type `service`, its endpoint `entity`: a complete queryable on the
+/// service's key expression, as rmw_zenoh declares it, and the liveliness
+/// token that shows it in the graph.
+pub(super) fn zenoh_server(
+    session: &zenoh::Session,
+    node: &super::graph::Node,
+    entity: u32,
+    name: &str,
+    service: &super::types::Service,
+) -> Result<(ZenohQueryable, zenoh::liveliness::LivelinessToken), super::error::Ros2Error> {
+    use super::error::Ros2Error;
+    use super::graph::{topic_key, Endpoint};
+    use zenoh::Wait;
+    let declare = |e: zenoh::Error| Ros2Error::Session(e.to_string());
+    let qos = super::settings::Qos::parse(None, None, None).map_err(Ros2Error::Settings)?;
+    let (ty, hash) = (&service.name, &service.hash);
+    let token = node.endpoint_token(Endpoint::ServiceServer, entity, name, ty, hash, &qos);
+    let token = session
+        .liveliness()
+        .declare_token(token)
+        .wait()
+        .map_err(declare)?;
+    let queryable = session
+        .declare_queryable(topic_key(node.domain, name, ty, hash))
+        .complete(true)
+        .wait()
+        .map_err(declare)?;
+    Ok((queryable, token))
+}
+
 /// A queryable of rmw_zenoh's services.
 pub(super) type ZenohQueryable =
     zenoh::query::Queryable<zenoh::handlers::FifoChannelHandler<zenoh::query::Query>>;
