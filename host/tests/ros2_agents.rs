@@ -3,6 +3,8 @@
 //! and a fail-safe route's fixed message, leave from the agent's node,
 //! next to the hardware, with no coordinator to send them.
 
+#[cfg(feature = "dds")]
+use std::process::Command;
 use std::process::Stdio;
 use std::time::Duration;
 
@@ -10,6 +12,14 @@ use serde_json::Value as Json;
 
 use super::ros2::{agent_base, python, twists_on_cmd_vel, Running};
 use crate::common::{self, free_port};
+
+/// M's command on `/cmd_vel`, and its fail-safe: a fixed message (a
+/// vertical speed, which a base ignores, so that a test tells it from the
+/// stop).
+const ROUTES: &str = "[[ros2.publish]]\nsignal = \"M.command\"\ntopic = \"/cmd_vel\"\n\
+     type = \"geometry_msgs/msg/Twist\"\nfield = \"linear.x\"\n\n\
+     [[ros2.publish]]\nsignal = \"M.faulted\"\ntopic = \"/cmd_vel\"\n\
+     type = \"geometry_msgs/msg/Twist\"\nmessage = { linear = { z = 1.0 } }\n";
 
 #[test]
 fn a_killed_coordinators_agent_stops_the_base_from_its_own_ros2_node() {
@@ -33,10 +43,7 @@ fn a_killed_coordinators_agent_stops_the_base_from_its_own_ros2_node() {
                  [network]\nsystem = \"orphan\"\nlisten = [\"{ep}\"]\n\
                  connect = [\"tcp/127.0.0.1:{agent_port}\"]\n\n\
                  [ros2]\nnode = \"radar_base\"\n\n\
-                 [[ros2.publish]]\nsignal = \"M.command\"\ntopic = \"/cmd_vel\"\n\
-                 type = \"geometry_msgs/msg/Twist\"\nfield = \"linear.x\"\n\n\
-                 [[ros2.publish]]\nsignal = \"M.faulted\"\ntopic = \"/cmd_vel\"\n\
-                 type = \"geometry_msgs/msg/Twist\"\nmessage = {{ linear = {{ z = 1.0 }} }}\n",
+                 {ROUTES}",
                 radar_fixtures::plugins::MOTOR_RESPONSE
             )
         },
@@ -94,4 +101,86 @@ fn a_killed_coordinators_agent_stops_the_base_from_its_own_ros2_node() {
                    alone (completed",
     );
     assert!(fail_safe < stop && stop < exit, "{agent_said:?}");
+}
+
+#[cfg(feature = "dds")]
+#[test]
+fn on_dds_a_killed_coordinators_agent_stops_an_rclpy_base_from_its_own_node() {
+    use super::ros2_dds::{each_distro, rclpy_in_namespace};
+    each_distro(rclpy_in_namespace, |python, distro| {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let (port, agent_port) = (free_port(), free_port());
+        let manifest = crate::common::write_manifest(
+            dir.path(),
+            &format!(
+                "[plugins.M]\nwasm = \"{}\"\nnode = \"base\"\nconfig = {{ drive_s = 60 }}\n\n\
+                 [network]\nsystem = \"orphan\"\nlisten = [\"tcp/127.0.0.1:{port}\"]\n\
+                 connect = [\"tcp/127.0.0.1:{agent_port}\"]\n\n\
+                 [ros2]\nnode = \"radar_base\"\nrmw = \"dds\"\n\n{}",
+                radar_fixtures::plugins::MOTOR_RESPONSE,
+                ROUTES
+            ),
+        );
+        let report = drive_script(
+            python,
+            "agent_failsafe.py",
+            &[
+                "--radar",
+                env!("CARGO_BIN_EXE_radar"),
+                "--agent-port",
+                &agent_port.to_string(),
+                "--",
+                env!("CARGO_BIN_EXE_radar"),
+                "run",
+                &manifest,
+                "-q",
+                "--clock",
+                "real",
+                "--for",
+                "60s",
+                "--inject",
+                "3s:M.start",
+            ],
+        );
+        // The coordinator's backing away, then from the agent's node the
+        // fail-safe's message and the exit's stop.
+        assert_eq!(
+            report["twists"],
+            serde_json::json!([[-0.2, 0.0], [0.0, 1.0], [0.0, 0.0]]),
+            "{distro}: {report:#}"
+        );
+        let nodes = report["nodes_before"]
+            .as_array()
+            .cloned()
+            .unwrap_or_default();
+        assert!(
+            nodes.contains(&Json::from("/radar_base_base")),
+            "{distro}: the agent's node in the graph: {report:#}"
+        );
+        let said = report["agent_stderr"].as_str().unwrap_or_default();
+        assert!(
+            said.contains("published on /cmd_vel from the agent's own ROS 2 node"),
+            "{distro}: {said}"
+        );
+    });
+}
+
+/// An rclpy driver in `tests/clients/rclpy` (`script`, with `args`) run
+/// inside a private network namespace: its one JSON report.
+#[cfg(feature = "dds")]
+fn drive_script(python: &str, script: &str, args: &[&str]) -> Json {
+    use super::ros2_dds::{client, read_report, ROS_ENVIRONMENT};
+    let mut driver = Command::new(client("netns"));
+    for var in ROS_ENVIRONMENT {
+        driver.env_remove(var);
+    }
+    let driver = driver
+        .arg(python)
+        .arg(client(script))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the rclpy side starts");
+    read_report(script, driver)
 }

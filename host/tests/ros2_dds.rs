@@ -23,13 +23,13 @@ fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-fn client(name: &str) -> PathBuf {
+pub(super) fn client(name: &str) -> PathBuf {
     root().join("tests/clients/rclpy").join(name)
 }
 
 /// What a shell with ROS 2 sourced may set that would change a test's
 /// graph (its domain, discovery, middleware or DDS profile).
-const ROS_ENVIRONMENT: [&str; 8] = [
+pub(super) const ROS_ENVIRONMENT: [&str; 8] = [
     "ROS_DOMAIN_ID",
     "ROS_STATIC_PEERS",
     "ROS_AUTOMATIC_DISCOVERY_RANGE",
@@ -120,7 +120,7 @@ pub(super) fn drive_run(
     for var in ROS_ENVIRONMENT {
         driver.env_remove(var);
     }
-    let mut driver = driver
+    let driver = driver
         .arg(python)
         .arg(client(script))
         .args(["--timeout", "30"])
@@ -136,6 +136,13 @@ pub(super) fn drive_run(
         .stderr(Stdio::piped())
         .spawn()
         .expect("the rclpy side starts");
+    let report = read_report(script, driver);
+    assert_eq!(report["radar_exit"], 0, "{script}: {report:#}");
+    report
+}
+
+/// A driver's one line of report, once it has ended well.
+pub(super) fn read_report(script: &str, mut driver: std::process::Child) -> Json {
     // Its one line of report fits the pipe: read once it has ended.
     let mut pipe = driver.stdout.take().expect("stdout");
     let out = wait_within(&mut driver, Duration::from_secs(120));
@@ -146,9 +153,7 @@ pub(super) fn drive_run(
         "{script}: {stdout}\n{}",
         text(&out.stderr)
     );
-    let report: Json = serde_json::from_str(stdout.trim()).expect("one JSON report");
-    assert_eq!(report["radar_exit"], 0, "{script}: {report:#}");
-    report
+    serde_json::from_str(stdout.trim()).expect("one JSON report")
 }
 
 /// The obstacle example (docs/examples/ros2-obstacle) on DDS.
