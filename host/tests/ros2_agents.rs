@@ -3,8 +3,6 @@
 //! and a fail-safe route's fixed message, leave from the agent's node,
 //! next to the hardware, with no coordinator to send them.
 
-#[cfg(feature = "dds")]
-use std::process::Command;
 use std::process::Stdio;
 use std::time::Duration;
 
@@ -169,14 +167,8 @@ fn on_dds_a_killed_coordinators_agent_stops_an_rclpy_base_from_its_own_node() {
 /// inside a private network namespace: its one JSON report.
 #[cfg(feature = "dds")]
 fn drive_script(python: &str, script: &str, args: &[&str]) -> Json {
-    use super::ros2_dds::{client, read_report, ROS_ENVIRONMENT};
-    let mut driver = Command::new(client("netns"));
-    for var in ROS_ENVIRONMENT {
-        driver.env_remove(var);
-    }
-    let driver = driver
-        .arg(python)
-        .arg(client(script))
+    use super::ros2_dds::{netns_driver, read_report};
+    let driver = netns_driver(python, script)
         .args(args)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())

@@ -23,13 +23,13 @@ fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-pub(super) fn client(name: &str) -> PathBuf {
+fn client(name: &str) -> PathBuf {
     root().join("tests/clients/rclpy").join(name)
 }
 
 /// What a shell with ROS 2 sourced may set that would change a test's
 /// graph (its domain, discovery, middleware or DDS profile).
-pub(super) const ROS_ENVIRONMENT: [&str; 8] = [
+const ROS_ENVIRONMENT: [&str; 8] = [
     "ROS_DOMAIN_ID",
     "ROS_STATIC_PEERS",
     "ROS_AUTOMATIC_DISCOVERY_RANGE",
@@ -115,14 +115,7 @@ pub(super) fn drive_run(
     radar_args: &[&str],
     trace: &Path,
 ) -> Json {
-    let mut driver = Command::new(client("netns"));
-    // The caller's own ROS 2 settings stay out of the test's namespace.
-    for var in ROS_ENVIRONMENT {
-        driver.env_remove(var);
-    }
-    let driver = driver
-        .arg(python)
-        .arg(client(script))
+    let driver = netns_driver(python, script)
         .args(["--timeout", "30"])
         .args(args)
         .arg("--")
@@ -139,6 +132,18 @@ pub(super) fn drive_run(
     let report = read_report(script, driver);
     assert_eq!(report["radar_exit"], 0, "{script}: {report:#}");
     report
+}
+
+/// `python` running the rclpy driver `script` (in `tests/clients/rclpy`)
+/// inside a private network namespace, the caller's own ROS 2 settings
+/// kept out: its arguments to add.
+pub(super) fn netns_driver(python: &str, script: &str) -> Command {
+    let mut driver = Command::new(client("netns"));
+    for var in ROS_ENVIRONMENT {
+        driver.env_remove(var);
+    }
+    driver.arg(python).arg(client(script));
+    driver
 }
 
 /// A driver's one line of report, once it has ended well.

@@ -405,10 +405,9 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
             return;
         }
     };
-    // An activation runs on this instance (`start` was called, `exit` has
-    // not returned): kept by the link, which sends the fail-safe routes
-    // when it goes alone in the middle of one.
-    // The store died in a call that ended alone.
+    // Whether an activation runs on this instance is kept by the link
+    // (`activation`), which sends the fail-safe routes when it goes alone
+    // in the middle of one. The store died in a call that ended alone:
     let mut dead = false;
     let mut exit_began = None;
     loop {
