@@ -1,20 +1,103 @@
 //! `radar:reactive/config`: the values the system gives the plugin (a
 //! manifest's `config` table, the builder's `config` calls), as text.
+//!
+//! A plugin's values can change while it runs (a ROS 2 parameter set, a
+//! `configure` input: `docs/manifest.md#config`). The change must land at
+//! one place in the run, the same in a replay and with `--threads`, so an
+//! instance takes new values only when a call begins: the call reads the
+//! values as they were when it began, to its end.
 
 use std::collections::BTreeMap;
-use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
 
 use wasmtime::component::{HasSelf, Linker};
 
 use super::bindings::radar::reactive::config::{self, Host};
 use crate::script::SCRIPT_KEY;
 
-/// What config reaches: the plugin's values, shared by its instances, and
-/// for a development runtime its script ([`crate::script`]), read under
-/// [`SCRIPT_KEY`] but not listed by `keys`.
+/// A plugin's config values as they are now: one for the plugin, shared
+/// by each instance it makes (a swap's and a reset's too), changed by the
+/// scheduler when it applies a `configure` input.
+#[derive(Debug, Default)]
+pub(crate) struct LiveConfig {
+    /// Bumped by every change, so that a call sees one cheaply.
+    version: AtomicU64,
+    values: Mutex<Arc<BTreeMap<String, String>>>,
+}
+
+impl LiveConfig {
+    pub(crate) fn new(values: BTreeMap<String, String>) -> Self {
+        Self {
+            version: AtomicU64::new(0),
+            values: Mutex::new(Arc::new(values)),
+        }
+    }
+
+    /// The values now, and their version.
+    pub(crate) fn current(&self) -> (u64, Arc<BTreeMap<String, String>>) {
+        let values = self.values.lock().unwrap_or_else(PoisonError::into_inner);
+        (self.version.load(Ordering::Acquire), values.clone())
+    }
+
+    /// The version now: compared with the one a reader last took.
+    pub(crate) fn version(&self) -> u64 {
+        self.version.load(Ordering::Acquire)
+    }
+
+    /// Sets `key` to `value`.
+    pub(crate) fn set(&self, key: &str, value: &str) {
+        let mut values = self.values.lock().unwrap_or_else(PoisonError::into_inner);
+        Arc::make_mut(&mut values).insert(key.to_string(), value.to_string());
+        self.version.fetch_add(1, Ordering::AcqRel);
+    }
+
+    /// Replaces every value (an agent told of a change by its coordinator).
+    pub(crate) fn replace(&self, new: BTreeMap<String, String>) {
+        let mut values = self.values.lock().unwrap_or_else(PoisonError::into_inner);
+        *values = Arc::new(new);
+        self.version.fetch_add(1, Ordering::AcqRel);
+    }
+}
+
+/// What config reaches: the plugin's values as its current call began
+/// (taken from its [`LiveConfig`], if it has one), and for a development
+/// runtime its script ([`crate::script`]), read under [`SCRIPT_KEY`] but
+/// not listed by `keys`.
 pub(crate) struct ConfigState {
-    pub values: Arc<BTreeMap<String, String>>,
-    pub script: Option<Arc<str>>,
+    values: Arc<BTreeMap<String, String>>,
+    live: Option<(Arc<LiveConfig>, u64)>,
+    script: Option<Arc<str>>,
+}
+
+impl ConfigState {
+    /// Values that never change (a deliberative program's).
+    pub(crate) fn fixed(values: Arc<BTreeMap<String, String>>, script: Option<Arc<str>>) -> Self {
+        Self {
+            values,
+            live: None,
+            script,
+        }
+    }
+
+    /// A plugin's values, as `live` has them now and after each change.
+    pub(crate) fn live(live: Arc<LiveConfig>, script: Option<Arc<str>>) -> Self {
+        let (version, values) = live.current();
+        Self {
+            values,
+            live: Some((live, version)),
+            script,
+        }
+    }
+
+    /// A call begins: the values it reads are the live ones now.
+    pub(crate) fn begin_call(&mut self) {
+        if let Some((live, seen)) = &mut self.live {
+            if live.version() != *seen {
+                (*seen, self.values) = live.current();
+            }
+        }
+    }
 }
 
 /// Config's view of a store's state.
@@ -37,5 +120,27 @@ impl Host for ConfigState {
 
     fn keys(&mut self) -> Vec<String> {
         self.values.keys().cloned().collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_change_reaches_a_store_when_its_next_call_begins() {
+        let live = Arc::new(LiveConfig::new(BTreeMap::from([(
+            "threshold".to_string(),
+            "0.5".to_string(),
+        )])));
+        let mut state = ConfigState::live(live.clone(), None);
+        assert_eq!(state.get("threshold".into()).as_deref(), Some("0.5"));
+        live.set("threshold", "0.3");
+        live.set("mode", "careful");
+        // The call under way keeps what it began with.
+        assert_eq!(state.get("threshold".into()).as_deref(), Some("0.5"));
+        state.begin_call();
+        assert_eq!(state.get("threshold".into()).as_deref(), Some("0.3"));
+        assert_eq!(state.keys(), ["mode", "threshold"]);
     }
 }

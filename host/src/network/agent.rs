@@ -23,6 +23,7 @@ use super::keys;
 use super::link::{logs, Link, Outbox, Published};
 use super::protocol::split;
 use super::ros2::outlets::{AgentNodes, Outlets};
+use crate::capability::config::LiveConfig;
 use crate::capability::running;
 use crate::clock::{ClockKind, StopFlag, TimeBase};
 use crate::limiter::MemoryBudget;
@@ -318,6 +319,7 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
         return;
     };
     let name: Arc<str> = Arc::from(plugin_name.as_str());
+    let config = Arc::new(LiveConfig::new(config));
     let base = TimeBase::with_fuel_time(ClockKind::Virtual, fuel_per_second);
     base.advance_to(now);
     let stop = Arc::new(StopFlag::default());
@@ -347,7 +349,7 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
         name: name.clone(),
         base: base.clone(),
         stop: stop.clone(),
-        config: Arc::new(config),
+        config: config.clone(),
         limits,
         seed,
         wasi: Arc::default(),
@@ -425,6 +427,7 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
             now,
             stop: code,
             fault,
+            config: changed,
             ..
         } = message
         else {
@@ -434,6 +437,9 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
             continue;
         };
         link.sync(now);
+        if let Some(values) = changed {
+            config.replace(values);
+        }
         mirror_stop(&stop, code, fault);
         base.fire_due(now);
         let Some(export) = Export::named(&export) else {

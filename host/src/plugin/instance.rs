@@ -3,7 +3,6 @@
 //! under the plugin's limits. A trap poisons a store for good, so `reset`
 //! and a swap build a new one.
 
-use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::sync::Arc;
 
@@ -18,7 +17,7 @@ use super::limits::Limits;
 use super::remote::{Opening, Remote, RemoteInstance};
 use super::store::PluginCtx;
 use crate::capability::clock::{ClockState, ClockView};
-use crate::capability::config::ConfigState;
+use crate::capability::config::{ConfigState, LiveConfig};
 use crate::capability::emitter::{Emitter, EmitterView};
 use crate::capability::logging::{LogState, LogView};
 use crate::capability::stderr::StderrTail;
@@ -50,7 +49,8 @@ pub(crate) struct InstanceSetup {
     pub name: Arc<str>,
     pub base: TimeBase,
     pub stop: Arc<StopFlag>,
-    pub config: Arc<BTreeMap<String, String>>,
+    /// Its config values, as they are now (see [`LiveConfig`]).
+    pub config: Arc<LiveConfig>,
     pub limits: Limits,
     pub seed: u64,
     /// What of the host WASI shows the plugin (nothing by default).
@@ -128,7 +128,7 @@ impl PluginCode {
                         base: setup.base.clone(),
                         stop: setup.stop.clone(),
                         watch: setup.watch.clone(),
-                        config: (*setup.config).clone(),
+                        config: setup.config.clone(),
                         limits: setup.limits.clone(),
                         seed: setup.seed,
                         fuel_rate: setup.fuel_rate,
@@ -186,10 +186,7 @@ impl PluginCode {
                 setup.base.clone(),
                 setup.limits.log_bytes,
             ),
-            config: ConfigState {
-                values: setup.config,
-                script: self.script.clone(),
-            },
+            config: ConfigState::live(setup.config, self.script.clone()),
             emitter: Emitter::new(
                 setup.name.clone(),
                 setup.limits.payload_bytes,
@@ -297,6 +294,7 @@ impl LocalInstance {
             let data = self.store.data_mut();
             data.clock_mut().fuel_mark = self.fuel_per_call;
             data.log().begin_call();
+            data.config.begin_call();
             let now = data.clock().base.now();
             data.watch.begin(export, now);
             now

@@ -24,6 +24,7 @@ use wasmtime::component::Val;
 use super::call::{Export, Fault};
 use super::code::PluginCode;
 use super::limits::Limits;
+use crate::capability::config::LiveConfig;
 use crate::capability::running::running;
 use crate::clock::{StopFlag, StopReason, TimeBase, YieldNow};
 use crate::ports::SignalName;
@@ -116,6 +117,10 @@ pub(crate) enum ToAgent {
         now: u64,
         stop: Option<u8>,
         fault: Option<String>,
+        /// The plugin's config values, when they changed since this
+        /// instance's last call (`crate::capability::config`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        config: Option<BTreeMap<String, String>>,
     },
     /// The wait the call asked for is over: the time now, and any stop
     /// request or fault.
@@ -420,7 +425,7 @@ pub(crate) struct Opening {
     pub base: TimeBase,
     pub stop: Arc<StopFlag>,
     pub watch: Arc<crate::watchdog::RunWatch>,
-    pub config: BTreeMap<String, String>,
+    pub config: Arc<LiveConfig>,
     pub limits: Limits,
     pub seed: u64,
     /// Fuel as time: the plugin's own rate, if it has one.
@@ -439,6 +444,9 @@ pub(crate) struct RemoteInstance {
     stop: Arc<StopFlag>,
     watch: Arc<crate::watchdog::RunWatch>,
     has: [bool; 6],
+    /// The plugin's config, and the version the agent last had.
+    config: Arc<LiveConfig>,
+    config_seen: u64,
 }
 
 impl RemoteInstance {
@@ -453,6 +461,7 @@ impl RemoteInstance {
         // Unguessable: a message for a route that was not opened is dropped.
         let route = format!("{}#{number}-{}", setup.name, nonce());
         remote.link.open(&remote.node, &route);
+        let (config_seen, config) = setup.config.current();
         let this = Self {
             system: remote.system.clone(),
             watch: setup.watch.clone(),
@@ -462,6 +471,8 @@ impl RemoteInstance {
             stop: setup.stop.clone(),
             has: code.exported(),
             remote,
+            config: setup.config,
+            config_seen,
         };
         let message = ToAgent::Instantiate {
             system: this.system.clone(),
@@ -469,7 +480,7 @@ impl RemoteInstance {
             name: this.plugin.to_string(),
             version: code.component_version.to_string(),
             script: code.script.as_deref().map(str::to_string),
-            config: setup.config,
+            config: (*config).clone(),
             limits: setup.limits,
             seed: setup.seed,
             fuel_per_second: setup
@@ -554,6 +565,12 @@ impl RemoteInstance {
             .map(WireVal::from_val)
             .collect::<Result<Vec<_>, _>>()
             .map_err(Fault::new)?;
+        // Taken as the call begins, as a local store takes it.
+        let config = (self.config.version() != self.config_seen).then(|| {
+            let (seen, values) = self.config.current();
+            self.config_seen = seen;
+            (*values).clone()
+        });
         self.send(
             &ToAgent::Call {
                 system: self.system.clone(),
@@ -564,6 +581,7 @@ impl RemoteInstance {
                 now: self.base.now(),
                 stop: stop_code(&self.stop),
                 fault: None,
+                config,
             },
             &[],
         )?;

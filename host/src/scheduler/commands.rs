@@ -112,6 +112,14 @@ pub(crate) enum Command {
         call: u64,
         answer: crate::plugin::Answer,
     },
+    /// A plugin's config value set from outside: recorded.
+    Configure {
+        plugin: String,
+        key: String,
+        value: String,
+        from: String,
+        reply: Sender<Result<(), RadarError>>,
+    },
     /// A command from outside was refused: recorded.
     Refused {
         command: String,
@@ -251,6 +259,7 @@ impl Command {
                 | Command::Disconnect { external: true, .. }
                 | Command::Reset { external: true, .. }
                 | Command::Refused { .. }
+                | Command::Configure { .. }
                 | Command::Node { .. }
                 | Command::ExitsReported { .. }
                 | Command::Answer { .. }

@@ -80,6 +80,15 @@ impl Scheduler {
                 from,
                 reason,
             } => core.with(|st| st.refused(command, from, reason)),
+            Command::Configure {
+                plugin,
+                key,
+                value,
+                from,
+                reply,
+            } => {
+                let _ = reply.send(core.with(|st| st.configure(&plugin, key, value, from)));
+            }
             Command::Inject {
                 to,
                 payload,

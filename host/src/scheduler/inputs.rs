@@ -96,6 +96,13 @@ pub(crate) enum StaticWhat {
         call: u64,
         answer: crate::plugin::Answer,
     },
+    /// A plugin's config value set.
+    Configure {
+        plugin: String,
+        key: String,
+        value: String,
+        from: String,
+    },
     /// A refused command's record.
     Refused {
         command: String,
@@ -216,6 +223,10 @@ impl State {
                         policy,
                     }
                 }
+                StaticWhat::Configure { ref plugin, .. } => {
+                    self.plugin(plugin)?;
+                    Action::Outside(what)
+                }
                 other => Action::Outside(other),
             };
             match (place.filter(|_| placeable), action) {
@@ -306,6 +317,14 @@ impl State {
                 from,
                 reason,
             }) => self.refused(command, from, reason),
+            Action::Outside(StaticWhat::Configure {
+                plugin,
+                key,
+                value,
+                from,
+            }) => {
+                let _ = self.configure(&plugin, key, value, from);
+            }
             Action::Outside(_) => {}
         }
     }

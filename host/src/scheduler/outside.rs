@@ -60,6 +60,36 @@ impl State {
         });
     }
 
+    /// Sets plugin `plugin`'s config value `key` (recorded as an input,
+    /// and as `configured`): each of its instances reads it from its next
+    /// call on, a call under way keeps what it began with
+    /// (`crate::capability::config`).
+    pub(super) fn configure(
+        &mut self,
+        plugin: &str,
+        key: String,
+        value: String,
+        from: String,
+    ) -> Result<(), RadarError> {
+        let pid = self.plugin(plugin)?;
+        self.record_input(Input::Configure {
+            plugin: plugin.to_string(),
+            key: key.clone(),
+            value: value.clone(),
+            from: from.clone(),
+        });
+        let entry = &self.plugins[pid];
+        entry.def.config.set(&key, &value);
+        let plugin = entry.name.clone();
+        self.record(Entry::Configured {
+            plugin,
+            key,
+            value,
+            from,
+        });
+        Ok(())
+    }
+
     /// Agent `node` is lost: its plugins fault (`node-lost`), an
     /// activation in progress as soon as its call next waits, an event at
     /// its next check, an idle response now; the starts they had accepted

@@ -117,7 +117,7 @@ pub(crate) struct Winding {
 pub(crate) struct PluginDef {
     pub name: String,
     pub code: Rc<PluginCode>,
-    pub config: Arc<BTreeMap<String, String>>,
+    pub config: Arc<crate::capability::config::LiveConfig>,
     pub limits: Limits,
     /// An event's check period (`docs/semantics.md`), in nanoseconds.
     pub period: u64,
@@ -466,6 +466,7 @@ impl State {
                 | Input::Disconnect { .. }
                 | Input::Reset { .. }
                 | Input::Refused { .. }
+                | Input::Configure { .. }
                 | Input::NodeLost { .. }
                 | Input::NodeBack { .. }
                 | Input::Stop { .. }

@@ -604,7 +604,7 @@ impl SystemBuilder {
             };
             defs.push(PluginDef {
                 code: Rc::new(code),
-                config: Arc::new(p.config),
+                config: Arc::new(crate::capability::config::LiveConfig::new(p.config)),
                 limits: p.limits.unwrap_or_else(|| self.limits.clone()),
                 period: duration_nanos(p.period.unwrap_or(self.period)),
                 grants: Arc::new(p.grants),

@@ -373,10 +373,7 @@ pub(crate) fn run(
         kept: false,
         stopped: None,
         log: LogState::new(name, base, usize::MAX),
-        config: ConfigState {
-            values: code.config.clone(),
-            script: code.script.clone(),
-        },
+        config: ConfigState::fixed(code.config.clone(), code.script.clone()),
         table: ResourceTable::new(),
         wasi,
         limits: StoreLimiter::new(growth, budget),

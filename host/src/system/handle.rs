@@ -250,6 +250,32 @@ impl Radar {
             .map_err(|_| RadarError::Stopped)
     }
 
+    /// Sets plugin `plugin`'s config value `key` to `value` while the
+    /// system runs (a ROS 2 parameter set, `docs/manifest.md#config`):
+    /// recorded as an outside input and a `configured` record, `from`
+    /// saying who set it. Each instance of the plugin reads the new value
+    /// from its next call on; a call under way keeps the value it began
+    /// with.
+    pub fn configure(
+        &self,
+        plugin: &str,
+        key: &str,
+        value: impl Into<String>,
+        from: impl Into<String>,
+    ) -> Result<(), RadarError> {
+        let (reply, answer) = crossbeam_channel::bounded(1);
+        self.tx
+            .send(Command::Configure {
+                plugin: plugin.to_string(),
+                key: key.to_string(),
+                value: value.into(),
+                from: from.into(),
+                reply,
+            })
+            .map_err(|_| RadarError::Stopped)?;
+        answer.recv().map_err(|_| RadarError::Stopped)?
+    }
+
     /// Records that a command from outside the process was refused, and
     /// why (a `refused` record, kept by `--record`).
     pub fn refused(

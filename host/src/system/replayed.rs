@@ -84,6 +84,17 @@ pub(super) fn static_what(input: &Input) -> Option<StaticWhat> {
             from: from.clone(),
             reason: reason.clone(),
         },
+        Input::Configure {
+            plugin,
+            key,
+            value,
+            from,
+        } => StaticWhat::Configure {
+            plugin: plugin.clone(),
+            key: key.clone(),
+            value: value.clone(),
+            from: from.clone(),
+        },
         Input::Recording { .. } | Input::Plugin { .. } | Input::End { .. } => return None,
     };
     Some(what)

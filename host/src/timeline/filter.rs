@@ -92,7 +92,8 @@ impl Filter {
             | Entry::SwapRefused { plugin, .. }
             | Entry::SwapRolledBack { plugin, .. }
             | Entry::State { plugin, .. }
-            | Entry::SlotEnd { plugin, .. } => vec![plugin.to_string()],
+            | Entry::SlotEnd { plugin, .. }
+            | Entry::Configured { plugin, .. } => vec![plugin.to_string()],
             Entry::SlotBegin { plugin, slot, .. } => {
                 vec![plugin.to_string(), format!("{plugin}.{slot}")]
             }

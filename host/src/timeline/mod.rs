@@ -367,6 +367,15 @@ impl<W: Write + Send> Timeline<W> {
                 from,
                 reason,
             } => format!("REFUSED {command} from {from}: {reason}"),
+            Entry::Configured {
+                plugin,
+                key,
+                value,
+                from,
+            } => match from.as_str() {
+                "" => format!("CONFIG {plugin}.{key} = {value}"),
+                from => format!("CONFIG {plugin}.{key} = {value} (from {from})"),
+            },
             Entry::ProgramEnd { outcome, error } => match error {
                 Some(error) => format!("deliberative program ended: {outcome}: {error}"),
                 None => format!("deliberative program ended: {outcome}"),

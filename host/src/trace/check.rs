@@ -514,6 +514,7 @@ impl Checker {
             | Entry::ProgramEnd { .. }
             | Entry::Stopped { .. }
             | Entry::Refused { .. }
+            | Entry::Configured { .. }
             | Entry::SwapRequest { .. }
             | Entry::SwapRefused { .. }
             | Entry::SwapRolledBack { .. } => {}

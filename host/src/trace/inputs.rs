@@ -139,6 +139,19 @@ pub enum Input {
         /// The plugin.
         plugin: String,
     },
+    /// A plugin's config value set while the system runs (a ROS 2
+    /// parameter set, `Radar::configure`): its `configured` record.
+    Configure {
+        /// The plugin.
+        plugin: String,
+        /// The config key.
+        key: String,
+        /// The new value, as the plugin reads it (text).
+        value: String,
+        /// Who set it.
+        #[serde(default, skip_serializing_if = "String::is_empty")]
+        from: String,
+    },
     /// A command from outside the run that was refused (its `refused`
     /// record).
     Refused {

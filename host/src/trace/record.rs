@@ -190,6 +190,16 @@ pub enum Entry {
         from: String,
         reason: String,
     },
+    /// A plugin's config value was set while the system ran (a ROS 2
+    /// parameter set, `Radar::configure`): its calls from now on read
+    /// `value` under `key`; `from` says who set it.
+    Configured {
+        plugin: Arc<str>,
+        key: String,
+        value: String,
+        #[serde(default, skip_serializing_if = "String::is_empty")]
+        from: String,
+    },
     /// Deliberative code finished: `outcome` is `ok`, `error` (with the
     /// error) or `panicked`.
     ProgramEnd {
@@ -232,6 +242,9 @@ impl Record {
                 from,
                 reason,
             } => command.len() + from.len() + reason.len(),
+            Entry::Configured {
+                key, value, from, ..
+            } => key.len() + value.len() + from.len(),
             Entry::SwapRefused { reason, .. } | Entry::SwapRolledBack { reason, .. } => {
                 reason.len()
             }

@@ -357,6 +357,12 @@ fn schema(kind: &str) -> String {
         "deliver" => &[("id", integer), ("to", string), ("queued", integer)],
         "dropped" => &[("id", integer), ("to", string), ("reason", string)],
         "refused" => &[("command", string), ("from", string), ("reason", string)],
+        "configured" => &[
+            ("plugin", string),
+            ("key", string),
+            ("value", string),
+            ("from", string),
+        ],
         _ => &[("plugin", string)],
     };
     let properties: Vec<String> = [("t", integer), ("kind", string)]

@@ -5,14 +5,17 @@
 //! rcl_interfaces' six parameter services, on either middleware, so `ros2
 //! param list`, `ros2 param get` and rclpy's parameter client see them.
 //!
-//! They are read-only: a plugin reads its config while it runs, so a value
-//! changed under it would change the run in a way no record could place.
-//! A set is answered unsuccessful with the reason, and recorded as a
-//! `refused` outside input, so the trace says who tried.
+//! A set (`ros2 param set`, rclpy's `set_parameters`) changes the
+//! plugin's config value while it runs: it is an outside input, recorded
+//! as `configured`, and the plugin's calls read the new value from their
+//! next one on (`Radar::configure`). As rclpy does by default, a set keeps
+//! a parameter's type; one that cannot be made (a name that is not a
+//! parameter, another type, `use_sim_time`) is answered unsuccessful with
+//! the reason and recorded as `refused`, so the trace says who tried.
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
@@ -42,14 +45,25 @@ const INTEGER_ARRAY: u8 = 7;
 const DOUBLE_ARRAY: u8 = 8;
 const STRING_ARRAY: u8 = 9;
 
-/// Why a set is refused.
-const READ_ONLY: &str = "Radar's parameters are its plugins' config values, read-only while \
-                         the system runs: set them in radar.toml";
+/// The parameter that is not a plugin's config value.
+const USE_SIM_TIME: &str = "use_sim_time";
 
 /// The node's parameters: by name, each one's type and its
-/// `ParameterValue` as JSON.
+/// `ParameterValue` as JSON, as the last set left them.
 pub(crate) struct Parameters {
-    values: BTreeMap<String, (u8, Json)>,
+    values: Mutex<BTreeMap<String, (u8, Json)>>,
+}
+
+/// A set of one parameter that can be made: the plugin, its config key,
+/// the value as the plugin reads it (text, as `radar.toml` would give
+/// it), and the parameter's new `ParameterValue`.
+#[derive(Debug, PartialEq)]
+pub(super) struct Change {
+    pub(super) name: String,
+    pub(super) plugin: String,
+    pub(super) key: String,
+    pub(super) text: String,
+    pub(super) value: Json,
 }
 
 /// One of the six parameter services.
@@ -114,7 +128,7 @@ impl Parameters {
     ) -> Self {
         let mut values = BTreeMap::new();
         values.insert(
-            "use_sim_time".to_string(),
+            USE_SIM_TIME.to_string(),
             (BOOL, value(BOOL, json!(use_sim_time))),
         );
         for (plugin, table) in config {
@@ -123,24 +137,77 @@ impl Parameters {
                 values.insert(format!("{plugin}.{key}"), (ty, value(ty, v)));
             }
         }
-        Self { values }
+        Self {
+            values: Mutex::new(values),
+        }
     }
 
-    /// The answer to `call`'s `request` (both as JSON), and for a set, what
-    /// it tried (`ros2 param set NAME = VALUE, ...`), to be recorded as
-    /// refused.
-    pub(super) fn answer(&self, call: Call, request: &Json) -> (Json, Option<String>) {
+    fn values(&self) -> MutexGuard<'_, BTreeMap<String, (u8, Json)>> {
+        self.values.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// What setting `parameter` (a `Parameter` as JSON) would do: the
+    /// change, or why it cannot be made.
+    pub(super) fn change(&self, parameter: &Json) -> Result<Change, String> {
+        let name = parameter["name"].as_str().unwrap_or_default();
+        if name == USE_SIM_TIME {
+            return Err(
+                "use_sim_time is fixed when the run starts: set it in radar.toml \
+                        ([ros2] use_sim_time)"
+                    .to_string(),
+            );
+        }
+        let values = self.values();
+        let Some((declared, _)) = values.get(name) else {
+            return Err(format!(
+                "`{name}` is not a parameter of this node: its parameters are its plugins' \
+                 config values, `<Plugin>.<key>` as radar.toml gives them"
+            ));
+        };
+        let (plugin, key) = name.split_once('.').unwrap_or((name, ""));
+        let ty = parameter["value"]["type"].as_u64().unwrap_or(0) as u8;
+        if ty != *declared {
+            return Err(format!(
+                "`{name}` is of type {}: setting it to {} is not allowed (Radar's parameters \
+                 keep their type, as rclpy's do by default)",
+                type_name(*declared),
+                type_name(ty)
+            ));
+        }
+        let field = field_of(ty).map_or(&Json::Null, |f| &parameter["value"][f]);
+        let text =
+            config_text(field).ok_or_else(|| format!("`{name}` cannot take the value {field}"))?;
+        Ok(Change {
+            name: name.to_string(),
+            plugin: plugin.to_string(),
+            key: key.to_string(),
+            text,
+            value: value(ty, field.clone()),
+        })
+    }
+
+    /// A change made: `get_parameters` answers its value from now on.
+    pub(super) fn changed(&self, change: &Change) {
+        if let Some((_, value)) = self.values().get_mut(&change.name) {
+            *value = change.value.clone();
+        }
+    }
+
+    /// The answer to a call that reads (`request` and answer as JSON); a
+    /// set is answered by [`set`].
+    pub(super) fn answer(&self, call: Call, request: &Json) -> Json {
         let names = || -> Vec<&str> {
             request["names"]
                 .as_array()
                 .map(|n| n.iter().filter_map(Json::as_str).collect())
                 .unwrap_or_default()
         };
+        let values = self.values();
         // As rclpy answers: nothing at all if any name is not a parameter.
         let known = || -> Vec<(&str, &(u8, Json))> {
             let found: Option<Vec<_>> = names()
                 .into_iter()
-                .map(|n| self.values.get(n).map(|v| (n, v)))
+                .map(|n| values.get(n).map(|v| (n, v)))
                 .collect();
             found.unwrap_or_default()
         };
@@ -151,69 +218,169 @@ impl Parameters {
                     .map(|p| p.iter().filter_map(Json::as_str).collect())
                     .unwrap_or_default();
                 let depth = request["depth"].as_u64().unwrap_or(0);
-                (json!({ "result": self.list(&prefixes, depth) }), None)
+                json!({ "result": list(&values, &prefixes, depth) })
             }
             Call::Get => {
                 let values: Vec<&Json> = known().into_iter().map(|(_, v)| &v.1).collect();
-                (json!({ "values": values }), None)
+                json!({ "values": values })
             }
             Call::GetTypes => {
                 let types: Vec<u8> = known().into_iter().map(|(_, v)| v.0).collect();
-                (json!({ "types": types }), None)
+                json!({ "types": types })
             }
             Call::Describe => {
                 let descriptors: Vec<Json> = known()
                     .into_iter()
                     .map(|(name, v)| describe(name, v.0))
                     .collect();
-                (json!({ "descriptors": descriptors }), None)
+                json!({ "descriptors": descriptors })
             }
-            Call::Set | Call::SetAtomically => {
-                let tried: Vec<String> = request["parameters"]
-                    .as_array()
-                    .map(|ps| ps.iter().map(shown).collect())
-                    .unwrap_or_default();
-                let refused = json!({ "successful": false, "reason": READ_ONLY });
-                let (reply, how) = if call == Call::Set {
-                    let results = vec![refused; tried.len()];
-                    (json!({ "results": results }), "ros2 param set")
-                } else {
-                    (json!({ "result": refused }), "ros2 param set (atomically)")
-                };
-                let said = (!tried.is_empty()).then(|| format!("{how} {}", tried.join(", ")));
-                (reply, said)
-            }
+            Call::Set | Call::SetAtomically => json!({}),
         }
     }
+}
 
-    /// `ListParameters` as rclpy answers it: the names under each prefix
-    /// (all of them with none), at most `depth` levels deep (0: all), and
-    /// the prefixes of those found.
-    fn list(&self, prefixes: &[&str], depth: u64) -> Json {
-        let deep_enough = |rest: &str| depth == 0 || (rest.matches('.').count() as u64) < depth;
-        let names: Vec<&str> = self
-            .values
-            .keys()
-            .map(String::as_str)
-            .filter(|name| {
-                if prefixes.is_empty() {
-                    return deep_enough(name);
+/// What a set does to the running system: a [`Change`] made (the plugin's
+/// config value set, recorded), or a set refused (recorded).
+pub(super) trait Setter {
+    /// Makes `change`; an error says why it could not be.
+    fn configure(&self, change: &Change) -> Result<(), String>;
+    /// Records that `command` was refused, and why.
+    fn refused(&self, command: String, reason: &str);
+}
+
+/// The answer to a set (`Call::Set`: each parameter on its own;
+/// `Call::SetAtomically`: all or none), made through `setter`.
+pub(super) fn set(
+    parameters: &Parameters,
+    call: Call,
+    request: &Json,
+    setter: &dyn Setter,
+) -> Json {
+    let tried: Vec<&Json> = request["parameters"]
+        .as_array()
+        .map(|ps| ps.iter().collect())
+        .unwrap_or_default();
+    let outcome = |result: Result<(), String>| match result {
+        Ok(()) => json!({ "successful": true, "reason": "" }),
+        Err(reason) => json!({ "successful": false, "reason": reason }),
+    };
+    let make = |change: Result<Change, String>| -> Result<(), String> {
+        let change = change?;
+        setter.configure(&change)?;
+        parameters.changed(&change);
+        Ok(())
+    };
+    if call == Call::Set {
+        let results: Vec<Json> = tried
+            .iter()
+            .map(|parameter| {
+                let result = make(parameters.change(parameter));
+                if let Err(reason) = &result {
+                    setter.refused(format!("ros2 param set {}", shown(parameter)), reason);
                 }
-                prefixes.iter().any(|prefix| {
-                    *name == *prefix
-                        || name
-                            .strip_prefix(prefix)
-                            .and_then(|r| r.strip_prefix('.'))
-                            .is_some_and(deep_enough)
-                })
+                outcome(result)
             })
             .collect();
-        let found: std::collections::BTreeSet<&str> = names
-            .iter()
-            .filter_map(|n| n.rsplit_once('.').map(|(p, _)| p))
-            .collect();
-        json!({ "names": names, "prefixes": found })
+        return json!({ "results": results });
     }
+    let changes: Result<Vec<Change>, String> = tried.iter().map(|p| parameters.change(p)).collect();
+    let result = match changes {
+        Ok(changes) => changes.into_iter().try_for_each(|c| make(Ok(c))),
+        Err(reason) => {
+            let all: Vec<String> = tried.iter().map(|p| shown(p)).collect();
+            let reason = format!("{reason}; none of the set was made");
+            setter.refused(
+                format!("ros2 param set (atomically) {}", all.join(", ")),
+                &reason,
+            );
+            Err(reason)
+        }
+    };
+    json!({ "result": outcome(result) })
+}
+
+/// The name of parameter type `ty`, as `ros2 param` says it.
+fn type_name(ty: u8) -> &'static str {
+    match ty {
+        BOOL => "bool",
+        INTEGER => "integer",
+        DOUBLE => "double",
+        STRING => "string",
+        BYTE_ARRAY => "byte array",
+        BOOL_ARRAY => "bool array",
+        INTEGER_ARRAY => "integer array",
+        DOUBLE_ARRAY => "double array",
+        STRING_ARRAY => "string array",
+        _ => "not set",
+    }
+}
+
+/// The field of a `ParameterValue` that holds a value of type `ty`.
+fn field_of(ty: u8) -> Option<&'static str> {
+    Some(match ty {
+        BOOL => "bool-value",
+        INTEGER => "integer-value",
+        DOUBLE => "double-value",
+        STRING => "string-value",
+        BYTE_ARRAY => "byte-array-value",
+        BOOL_ARRAY => "bool-array-value",
+        INTEGER_ARRAY => "integer-array-value",
+        DOUBLE_ARRAY => "double-array-value",
+        STRING_ARRAY => "string-array-value",
+        _ => return None,
+    })
+}
+
+/// A parameter's value as a plugin reads it: as `radar.toml` would give
+/// it (text as is, the rest written as TOML writes it).
+fn config_text(value: &Json) -> Option<String> {
+    fn toml_of(value: &Json) -> Option<toml::Value> {
+        Some(match value {
+            Json::Bool(b) => toml::Value::Boolean(*b),
+            Json::Number(n) => match n.as_i64() {
+                Some(i) => toml::Value::Integer(i),
+                None => toml::Value::Float(n.as_f64()?),
+            },
+            Json::String(s) => toml::Value::String(s.clone()),
+            Json::Array(items) => {
+                toml::Value::Array(items.iter().map(toml_of).collect::<Option<Vec<_>>>()?)
+            }
+            Json::Null | Json::Object(_) => return None,
+        })
+    }
+    match value {
+        Json::String(s) => Some(s.clone()),
+        other => toml_of(other).map(|v| v.to_string()),
+    }
+}
+
+/// `ListParameters` as rclpy answers it: the names under each prefix (all
+/// of them with none), at most `depth` levels deep (0: all), and the
+/// prefixes of those found.
+fn list(values: &BTreeMap<String, (u8, Json)>, prefixes: &[&str], depth: u64) -> Json {
+    let deep_enough = |rest: &str| depth == 0 || (rest.matches('.').count() as u64) < depth;
+    let names: Vec<&str> = values
+        .keys()
+        .map(String::as_str)
+        .filter(|name| {
+            if prefixes.is_empty() {
+                return deep_enough(name);
+            }
+            prefixes.iter().any(|prefix| {
+                *name == *prefix
+                    || name
+                        .strip_prefix(prefix)
+                        .and_then(|r| r.strip_prefix('.'))
+                        .is_some_and(deep_enough)
+            })
+        })
+        .collect();
+    let found: std::collections::BTreeSet<&str> = names
+        .iter()
+        .filter_map(|n| n.rsplit_once('.').map(|(p, _)| p))
+        .collect();
+    json!({ "names": names, "prefixes": found })
 }
 
 /// A `ParameterValue` of type `ty` holding `v`, in the JSON form of
@@ -231,18 +398,9 @@ fn value(ty: u8, v: Json) -> Json {
         "double-array-value": [],
         "string-array-value": [],
     });
-    let field = match ty {
-        BOOL => "bool-value",
-        INTEGER => "integer-value",
-        DOUBLE => "double-value",
-        STRING => "string-value",
-        BOOL_ARRAY => "bool-array-value",
-        INTEGER_ARRAY => "integer-array-value",
-        DOUBLE_ARRAY => "double-array-value",
-        STRING_ARRAY => "string-array-value",
-        _ => return value,
-    };
-    value[field] = v;
+    if let Some(field) = field_of(ty) {
+        value[field] = v;
+    }
     value
 }
 
@@ -282,18 +440,25 @@ fn typed(v: &toml::Value) -> (u8, Json) {
     }
 }
 
-/// A read-only parameter's `ParameterDescriptor`.
+/// A parameter's `ParameterDescriptor`: a plugin's config value can be
+/// set (keeping its type), `use_sim_time` cannot.
 fn describe(name: &str, ty: u8) -> Json {
-    let description = match name.split_once('.') {
-        Some((plugin, key)) => format!("config value `{key}` of plugin `{plugin}` (radar.toml)"),
-        None => "whether the run follows /clock ([ros2] use_sim_time)".to_string(),
+    let (description, read_only) = match name.split_once('.') {
+        Some((plugin, key)) => (
+            format!("config value `{key}` of plugin `{plugin}` (radar.toml)"),
+            false,
+        ),
+        None => (
+            "whether the run follows /clock ([ros2] use_sim_time)".to_string(),
+            true,
+        ),
     };
     json!({
         "name": name,
         "type": ty,
         "description": description,
         "additional-constraints": "",
-        "read-only": true,
+        "read-only": read_only,
         "dynamic-typing": false,
         "floating-point-range": [],
         "integer-range": [],
@@ -304,24 +469,34 @@ fn describe(name: &str, ty: u8) -> Json {
 fn shown(parameter: &Json) -> String {
     let name = parameter["name"].as_str().unwrap_or("?");
     let v = &parameter["value"];
-    let field = match v["type"].as_u64().map(|t| t as u8) {
-        Some(BOOL) => "bool-value",
-        Some(INTEGER) => "integer-value",
-        Some(DOUBLE) => "double-value",
-        Some(STRING) => "string-value",
-        Some(BYTE_ARRAY) => "byte-array-value",
-        Some(BOOL_ARRAY) => "bool-array-value",
-        Some(INTEGER_ARRAY) => "integer-array-value",
-        Some(DOUBLE_ARRAY) => "double-array-value",
-        Some(STRING_ARRAY) => "string-array-value",
-        _ => return format!("{name} (unset)"),
-    };
-    format!("{name} = {}", v[field])
+    match field_of(v["type"].as_u64().unwrap_or(0) as u8) {
+        Some(field) => format!("{name} = {}", v[field]),
+        None => format!("{name} (unset)"),
+    }
 }
 
-/// The services' thread: each request answered as it comes, a set
-/// recorded as refused (`from`: who the middleware says sent it), until
-/// `stop`.
+/// A set made on the running system: as an outside input from `from`
+/// (the service the set came on).
+struct OnRun<'a> {
+    radar: &'a Radar,
+    from: String,
+}
+
+impl Setter for OnRun<'_> {
+    fn configure(&self, change: &Change) -> Result<(), String> {
+        self.radar
+            .configure(&change.plugin, &change.key, change.text.clone(), &self.from)
+            .map_err(|e| e.to_string())
+    }
+
+    fn refused(&self, command: String, reason: &str) {
+        let _ = self.radar.refused(command, self.from.clone(), reason);
+    }
+}
+
+/// The services' thread: each request answered as it comes, a set made
+/// on the run or recorded as refused (`from`: the service it came on),
+/// until `stop`.
 pub(super) fn serve<R: Requests>(
     mut wires: Vec<(ParameterService, R)>,
     parameters: Arc<Parameters>,
@@ -339,14 +514,16 @@ pub(super) fn serve<R: Requests>(
                         continue;
                     }
                 };
-                let (reply, tried) = parameters.answer(service.call, &request);
-                if let Some(tried) = tried {
-                    let _ = radar.refused(
-                        tried,
-                        format!("a ROS 2 parameter client ({})", service.name),
-                        READ_ONLY,
-                    );
-                }
+                let reply = match service.call {
+                    Call::Set | Call::SetAtomically => {
+                        let on_run = OnRun {
+                            radar: &radar,
+                            from: format!("a ROS 2 parameter client ({})", service.name),
+                        };
+                        set(&parameters, service.call, &request, &on_run)
+                    }
+                    call => parameters.answer(call, &request),
+                };
                 match cdr::encode(&service.service.response, &reply) {
                     Ok(bytes) => wire.reply(id, bytes),
                     Err(e) => wire.no_reply(id, Some(e.to_string())),
@@ -410,6 +587,7 @@ fn spawn(run: impl FnOnce() + Send + 'static) -> Result<JoinHandle<()>, Ros2Erro
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::cell::RefCell;
 
     fn parameters() -> Parameters {
         let config: toml::Table = toml::from_str(
@@ -430,7 +608,7 @@ mod tests {
     #[test]
     fn config_values_are_listed_typed_and_got_as_ros2_parameters() {
         let p = parameters();
-        let (all, _) = p.answer(Call::List, &json!({"prefixes": [], "depth": 0}));
+        let all = p.answer(Call::List, &json!({"prefixes": [], "depth": 0}));
         assert_eq!(
             all["result"]["names"],
             json!([
@@ -444,14 +622,14 @@ mod tests {
             ])
         );
         assert_eq!(all["result"]["prefixes"], json!(["Avoid", "Dock"]));
-        let (dock, _) = p.answer(Call::List, &json!({"prefixes": ["Dock"], "depth": 0}));
+        let dock = p.answer(Call::List, &json!({"prefixes": ["Dock"], "depth": 0}));
         assert_eq!(dock["result"]["names"], json!(["Dock.station"]));
-        let (top, _) = p.answer(Call::List, &json!({"prefixes": [], "depth": 1}));
+        let top = p.answer(Call::List, &json!({"prefixes": [], "depth": 1}));
         assert_eq!(top["result"]["names"], json!(["use_sim_time"]));
         let names = json!({"names": ["Avoid.distance", "Avoid.retries", "Avoid.steps"]});
-        let (types, _) = p.answer(Call::GetTypes, &names);
+        let types = p.answer(Call::GetTypes, &names);
         assert_eq!(types["types"], json!([DOUBLE, INTEGER, DOUBLE_ARRAY]));
-        let (got, _) = p.answer(Call::Get, &names);
+        let got = p.answer(Call::Get, &names);
         assert_eq!(got["values"][0]["double-value"], json!(0.5));
         assert_eq!(got["values"][1]["integer-value"], json!(3));
         assert_eq!(got["values"][2]["double-array-value"], json!([1.0, 2.5]));
@@ -462,35 +640,114 @@ mod tests {
             (Call::GetTypes, "types"),
             (Call::Describe, "descriptors"),
         ] {
-            assert_eq!(p.answer(call, &unknown).0[field], json!([]), "{call:?}");
+            assert_eq!(p.answer(call, &unknown)[field], json!([]), "{call:?}");
         }
-        let (described, _) = p.answer(Call::Describe, &json!({"names": ["Avoid.name"]}));
-        assert_eq!(described["descriptors"][0]["read-only"], json!(true));
+        let described = p.answer(Call::Describe, &json!({"names": ["Avoid.name"]}));
+        assert_eq!(described["descriptors"][0]["read-only"], json!(false));
         assert_eq!(described["descriptors"][0]["type"], json!(STRING));
     }
 
+    /// What a set asked of the run.
+    #[derive(Default)]
+    struct Asked {
+        made: RefCell<Vec<(String, String, String)>>,
+        refused: RefCell<Vec<(String, String)>>,
+    }
+
+    impl Setter for Asked {
+        fn configure(&self, change: &Change) -> Result<(), String> {
+            let made = (
+                change.plugin.clone(),
+                change.key.clone(),
+                change.text.clone(),
+            );
+            self.made.borrow_mut().push(made);
+            Ok(())
+        }
+        fn refused(&self, command: String, reason: &str) {
+            self.refused
+                .borrow_mut()
+                .push((command, reason.to_string()));
+        }
+    }
+
     #[test]
-    fn a_set_is_refused_with_its_reason_and_said_for_the_record() {
+    fn a_set_changes_the_plugins_config_value_as_radar_toml_would_write_it() {
         let p = parameters();
-        let set = json!({"parameters": [
+        let asked = Asked::default();
+        let request = json!({"parameters": [
             {"name": "Avoid.distance", "value": value(DOUBLE, json!(0.8))},
             {"name": "Avoid.brave", "value": value(BOOL, json!(false))},
+            {"name": "Avoid.steps", "value": value(DOUBLE_ARRAY, json!([1.0, 3.5]))},
+            {"name": "Dock.station", "value": value(STRING, json!("kitchen"))},
         ]});
-        let (reply, tried) = p.answer(Call::Set, &set);
-        assert_eq!(reply["results"].as_array().map(Vec::len), Some(2));
-        assert_eq!(reply["results"][1]["successful"], json!(false));
-        assert!(reply["results"][0]["reason"]
-            .as_str()
-            .is_some_and(|r| r.contains("read-only")));
+        let reply = set(&p, Call::Set, &request, &asked);
         assert_eq!(
-            tried.as_deref(),
-            Some("ros2 param set Avoid.distance = 0.8, Avoid.brave = false")
+            reply["results"],
+            json!(vec![json!({"successful": true, "reason": ""}); 4]),
+            "{reply}"
         );
-        let (reply, tried) = p.answer(Call::SetAtomically, &set);
+        let made = asked.made.borrow();
+        let texts: Vec<&str> = made.iter().map(|(_, _, text)| text.as_str()).collect();
+        assert_eq!(texts, ["0.8", "false", "[1.0, 3.5]", "kitchen"]);
+        assert_eq!(made[0].0, "Avoid");
+        assert_eq!(made[0].1, "distance");
+        assert!(asked.refused.borrow().is_empty());
+        // Read back as set.
+        let got = p.answer(
+            Call::Get,
+            &json!({"names": ["Avoid.distance", "Dock.station"]}),
+        );
+        assert_eq!(got["values"][0]["double-value"], json!(0.8));
+        assert_eq!(got["values"][1]["string-value"], json!("kitchen"));
+    }
+
+    #[test]
+    fn a_set_that_cannot_be_made_is_refused_with_its_reason_and_recorded() {
+        let p = parameters();
+        let asked = Asked::default();
+        let request = json!({"parameters": [
+            {"name": "Avoid.distance", "value": value(STRING, json!("far"))},
+            {"name": "use_sim_time", "value": value(BOOL, json!(true))},
+            {"name": "Avoid.speed", "value": value(DOUBLE, json!(1.0))},
+            {"name": "Avoid.retries", "value": value(INTEGER, json!(5))},
+        ]});
+        let reply = set(&p, Call::Set, &request, &asked);
+        let reasons: Vec<&str> = (0..4)
+            .map(|i| reply["results"][i]["reason"].as_str().unwrap_or("?"))
+            .collect();
+        assert!(
+            reasons[0].contains("is of type double: setting it to string"),
+            "{reply}"
+        );
+        assert!(reasons[1].contains("fixed when the run starts"), "{reply}");
+        assert!(
+            reasons[2].contains("not a parameter of this node"),
+            "{reply}"
+        );
+        assert_eq!(reply["results"][3]["successful"], json!(true));
+        let refused = asked.refused.borrow();
+        assert_eq!(refused.len(), 3);
+        assert_eq!(refused[0].0, r#"ros2 param set Avoid.distance = "far""#);
+        assert_eq!(asked.made.borrow().len(), 1, "each on its own");
+
+        // Atomically: one refusal refuses all, and nothing is made.
+        let asked = Asked::default();
+        let reply = set(&p, Call::SetAtomically, &request, &asked);
         assert_eq!(reply["result"]["successful"], json!(false));
-        assert!(tried.is_some_and(|t| t.starts_with("ros2 param set (atomically) ")));
-        let (_, tried) = p.answer(Call::Set, &json!({"parameters": []}));
-        assert_eq!(tried, None, "a set of nothing is not recorded");
+        assert!(asked.made.borrow().is_empty());
+        let refused = asked.refused.borrow();
+        assert!(refused[0].0.starts_with("ros2 param set (atomically) "));
+        assert!(refused[0].1.ends_with("none of the set was made"));
+        let got = p.answer(Call::Get, &json!({"names": ["Avoid.distance"]}));
+        assert_eq!(got["values"][0]["double-value"], json!(0.5), "unchanged");
+
+        let asked = Asked::default();
+        set(&p, Call::Set, &json!({"parameters": []}), &asked);
+        assert!(
+            asked.refused.borrow().is_empty(),
+            "a set of nothing is not recorded"
+        );
     }
 
     #[test]
@@ -530,7 +787,10 @@ mod tests {
         for (service, (call, hash)) in services("/radar").expect("loads").iter().zip(hashes) {
             assert_eq!(service.call, call);
             assert_eq!(service.service.hash, hash, "{}", service.name);
-            let (reply, _) = p.answer(call, &request);
+            let reply = match call {
+                Call::Set | Call::SetAtomically => set(&p, call, &request, &Asked::default()),
+                call => p.answer(call, &request),
+            };
             let bytes = cdr::encode(&service.service.response, &reply)
                 .unwrap_or_else(|e| panic!("{}: {e}", service.name));
             assert_eq!(

@@ -143,6 +143,7 @@
       case "swap-refused":
       case "swap-rolled-back":
       case "reset":
+      case "configured":
         mark(lane(r.plugin), "swap", t, i);
         break;
       case "inject":
