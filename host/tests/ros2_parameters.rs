@@ -1,7 +1,9 @@
 //! The node's parameters (`docs/ros2.md#parameters`): the plugins' config
 //! values as ROS 2 parameters of Radar's node, listed, read and described
 //! by a parameter client on rmw_zenoh (zenoh-ros2-sdk) and on DDS (rclpy's
-//! own `AsyncParameterClient`), a set refused with its reason and recorded.
+//! own `AsyncParameterClient`); a set of the same type changes the value
+//! and is recorded as `configured`, one of another type is refused with
+//! its reason and recorded as `refused`.
 
 use std::time::Duration;
 
@@ -46,23 +48,41 @@ fn check(report: &Json, trace: &str) {
         json!({"M.careful": 1, "M.drive_s": 2, "M.fail": 4, "M.speeds": 8, "use_sim_time": 1}),
         "{report:#}"
     );
-    assert_eq!(report["read_only"], true, "{report:#}");
-    let set = &report["set"][0];
-    assert_eq!(set["successful"], false, "{report:#}");
-    assert!(
-        set["reason"]
-            .as_str()
-            .is_some_and(|r| r.contains("read-only")),
+    assert_eq!(report["read_only"], false, "{report:#}");
+    assert_eq!(
+        report["set"],
+        json!([{"successful": true, "reason": ""}]),
         "{report:#}"
     );
+    assert_eq!(report["after"], 5, "{report:#}");
+    let wrong = &report["wrong"][0];
+    assert_eq!(wrong["successful"], false, "{report:#}");
     assert!(
-        trace.contains(r#""kind":"refused","command":"ros2 param set M.drive_s = 5","from":"a ROS 2 parameter client (/radar_params/set_parameters)""#),
+        wrong["reason"]
+            .as_str()
+            .is_some_and(|r| r.contains("is of type integer: setting it to string")),
+        "{report:#}"
+    );
+    let from = "a ROS 2 parameter client (/radar_params/set_parameters)";
+    let configured = trace
+        .lines()
+        .find(|l| l.contains(r#""kind":"configured""#))
+        .unwrap_or_else(|| panic!("a configured record: {trace}"));
+    let configured: Json = serde_json::from_str(configured).expect("JSON");
+    assert_eq!(configured["plugin"], "M", "{configured}");
+    assert_eq!(configured["key"], "drive_s", "{configured}");
+    assert_eq!(configured["value"], "5", "{configured}");
+    assert_eq!(configured["from"], from, "{configured}");
+    assert!(
+        trace.contains(&format!(
+            r#""kind":"refused","command":"ros2 param set M.drive_s = \"fast\"","from":"{from}""#
+        )),
         "{trace}"
     );
 }
 
 #[test]
-fn a_ros2_parameter_client_on_rmw_zenoh_lists_and_gets_config_values_and_a_set_is_refused() {
+fn a_ros2_parameter_client_on_rmw_zenoh_lists_gets_and_sets_config_values() {
     let python = python();
     let run = Running::start(
         |ep| manifest(&format!("listen = [\"{ep}\"]\n")),
@@ -96,7 +116,7 @@ fn a_ros2_parameter_client_on_rmw_zenoh_lists_and_gets_config_values_and_a_set_i
 
 #[cfg(feature = "dds")]
 #[test]
-fn rclpys_parameter_client_on_dds_lists_and_gets_config_values_and_a_set_is_refused() {
+fn rclpys_parameter_client_on_dds_lists_gets_and_sets_config_values() {
     use super::ros2_dds::{drive_run, each_distro, rclpy_in_namespace};
     each_distro(rclpy_in_namespace, |python, distro| {
         let dir = tempfile::tempdir().expect("temp dir");

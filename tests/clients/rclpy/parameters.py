@@ -6,7 +6,8 @@ parameters of Radar's node.
 
 Starts RADAR_COMMAND (a `radar run`), waits for the node's parameter
 services, lists the parameters, gets their values and types, describes
-the first and sets NAME to the integer INT. Prints one JSON object once
+the first, sets NAME to the integer INT, gets NAME again, and tries to
+set it to the text "fast" (another type). Prints one JSON object once
 Radar's run has ended by itself: what it found, the services of Radar's
 node, and Radar's exit code and stderr. Run it inside a private network
 namespace (tests/clients/rclpy/netns).
@@ -54,6 +55,12 @@ def main():
         results = spin_until(node, client.set_parameters([parameter]), 10.0)
         report["set"] = [{"successful": r.successful, "reason": r.reason}
                          for r in results.results]
+        again = spin_until(node, client.get_parameters([name]), 10.0)
+        report["after"] = parameter_value_to_python(again.values[0])
+        wrong = Parameter(name, Parameter.Type.STRING, "fast")
+        results = spin_until(node, client.set_parameters([wrong]), 10.0)
+        report["wrong"] = [{"successful": r.successful, "reason": r.reason}
+                           for r in results.results]
         report["radar_services"] = dict(
             node.get_service_names_and_types_by_node(args.radar_node, "/")
         )

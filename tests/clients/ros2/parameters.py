@@ -6,9 +6,10 @@ parameter services, as `ros2 param` does.
 
 Connects to the Zenoh peer at tcp/127.0.0.1:P, waits for the node's
 list_parameters server in the graph, then lists the parameters, gets
-their values and types, describes the first, and sets NAME to the integer
-INT. Prints one JSON line: {"names", "prefixes", "values", "types",
-"read_only", "set"}. Exits 0, or 1 at the timeout.
+their values and types, describes the first, sets NAME to the integer
+INT, gets NAME again, and tries to set it to the text "fast" (another
+type). Prints one JSON line: {"names", "prefixes", "values", "types",
+"read_only", "set", "after", "wrong"}. Exits 0, or 1 at the timeout.
 """
 
 import argparse
@@ -115,12 +116,20 @@ def main():
                  integer_array_value=numpy.array([], dtype=numpy.int64),
                  double_array_value=numpy.array([], dtype=numpy.float64),
                  string_array_value=[])
-    value = types["rcl_interfaces/msg/ParameterValue"](
-        type=2, bool_value=False, integer_value=int(number), double_value=0.0, string_value="",
-        **empty)
-    parameter = types["rcl_interfaces/msg/Parameter"](name=name, value=value)
-    results = setter.call(parameters=[parameter]).results
-    report["set"] = [{"successful": bool(r.successful), "reason": str(r.reason)} for r in results]
+
+    def set_one(**value):
+        fields = dict(type=2, bool_value=False, integer_value=0, double_value=0.0,
+                      string_value="", **empty)
+        fields.update(value)
+        value = types["rcl_interfaces/msg/ParameterValue"](**fields)
+        parameter = types["rcl_interfaces/msg/Parameter"](name=name, value=value)
+        results = setter.call(parameters=[parameter]).results
+        return [{"successful": bool(r.successful), "reason": str(r.reason)} for r in results]
+
+    report["set"] = set_one(type=2, integer_value=int(number))
+    again = client("get_parameters", "GetParameters").call(names=[name])
+    report["after"] = plain(again.values[0])
+    report["wrong"] = set_one(type=4, string_value="fast")
     print(json.dumps(report), flush=True)
     return 0
 
