@@ -129,7 +129,7 @@ fn an_mcap_trace_writes_the_ros2_messages_on_their_topics_as_ros2_readers_decode
     // mcap-ros2-support decodes them from the file alone.
     let dir = tempfile::tempdir().expect("temp dir");
     let inputs = path(dir.path(), "inputs.jsonl");
-    let lines: Vec<String> = [(0u64, 2.0), (1_000_000_000, 0.25), (2_000_000_000, 2.0)]
+    let mut lines: Vec<String> = [(0u64, 2.0), (1_000_000_000, 0.25), (2_000_000_000, 2.0)]
         .iter()
         .map(|(t, near)| {
             serde_json::json!({
@@ -139,6 +139,18 @@ fn an_mcap_trace_writes_the_ros2_messages_on_their_topics_as_ros2_readers_decode
             .to_string()
         })
         .collect();
+    // A scan of 6,000 ranges: over 16 KiB, so the trace keeps only its
+    // size, and the file says the message is left out.
+    let mut dense = scan(2.0);
+    dense["ranges"] = serde_json::json!(vec![2.0; 6000]);
+    dense["angle-increment"] = serde_json::json!(0.001);
+    lines.push(
+        serde_json::json!({
+            "t": 3_000_000_000u64, "kind": "board-write", "entry": "scan", "by": "(ros2 /scan)",
+            "value": dense
+        })
+        .to_string(),
+    );
     std::fs::write(&inputs, lines.join("\n") + "\n").expect("inputs");
     let manifest =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/examples/ros2-dds-robot/radar.toml");
@@ -164,6 +176,13 @@ fn an_mcap_trace_writes_the_ros2_messages_on_their_topics_as_ros2_readers_decode
     assert_eq!(scans["schema_encoding"], "ros2msg", "{seen:#}");
     let scans = seen["ros2"]["/scan"].as_array().expect("scans");
     assert_eq!(scans.len(), 3, "{seen:#}");
+    let left_out = &seen["metadata"]["radar: topic messages left out"];
+    assert!(
+        left_out["/scan"]
+            .as_str()
+            .is_some_and(|s| s.starts_with("1 message: their values were over 16 KiB")),
+        "{seen:#}"
+    );
     let second = &scans[1]["message"];
     assert_eq!(second["header"]["frame_id"], "laser");
     assert_eq!(second["range_max"], 12.0);

@@ -71,6 +71,10 @@ pub struct McapTrace<W: Write + Seek + Send> {
     topic_channels: HashMap<(String, String), u16>,
 }
 
+/// The name of the metadata record that says which topic messages a
+/// trace left out, and why (`docs/view.md`).
+pub const LEFT_OUT: &str = "radar: topic messages left out";
+
 impl<W: Write + Seek + Send> McapTrace<W> {
     /// Records waiting to be written, at most (as [`crate::trace::JsonLines`]).
     pub const BATCH: usize = 4096;
@@ -206,12 +210,21 @@ impl<W: Write + Seek + Send> McapTrace<W> {
     }
 
     /// Ends the file (its summary and footer).
+    /// Messages the records would have made on their topics but could not
+    /// are said in a metadata record, [`LEFT_OUT`], one entry per topic.
     pub fn close(&mut self) -> Result<(), ViewError> {
         self.drain();
         if let Some(e) = self.error.take() {
             return Err(e);
         }
         if let Some(mut writer) = self.writer.take() {
+            let left_out = self.topics.left_out();
+            if !left_out.is_empty() {
+                writer.write_metadata(&::mcap::records::Metadata {
+                    name: LEFT_OUT.to_string(),
+                    metadata: left_out.into_iter().collect(),
+                })?;
+            }
             writer.finish()?;
         }
         Ok(())
@@ -403,6 +416,43 @@ mod tests {
         let mut again = std::io::Cursor::new(Vec::new());
         jsonl_to_mcap(TRACE.as_bytes(), &mut again).expect("converts");
         assert_eq!(again.into_inner(), bytes);
+    }
+
+    /// Topics that make no message and left two out on `/camera`.
+    struct LeftTwoOut;
+
+    impl crate::view::AlsoOnTopics for LeftTwoOut {
+        fn messages(&self, _: &Record, _: u64) -> Vec<super::super::TopicMessage> {
+            Vec::new()
+        }
+        fn left_out(&self) -> Vec<(String, String)> {
+            vec![("/camera".into(), "2 messages: too large".into())]
+        }
+    }
+
+    #[test]
+    fn what_the_topics_left_out_is_said_in_a_metadata_record() {
+        let slot = TopicsSlot::default();
+        slot.set(Box::new(LeftTwoOut));
+        let mut file = std::io::Cursor::new(Vec::new());
+        let mut trace = McapTrace::new(&mut file).expect("opens").with_topics(slot);
+        for line in TRACE.lines() {
+            trace.write_line(line.as_bytes()).expect("a record");
+        }
+        trace.close().expect("closes");
+        drop(trace);
+        let bytes = file.into_inner();
+        let summary = ::mcap::read::Summary::read(&bytes)
+            .expect("reads")
+            .expect("a summary");
+        let said: Vec<_> = summary
+            .metadata_indexes
+            .iter()
+            .map(|index| ::mcap::read::metadata(&bytes, index).expect("metadata"))
+            .collect();
+        assert_eq!(said.len(), 1);
+        assert_eq!(said[0].name, LEFT_OUT);
+        assert_eq!(said[0].metadata["/camera"], "2 messages: too large");
     }
 
     #[test]

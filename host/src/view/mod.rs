@@ -16,7 +16,7 @@ pub mod topics;
 pub use self::brief::brief;
 pub use self::graph::{graph_at, Graph};
 pub use self::html::{live_page, write_view};
-pub use self::mcap::{jsonl_to_mcap, mcap_to_jsonl, McapTrace, ViewError};
+pub use self::mcap::{jsonl_to_mcap, mcap_to_jsonl, McapTrace, ViewError, LEFT_OUT};
 pub use self::monitor::{Monitor, MonitorError, MonitorSink, HISTORY as MONITOR_HISTORY};
 pub use self::read::{is_mcap, read_trace};
 pub use self::topics::{AlsoOnTopics, TopicChannel, TopicMessage, TopicsSlot};

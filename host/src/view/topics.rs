@@ -41,6 +41,12 @@ pub trait AlsoOnTopics: Send + Sync {
     /// record's time as the MCAP file gives it (nanoseconds since the
     /// epoch in a real-clock run), for a message that stamps its header.
     fn messages(&self, record: &Record, log_time: u64) -> Vec<TopicMessage>;
+
+    /// The messages records would have made but could not, by topic: how
+    /// many, and why (what the file says it lacks, when it ends).
+    fn left_out(&self) -> Vec<(String, String)> {
+        Vec::new()
+    }
 }
 
 /// Where an MCAP trace finds its [`AlsoOnTopics`], once the part of the
@@ -62,5 +68,10 @@ impl TopicsSlot {
             .get()
             .map(|topics| topics.messages(record, log_time))
             .unwrap_or_default()
+    }
+
+    /// What the slot's topics left out (see [`AlsoOnTopics::left_out`]).
+    pub(super) fn left_out(&self) -> Vec<(String, String)> {
+        self.0.get().map(|t| t.left_out()).unwrap_or_default()
     }
 }

@@ -9,9 +9,9 @@ many messages each channel has, the JSON Lines trace rebuilt from the
 trace's messages (JSON, each a record's line) in log-time order, the
 distinct differences between a record's log time and its `t` (one, 0, in
 a virtual-clock run; one, the wall-clock time of t = 0, in a real-clock
-one), and each ROS 2 channel's messages (`cdr`), decoded by
+one), each ROS 2 channel's messages (`cdr`), decoded by
 mcap-ros2-support from the channel's own `ros2msg` schema, with their log
-times.
+times, and the file's metadata records (name: their entries).
 """
 
 import json
@@ -69,7 +69,9 @@ def main():
                 ros2.setdefault(channel.topic, []).append(
                     {"log_time": message.log_time, "schema": schema.name, "message": plain(decoded)}
                 )
+        metadata = {m.name: dict(m.metadata) for m in reader.iter_metadata()}
     print(json.dumps({
+        "metadata": metadata,
         "profile": header.profile,
         "channels": channels,
         "message_count": summary.statistics.message_count,

@@ -6,8 +6,8 @@
 //! records alone (a `board-write` by `(ros2 TOPIC)`, a published signal),
 //! so a replay's trace has them too.
 
-use std::collections::HashMap;
-use std::sync::Arc;
+use std::collections::{BTreeMap, HashMap};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 
 use serde_json::Value as Json;
@@ -46,7 +46,13 @@ pub(super) struct RecordedTopics {
     taken: HashMap<String, (Arc<TopicChannel>, Message)>,
     /// `(plugin, signal)` → each publication of that signal.
     sent: BySignal,
+    /// By topic: how many messages were left out, and why.
+    left_out: Mutex<BTreeMap<String, (u64, &'static str)>>,
 }
+
+/// Why a message is left out.
+const CUT: &str = "their values were over 16 KiB, which the trace keeps only as their size";
+const UNENCODABLE: &str = "their values did not encode as the topic's type";
 
 impl RecordedTopics {
     pub(super) fn new(taken: Vec<Taken>, sent: Vec<Sent>) -> Self {
@@ -84,7 +90,15 @@ impl RecordedTopics {
         Self {
             taken,
             sent: by_signal,
+            left_out: Mutex::default(),
         }
+    }
+
+    fn leave_out(&self, topic: &str, why: &'static str) {
+        let mut left_out = self.left_out.lock().unwrap_or_else(PoisonError::into_inner);
+        let (count, reason) = left_out.entry(topic.to_string()).or_insert((0, why));
+        *count += 1;
+        *reason = why;
     }
 }
 
@@ -97,16 +111,19 @@ impl AlsoOnTopics for RecordedTopics {
                 };
                 // A value the trace cut (over 16 KiB) is not the message.
                 if value.get("$cut").is_some() {
+                    self.leave_out(&channel.topic, CUT);
                     return Vec::new();
                 }
-                cdr::encode(message, value)
-                    .map(|data| {
-                        vec![TopicMessage {
-                            channel: channel.clone(),
-                            data,
-                        }]
-                    })
-                    .unwrap_or_default()
+                match cdr::encode(message, value) {
+                    Ok(data) => vec![TopicMessage {
+                        channel: channel.clone(),
+                        data,
+                    }],
+                    Err(_) => {
+                        self.leave_out(&channel.topic, UNENCODABLE);
+                        Vec::new()
+                    }
+                }
             }
             Entry::Signal {
                 plugin,
@@ -119,6 +136,10 @@ impl AlsoOnTopics for RecordedTopics {
                 routes
                     .iter()
                     .filter_map(|(channel, s)| {
+                        if payload.get("$cut").is_some() {
+                            self.leave_out(&channel.topic, CUT);
+                            return None;
+                        }
                         let value = message(s.unwrap_ok, s.path.as_ref(), &s.base, payload.clone())
                             .ok()??;
                         let value = if s.stamp {
@@ -126,7 +147,10 @@ impl AlsoOnTopics for RecordedTopics {
                         } else {
                             value
                         };
-                        let data = cdr::encode(&s.message, &value).ok()?;
+                        let Ok(data) = cdr::encode(&s.message, &value) else {
+                            self.leave_out(&channel.topic, UNENCODABLE);
+                            return None;
+                        };
                         Some(TopicMessage {
                             channel: channel.clone(),
                             data,
@@ -136,6 +160,17 @@ impl AlsoOnTopics for RecordedTopics {
             }
             _ => Vec::new(),
         }
+    }
+
+    fn left_out(&self) -> Vec<(String, String)> {
+        let left_out = self.left_out.lock().unwrap_or_else(PoisonError::into_inner);
+        left_out
+            .iter()
+            .map(|(topic, (count, why))| {
+                let messages = if *count == 1 { "message" } else { "messages" };
+                (topic.clone(), format!("{count} {messages}: {why}"))
+            })
+            .collect()
     }
 }
 
@@ -211,6 +246,39 @@ mod tests {
                  \n{separator}\nMSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\n\
                  string frame_id\n"
             )
+        );
+    }
+
+    #[test]
+    fn a_message_the_trace_cut_is_left_out_and_counted_by_topic() {
+        let image = MessageTypes::default()
+            .load("sensor_msgs/msg/Image")
+            .expect("a built-in type");
+        let topics = RecordedTopics::new(
+            vec![Taken {
+                topic: "/camera".into(),
+                message: image,
+            }],
+            Vec::new(),
+        );
+        let cut = Record {
+            t: 5,
+            entry: Entry::BoardWrite {
+                entry: "frame".into(),
+                by: Arc::from("(ros2 /camera)"),
+                value: serde_json::json!({"$cut": {"bytes": 921_654}}),
+            },
+        };
+        assert!(topics.messages(&cut, 5).is_empty());
+        assert!(topics.messages(&cut, 6).is_empty());
+        let left_out = topics.left_out();
+        assert_eq!(left_out.len(), 1);
+        assert_eq!(left_out[0].0, "/camera");
+        assert!(
+            left_out[0]
+                .1
+                .starts_with("2 messages: their values were over 16 KiB"),
+            "{left_out:?}"
         );
     }
 }
