@@ -14,6 +14,7 @@ use super::protocol::{self, Command, Reply, Request, MAX_REQUEST_BYTES};
 use super::settings::Control;
 use crate::ports::{Busy, SwapPolicy};
 use crate::system::{Link, Radar};
+use crate::ConnId;
 
 /// Refusals of puts printed on stderr in full before only every
 /// thousandth is (a flood must not flood the terminal).
@@ -262,14 +263,14 @@ impl Server {
                     link = link.until(until);
                 }
                 let ids = radar.connect_from_outside(link)?;
-                let ids: Vec<String> = ids.iter().map(u64::to_string).collect();
+                let ids: Vec<String> = ids.iter().map(ConnId::to_string).collect();
                 vec![format!("connected {}", ids.join(" "))]
             }
             Command::Disconnect { id } => {
                 if !radar.overview()?.connections.iter().any(|c| c.id == id) {
                     return Err(format!("no connection {id}").into());
                 }
-                radar.disconnect(id)?;
+                radar.disconnect(ConnId::new(id))?;
                 vec![format!("disconnected {id}")]
             }
             Command::Inject { to, payload } => {

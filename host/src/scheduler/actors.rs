@@ -2,6 +2,7 @@
 //! its slots, an event's checks at their cadence, a response's
 //! start → [interrupt] → exit for each accepted start.
 
+use super::ids::PluginId;
 use std::rc::Rc;
 use std::sync::Arc;
 
@@ -21,7 +22,7 @@ impl Core {
     /// a fresh store) comes here, and is counted for injected faults; a
     /// swap's new version is made ahead and is not (a broken build is a
     /// fault of its own, `broken-swap`).
-    pub(super) async fn instantiate(&self, pid: usize) -> Option<PluginInstance> {
+    pub(super) async fn instantiate(&self, pid: PluginId) -> Option<PluginInstance> {
         match self.try_instantiate(pid, false).await {
             Ok(inst) => Some(inst),
             Err(fault) => {
@@ -35,7 +36,7 @@ impl Core {
     /// `for_exit`: the one an exit after a fault runs on, counted apart).
     pub(super) async fn try_instantiate(
         &self,
-        pid: usize,
+        pid: PluginId,
         for_exit: bool,
     ) -> Result<PluginInstance, Fault> {
         let (code, setup) = self.with(|st| st.setup(pid));
@@ -56,7 +57,7 @@ impl Core {
 
     /// A fresh store and instance for a plugin whose store died while it
     /// was being stopped (recorded as a `reset`).
-    pub(super) async fn fresh_instance(&self, pid: usize) -> Option<PluginInstance> {
+    pub(super) async fn fresh_instance(&self, pid: PluginId) -> Option<PluginInstance> {
         let inst = self.instantiate(pid).await?;
         self.with(|st| {
             let plugin = st.plugins[pid].name.clone();
@@ -66,7 +67,7 @@ impl Core {
     }
 
     /// A reset or a swap waiting for this plugin's safe point, if any.
-    fn pending_transition(&self, pid: usize) -> Option<Transition> {
+    fn pending_transition(&self, pid: PluginId) -> Option<Transition> {
         self.with(|st| {
             let entry = &mut st.plugins[pid];
             if entry.reset_requested {
@@ -78,7 +79,7 @@ impl Core {
     }
 }
 
-pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
+pub(super) async fn event_actor(core: Rc<Core>, pid: PluginId) {
     let mut instance = core.instantiate(pid).await;
     let (stop, period) = core.with(|st| (st.plugins[pid].stop.clone(), st.plugins[pid].def.period));
     // Whether the wait for this check's time was a timer's (see below).
@@ -171,7 +172,7 @@ pub(super) async fn event_actor(core: Rc<Core>, pid: usize) {
 
 /// A slot asked to stop ignored it until its fuel ran out (or a stop's
 /// bound passed): said in the trace, before its fresh instance.
-fn ignored_stop(core: &Core, pid: usize, slot: &str, fault: &Fault) {
+fn ignored_stop(core: &Core, pid: PluginId, slot: &str, fault: &Fault) {
     core.with(|st| {
         let plugin = st.plugins[pid].name.clone();
         st.record(Entry::Log {
@@ -191,7 +192,7 @@ async fn park() {
     std::future::pending::<()>().await
 }
 
-pub(super) fn slot_end(core: &Core, pid: usize, slot: Slot, outcome: &'static str) {
+pub(super) fn slot_end(core: &Core, pid: PluginId, slot: Slot, outcome: &'static str) {
     core.with(|st| {
         if !st.trace.tracing() {
             return;
@@ -209,7 +210,7 @@ pub(super) fn slot_end(core: &Core, pid: usize, slot: Slot, outcome: &'static st
 /// (unless the call was ended because the run is being stopped: then
 /// nothing is recorded, and the run ends). A fault in `start` or
 /// `interrupt` owes the activation its exit: whether it does.
-fn trapped(core: &Core, pid: usize, slot: Slot, fault: Fault) -> bool {
+fn trapped(core: &Core, pid: PluginId, slot: Slot, fault: Fault) -> bool {
     if !fault.run_stopped {
         slot_end(core, pid, slot, "trapped");
     }
@@ -224,7 +225,7 @@ fn trapped(core: &Core, pid: usize, slot: Slot, fault: Fault) -> bool {
 
 /// An exit that runs because something went wrong (`after`: `fault`,
 /// `stop`) begins.
-pub(super) fn exit_begins_after(st: &mut State, pid: usize, after: &'static str) {
+pub(super) fn exit_begins_after(st: &mut State, pid: PluginId, after: &'static str) {
     let plugin = st.plugins[pid].name.clone();
     st.record(Entry::SlotBegin {
         plugin,
@@ -241,7 +242,7 @@ pub(super) fn exit_begins_after(st: &mut State, pid: usize, after: &'static str)
 /// `queued`: for a start taken from the queue, how many still wait.
 pub(super) fn slot_begin(
     st: &mut State,
-    pid: usize,
+    pid: PluginId,
     slot: Slot,
     connection: Option<u64>,
     queued: Option<u64>,
@@ -253,7 +254,7 @@ pub(super) fn slot_begin(
 /// action's server to accept the goal.
 fn slot_begin_awaiting(
     st: &mut State,
-    pid: usize,
+    pid: PluginId,
     slot: Slot,
     connection: Option<u64>,
     queued: Option<u64>,
@@ -279,7 +280,7 @@ fn slot_begin_awaiting(
 /// `feedback` for each feedback.
 async fn with_progress<F: std::future::Future>(
     core: &Core,
-    pid: usize,
+    pid: PluginId,
     answers: &Answers,
     started: Shared,
     call: F,
@@ -307,7 +308,7 @@ async fn with_progress<F: std::future::Future>(
     .await
 }
 
-pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
+pub(super) async fn response_actor(core: Rc<Core>, pid: PluginId) {
     let mut instance = core.instantiate(pid).await;
     let stop = core.with(|st| st.plugins[pid].stop.clone());
     loop {
@@ -379,7 +380,7 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: usize) {
                 st,
                 pid,
                 Slot::Start,
-                Some(request.via),
+                Some(request.via.trace_id()),
                 queued,
                 progress.is_some(),
             );

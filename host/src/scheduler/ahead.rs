@@ -17,6 +17,7 @@
 //! while such contexts exist: on one thread that context runs, in
 //! lockstep, before the next poll, and it may change what that poll does.
 
+use super::ids::PluginId;
 use super::run::Scheduler;
 use super::state::{Lifecycle, State, Target};
 use crate::clock::ClockKind;
@@ -197,7 +198,7 @@ impl Scheduler {
 impl State {
     /// Whether event `pid`'s actor, polled now, goes straight to its check,
     /// which nothing done before its turn can cancel.
-    fn checks_ahead(&mut self, pid: usize) -> bool {
+    fn checks_ahead(&mut self, pid: PluginId) -> bool {
         let now = self.now();
         let entry = &self.plugins[pid];
         let due = matches!(entry.def.code.kind, Kind::Event { .. })
@@ -232,7 +233,7 @@ impl State {
     /// `waitfor`, an anonymous slot or a program's mailbox. Only a plugin's
     /// own poll emits its signals, so only such a plugin's turn can resume
     /// that code.
-    fn reaches_native(&self, pid: usize) -> bool {
+    fn reaches_native(&self, pid: PluginId) -> bool {
         self.routes[pid].iter().any(|(_, ids)| {
             ids.iter().any(|id| {
                 self.connections.get(id).is_some_and(|c| {

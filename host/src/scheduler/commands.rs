@@ -1,6 +1,7 @@
 //! What deliberative code (or the CLI) asks of a running system, and how
 //! the scheduler answers: the [`Command`]s of the crossbeam channel.
 
+use super::ids::{AnonId, ConnId, MailboxId, NativeTaskId, PluginId};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -30,7 +31,7 @@ pub(crate) enum LinkTarget {
     Closure(AnonymousSlot),
     /// A deliberative component's anonymous slot: deliveries wait in its
     /// mailbox until the program next waits (see [`Woke`]).
-    Mailbox(u64),
+    Mailbox(MailboxId),
 }
 
 /// What ended a deliberative component's wait.
@@ -42,7 +43,7 @@ pub(crate) enum Woke {
     Signal(Payload),
     /// A delivery to one of the program's anonymous slots: the connection
     /// and the payload.
-    Delivery(u64, Payload),
+    Delivery(ConnId, Payload),
 }
 
 /// What deliberative code (or the CLI) asks of a running system.
@@ -52,10 +53,10 @@ pub(crate) enum Command {
         /// From outside the run (`radar ctl`): recorded, kept until an
         /// outside disconnect.
         external: bool,
-        reply: Sender<Result<Vec<u64>, RadarError>>,
+        reply: Sender<Result<Vec<ConnId>, RadarError>>,
     },
     Disconnect {
-        ids: Vec<u64>,
+        ids: Vec<ConnId>,
         reason: &'static str,
         /// From outside the run: recorded.
         external: bool,
@@ -136,7 +137,7 @@ pub(crate) enum Command {
         stops_run: bool,
     },
     AnonymousDone {
-        slot: u64,
+        slot: AnonId,
         closure: AnonymousSlot,
         panicked: bool,
     },
@@ -174,7 +175,7 @@ pub(crate) enum Command {
     /// A deliberative component waits for a deadline, a signal, or a
     /// delivery to its anonymous slots, whichever comes first.
     Wait {
-        mailbox: u64,
+        mailbox: MailboxId,
         deadline: Option<Duration>,
         signal: Option<String>,
         lockstep: bool,
@@ -183,14 +184,14 @@ pub(crate) enum Command {
     /// A new native context (`Radar::spawn`): `go` lets its thread run.
     Spawn {
         go: Sender<()>,
-        reply: Sender<u64>,
+        reply: Sender<NativeTaskId>,
     },
     TaskDone {
-        task: u64,
+        task: NativeTaskId,
         outcome: Result<(), ProgramFailure>,
     },
     Join {
-        task: u64,
+        task: NativeTaskId,
         lockstep: bool,
         reply: Sender<Result<(), ProgramFailure>>,
     },
@@ -228,7 +229,7 @@ impl std::fmt::Display for ProgramFailure {
 
 /// A delivery to an anonymous slot, run on the slot-runner thread.
 pub(crate) struct AnonymousJob {
-    pub slot: u64,
+    pub slot: AnonId,
     pub closure: AnonymousSlot,
     pub payload: Payload,
 }
@@ -238,7 +239,7 @@ pub type AnonymousSlot = Box<dyn FnMut(Payload) + Send + 'static>;
 
 /// A payload for a slot, checked against the slot's type.
 pub(crate) struct Injection {
-    pub(super) pid: usize,
+    pub(super) pid: PluginId,
     pub(super) slot: Slot,
     pub(super) label: Arc<str>,
     pub(super) json: Json,

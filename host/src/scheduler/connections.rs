@@ -4,6 +4,7 @@
 
 use super::backlog::Backlog;
 use super::commands::{LinkSpec, LinkTarget};
+use super::ids::{AnonId, ConnId, PluginId};
 use super::state::{Anonymous, Connection, ConnectionParts, Lifecycle, State, Target};
 use crate::clock::{duration_nanos, StopReason};
 use crate::error::RadarError;
@@ -13,15 +14,15 @@ use crate::trace::Entry;
 impl State {
     pub(super) fn add_connection(
         &mut self,
-        from: (usize, Signal),
+        from: (PluginId, Signal),
         target: Target,
         conn: ConnectionParts,
-    ) -> u64 {
-        self.next_connection += 1;
+    ) -> ConnId {
+        self.next_connection = self.next_connection.next();
         let id = self.next_connection;
         let from_label = self.signal_label(from);
         self.record(Entry::Connect {
-            id,
+            id: id.get(),
             from: from_label,
             to: conn.to_label.clone(),
             mode: conn.mode.as_str().into(),
@@ -30,7 +31,7 @@ impl State {
                 Busy::Queue(n) => Some(n as u64),
                 _ => None,
             },
-            until_of: conn.serves,
+            until_of: conn.serves.map(ConnId::get),
         });
         let routes = &mut self.routes[from.0];
         match routes.iter_mut().find(|(signal, _)| *signal == from.1) {
@@ -62,7 +63,7 @@ impl State {
         id
     }
 
-    pub(super) fn activate(&mut self, pid: usize) {
+    pub(super) fn activate(&mut self, pid: PluginId) {
         let entry = &mut self.plugins[pid];
         entry.lifecycle = Lifecycle::Active;
         entry.stop.clear();
@@ -71,7 +72,7 @@ impl State {
         self.record(Entry::Activate { plugin });
     }
 
-    pub(super) fn connect(&mut self, link: LinkSpec) -> Result<Vec<u64>, RadarError> {
+    pub(super) fn connect(&mut self, link: LinkSpec) -> Result<Vec<ConnId>, RadarError> {
         let from = self.resolve_signal(&link.from)?;
         let parts = |to_label: String, pass_payload: bool| ConnectionParts {
             mode: link.mode,
@@ -92,7 +93,7 @@ impl State {
         }
         match link.to {
             LinkTarget::Closure(closure) => {
-                let slot = self.next_connection + 1;
+                let slot = AnonId::fed_by(self.next_connection.next());
                 self.anonymous.insert(
                     slot,
                     Anonymous {
@@ -160,7 +161,7 @@ impl State {
         }
     }
 
-    pub(super) fn disconnect(&mut self, id: u64, reason: &'static str) {
+    pub(super) fn disconnect(&mut self, id: ConnId, reason: &'static str) {
         let Some(conn) = self.connections.remove(&id) else {
             return; // already gone (a once that fired, an until that ended)
         };
@@ -171,7 +172,7 @@ impl State {
             ids.retain(|i| *i != id);
         }
         self.record(Entry::Disconnect {
-            id,
+            id: id.get(),
             reason: reason.into(),
         });
         match conn.target {

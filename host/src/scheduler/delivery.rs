@@ -3,6 +3,7 @@
 //! and the conservation law's records (`docs/semantics.md`). Nothing here calls
 //! into wasm: a delivery only changes state and wakes the target's actor.
 
+use super::ids::{ConnId, PluginId, Via};
 use std::rc::Rc;
 use std::sync::Arc;
 use std::time::Duration;
@@ -29,7 +30,7 @@ pub(super) fn queued_bytes(payload: &Shared) -> usize {
 impl State {
     /// Emits `signal` from `pid` and routes it to every connection, in the
     /// order the connections were made.
-    pub(super) fn emit(&mut self, pid: usize, signal: Signal, payload: Shared) {
+    pub(super) fn emit(&mut self, pid: PluginId, signal: Signal, payload: Shared) {
         self.watch.step();
         if self.trace.tracing() {
             let plugin = self.plugins[pid].name.clone();
@@ -58,7 +59,7 @@ impl State {
         }
     }
 
-    pub(super) fn deliver(&mut self, id: u64, payload: &Shared) {
+    pub(super) fn deliver(&mut self, id: ConnId, payload: &Shared) {
         let now = self.now();
         let Some(conn) = self.connections.get_mut(&id) else {
             return; // removed by an earlier delivery of this same signal
@@ -67,7 +68,7 @@ impl State {
             if now < last.saturating_add(min) {
                 let to = conn.to_label.clone();
                 self.record(Entry::Dropped {
-                    id,
+                    id: id.get(),
                     to,
                     reason: "min-interval".into(),
                 });
@@ -88,7 +89,7 @@ impl State {
         let accepted = match target {
             Target::Slot(pid, slot) => {
                 let delivery = Delivery {
-                    via: id,
+                    via: Via::Connection(id),
                     payload,
                     busy,
                     until,
@@ -114,12 +115,16 @@ impl State {
         match accepted {
             Ok(queued) => {
                 if self.trace.tracing() {
-                    self.record(Entry::Deliver { id, to, queued });
+                    self.record(Entry::Deliver {
+                        id: id.get(),
+                        to,
+                        queued,
+                    });
                 }
             }
             Err(reason) => {
                 self.record(Entry::Dropped {
-                    id,
+                    id: id.get(),
                     to,
                     reason: reason.into(),
                 });
@@ -138,7 +143,7 @@ impl State {
     /// it was not taken.
     pub(super) fn deliver_to_slot(
         &mut self,
-        pid: usize,
+        pid: PluginId,
         slot: Slot,
         delivery: Delivery,
     ) -> Result<Option<u64>, &'static str> {
@@ -210,7 +215,9 @@ impl State {
                     // `until`: only the activations its own connection started.
                     match entry.activation_via() {
                         None => return Err("idle"),
-                        Some(via) if via != serves => return Err("other-activation"),
+                        Some(via) if via != Via::Connection(serves) => {
+                            return Err("other-activation")
+                        }
                         Some(_) => {}
                     }
                 }
@@ -234,13 +241,13 @@ impl State {
     /// connection that would have lived with its activation ends.
     pub(super) fn withdraw_start(
         &mut self,
-        pid: usize,
+        pid: PluginId,
         request: StartRequest,
         reason: &'static str,
     ) {
         let to = self.plugins[pid].start_label.clone();
         self.record(Entry::Dropped {
-            id: request.via,
+            id: request.via.trace_id(),
             to,
             reason: reason.into(),
         });
@@ -249,7 +256,7 @@ impl State {
         }
     }
 
-    pub(super) fn set_phase(&mut self, pid: usize, phase: Phase) {
+    pub(super) fn set_phase(&mut self, pid: PluginId, phase: Phase) {
         let entry = &mut self.plugins[pid];
         if entry.phase == phase {
             return;
@@ -264,7 +271,7 @@ impl State {
         }
     }
 
-    pub(super) fn fault(&mut self, pid: usize, fault: Fault) {
+    pub(super) fn fault(&mut self, pid: PluginId, fault: Fault) {
         self.fault_owing_exit(pid, fault, false);
     }
 
@@ -274,13 +281,13 @@ impl State {
     /// (`docs/semantics.md#exit-always-runs`); not when the agent it ran
     /// on is lost (the agent runs it, `docs/network.md`) or the run is
     /// being ended at once. Whether the exit is owed.
-    pub(super) fn fault_in_activation(&mut self, pid: usize, fault: Fault) -> bool {
+    pub(super) fn fault_in_activation(&mut self, pid: PluginId, fault: Fault) -> bool {
         let owed = !fault.run_stopped && !fault.cause.starts_with("node-lost");
         self.fault_owing_exit(pid, fault, owed);
         owed
     }
 
-    fn fault_owing_exit(&mut self, pid: usize, fault: Fault, owes_exit: bool) {
+    fn fault_owing_exit(&mut self, pid: PluginId, fault: Fault, owes_exit: bool) {
         if fault.run_stopped {
             // Not the plugin's doing: the run ends, and says why.
             self.stop = true;
@@ -438,7 +445,7 @@ impl State {
             payload: json,
         });
         let delivery = Delivery {
-            via: 0,
+            via: Via::Injection,
             payload: value.map(Arc::new),
             busy: Busy::Drop,
             until: None,

@@ -40,7 +40,7 @@ impl Scheduler {
             } => core.with(|st| {
                 for id in ids {
                     if external {
-                        st.record_input(Input::Disconnect { id });
+                        st.record_input(Input::Disconnect { id: id.get() });
                     }
                     st.disconnect(id, reason);
                 }
@@ -225,7 +225,7 @@ impl Scheduler {
                     .send(core.with(|st| st.request_swap(&plugin, code, policy, origin.as_ref())));
             }
             Command::Spawn { go, reply } => core.with(|st| {
-                st.next_native_task += 1;
+                st.next_native_task = st.next_native_task.next();
                 let task = st.next_native_task;
                 st.native_tasks.insert(
                     task,

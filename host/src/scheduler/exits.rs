@@ -9,6 +9,7 @@
 //! and not tried again.
 
 use super::actors::exit_begins_after;
+use super::ids::PluginId;
 use super::state::{Core, Phase, StartRequest, State, Winding};
 use crate::clock::{duration_nanos, StopReason};
 use crate::executor::TaskId;
@@ -24,7 +25,7 @@ impl Core {
     /// Runs the exit a fault owed plugin `pid`'s activation (see the module
     /// docs). The plugin stays in `error`; its `until` connection ends
     /// with the exit; a reset or a swap asked for meanwhile is taken after.
-    pub(super) async fn exit_after_fault(&self, pid: usize) {
+    pub(super) async fn exit_after_fault(&self, pid: PluginId) {
         match self.try_instantiate(pid, true).await {
             Ok(mut fresh) => {
                 let bound = self.with(|st| {
@@ -63,7 +64,7 @@ impl State {
     /// yield, under the virtual clock at the engine's next tick, where a
     /// computing call takes no time). The bound's task, to cancel when the
     /// slot ends.
-    pub(super) fn bound_exit(&mut self, pid: usize, why: &str) -> Option<TaskId> {
+    pub(super) fn bound_exit(&mut self, pid: PluginId, why: &str) -> Option<TaskId> {
         let limit = self.plugins[pid].def.limits.exit;
         let at = self.now().saturating_add(duration_nanos(limit));
         let cause = format!(
@@ -78,7 +79,7 @@ impl State {
     /// what came of it recorded. `why` says what it ran after, for a fault.
     pub(super) fn end_exit(
         &mut self,
-        pid: usize,
+        pid: PluginId,
         bound: Option<TaskId>,
         ended: Result<(), Fault>,
         why: &str,
@@ -121,7 +122,7 @@ impl State {
     /// A `start` (or `interrupt`) that ignored a request to stop was ended,
     /// and no fresh instance could be made for the rest of its activation
     /// (the plugin faulted already, saying why): its exit did not run.
-    pub(super) fn exit_not_run_without_instance(&mut self, pid: usize) {
+    pub(super) fn exit_not_run_without_instance(&mut self, pid: PluginId) {
         self.exit_not_run(
             pid,
             "its exit did not run: no fresh instance could be made after it ignored a \
@@ -133,7 +134,7 @@ impl State {
     /// An exit owed after a fault could not run, or did not finish: a
     /// `fault` record (the plugin is in `error` already, and says so once:
     /// no second `faulted`), counted with the run's faults.
-    pub(super) fn exit_not_run(&mut self, pid: usize, cause: String) {
+    pub(super) fn exit_not_run(&mut self, pid: PluginId, cause: String) {
         let plugin = self.plugins[pid].name.clone();
         self.faults.0 += 1;
         self.record(Entry::Fault {
@@ -161,7 +162,7 @@ impl State {
         let now = self.now();
         let mut waiting = Vec::new();
         let mut cap = now;
-        for pid in 0..self.plugins.len() {
+        for pid in PluginId::all(self.plugins.len()) {
             if self.plugins[pid].is_event() {
                 continue;
             }
@@ -293,7 +294,7 @@ impl State {
     }
 
     /// The bound of plugin `pid`'s running slot, if any, given up.
-    pub(super) fn unbind(&mut self, pid: usize) {
+    pub(super) fn unbind(&mut self, pid: PluginId) {
         if let Some(task) = self.plugins[pid].bound.take() {
             self.cancelled.push(task);
         }
@@ -302,7 +303,7 @@ impl State {
     /// The exit slot of a normal activation begins: while the run stops,
     /// bounded by its `exit_ms` (its start's bound given up); `stop` then,
     /// as the trace's `after` says.
-    pub(super) fn exit_begins(&mut self, pid: usize) -> Option<&'static str> {
+    pub(super) fn exit_begins(&mut self, pid: PluginId) -> Option<&'static str> {
         self.winding.as_ref()?;
         self.unbind(pid);
         let bound = self.bound_exit(pid, "at the run's stop");

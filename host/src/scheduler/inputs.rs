@@ -21,6 +21,7 @@ use serde_json::Value as Json;
 use wasmtime::component::Val;
 
 use super::commands::{Injection, LinkSpec};
+use super::ids::ConnId;
 use super::state::{Core, State};
 use super::versions::NewVersion;
 use crate::clock::duration_nanos;
@@ -79,7 +80,7 @@ pub(crate) enum StaticWhat {
     /// A connection made from outside (`radar ctl connect`).
     Connect(LinkSpec),
     /// A connection ended from outside.
-    Disconnect(u64),
+    Disconnect(ConnId),
     /// A faulted plugin reset from outside.
     Reset(String),
     /// An agent lost.
@@ -295,7 +296,7 @@ impl State {
                 let _ = self.connect_from_outside(link);
             }
             Action::Outside(StaticWhat::Disconnect(id)) => {
-                self.record_input(Input::Disconnect { id });
+                self.record_input(Input::Disconnect { id: id.get() });
                 self.disconnect(id, "closed");
             }
             Action::Outside(StaticWhat::NodeLost(node)) => self.node_lost(&node),

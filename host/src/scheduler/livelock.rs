@@ -11,11 +11,13 @@
 //! ([`Burst::Livelock`], once). It also counts the scheduler's moves of the
 //! instant, where an outside input lands (see `inputs`).
 
+use super::ids::PluginId;
+
 /// What the counts of an instant found.
 #[derive(Debug, PartialEq, Eq)]
 pub(crate) enum Burst {
     /// Plugin `pid` made most of the instant's work: it faults with `cause`.
-    Blame { pid: usize, cause: String },
+    Blame { pid: PluginId, cause: String },
     /// A loop through several plugins: the run is stopped, saying why.
     Livelock { message: String },
 }
@@ -72,7 +74,7 @@ impl InstantCounts {
         self
     }
 
-    fn plugin(&mut self, pid: usize, now: u64) -> &mut PluginCounts {
+    fn plugin(&mut self, pid: PluginId, now: u64) -> &mut PluginCounts {
         let counts = &mut self.plugins[pid];
         if counts.at != now {
             *counts = PluginCounts {
@@ -86,7 +88,7 @@ impl InstantCounts {
     /// Whether no burst at `now` can blame `pid` before it makes another
     /// step or signal (its share stays under three quarters of any total
     /// that reaches a limit).
-    pub(super) fn cannot_blame(&mut self, pid: usize, now: u64) -> bool {
+    pub(super) fn cannot_blame(&mut self, pid: PluginId, now: u64) -> bool {
         let (limit, step_limit) = (self.limit, self.step_limit);
         let counts = *self.plugin(pid, now);
         counts.signals * 4 <= limit * 3 && counts.steps * 4 <= step_limit * 3
@@ -103,14 +105,14 @@ impl InstantCounts {
     }
 
     /// Counts a signal `pid` emitted at `now`.
-    pub(super) fn signal(&mut self, now: u64, pid: usize) -> Option<Burst> {
+    pub(super) fn signal(&mut self, now: u64, pid: PluginId) -> Option<Burst> {
         self.at(now).signals += 1;
         self.plugin(pid, now).signals += 1;
         (self.signals >= self.limit).then(|| self.burst(now, false))?
     }
 
     /// Counts a task step at `now`, `pid`'s if the task is a plugin's actor.
-    pub(super) fn step(&mut self, now: u64, pid: Option<usize>) -> Option<Burst> {
+    pub(super) fn step(&mut self, now: u64, pid: Option<PluginId>) -> Option<Burst> {
         self.at(now).steps += 1;
         if let Some(pid) = pid {
             self.plugin(pid, now).steps += 1;
@@ -126,8 +128,8 @@ impl InstantCounts {
         } else {
             &mut self.signals
         });
-        let mut blamed: Option<(usize, u64)> = None;
-        for pid in 0..self.plugins.len() {
+        let mut blamed: Option<(PluginId, u64)> = None;
+        for pid in PluginId::all(self.plugins.len()) {
             let counts = self.plugin(pid, now);
             let made = std::mem::take(if steps {
                 &mut counts.steps
@@ -187,14 +189,14 @@ mod tests {
         let mut found = None;
         for n in 0..limit(&counts) {
             // Plugin 1 emits four of every five.
-            let pid = if n % 5 == 0 { 0 } else { 1 };
+            let pid = PluginId::new(if n % 5 == 0 { 0 } else { 1 });
             if let Some(burst) = counts.signal(7, pid) {
                 found = Some(burst);
             }
         }
         match found {
             Some(Burst::Blame { pid, cause }) => {
-                assert_eq!(pid, 1);
+                assert_eq!(pid, PluginId::new(1));
                 assert!(
                     cause.starts_with("a burst: it emitted 8000 of 10000"),
                     "{cause}"
@@ -209,7 +211,7 @@ mod tests {
     fn a_loop_through_plugins_is_a_livelock_once() {
         let mut counts = InstantCounts::new(2);
         let bursts: Vec<Burst> = (0..3 * limit(&counts))
-            .filter_map(|n| counts.signal(5, (n % 2) as usize))
+            .filter_map(|n| counts.signal(5, PluginId::new((n % 2) as usize)))
             .collect();
         assert_eq!(bursts.len(), 1, "{bursts:?}");
         assert!(matches!(&bursts[0], Burst::Livelock { message } if message.contains("no plugin")));
@@ -220,7 +222,11 @@ mod tests {
     fn the_counts_start_again_when_time_moves() {
         let mut counts = InstantCounts::new(1);
         for t in 0..3 * limit(&counts) {
-            assert_eq!(counts.signal(t, 0), None, "one signal an instant");
+            assert_eq!(
+                counts.signal(t, PluginId::new(0)),
+                None,
+                "one signal an instant"
+            );
         }
         counts.count_move(9);
         counts.count_move(9);

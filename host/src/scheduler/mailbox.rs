@@ -12,6 +12,7 @@ use std::time::Duration;
 use crossbeam_channel::Sender;
 
 use super::commands::Woke;
+use super::ids::{ConnId, MailboxId};
 use super::state::{Core, State, WaiterReply};
 use crate::clock::duration_nanos;
 use crate::error::RadarError;
@@ -22,7 +23,7 @@ impl State {
     pub(super) fn wait(
         &mut self,
         core: &Rc<Core>,
-        mailbox: u64,
+        mailbox: MailboxId,
         deadline: Option<Duration>,
         signal: Option<String>,
         lockstep: bool,
@@ -68,8 +69,8 @@ impl State {
     /// signal gets it too).
     pub(super) fn mail(
         &mut self,
-        mailbox: u64,
-        connection: u64,
+        mailbox: MailboxId,
+        connection: ConnId,
         payload: Payload,
     ) -> Result<(), &'static str> {
         let Some(mail) = self.mailboxes.get_mut(&mailbox) else {
@@ -92,7 +93,7 @@ impl State {
 
     /// Ends the program's wait with the first delivery in its mailbox, if it
     /// still waits.
-    fn wake_for_mail(&mut self, mailbox: u64) {
+    fn wake_for_mail(&mut self, mailbox: MailboxId) {
         let Some(mail) = self.mailboxes.get_mut(&mailbox) else {
             return;
         };
@@ -108,7 +109,9 @@ impl State {
             self.cancelled.push(task);
         }
         // The wait's own signal connection ends with it.
-        self.disconnect(waiter.connection, "closed");
+        if let Some(connection) = waiter.connection {
+            self.disconnect(connection, "closed");
+        }
         if let (WaiterReply::Wait { reply, .. }, Some((connection, payload))) =
             (waiter.reply, delivery)
         {

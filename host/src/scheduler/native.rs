@@ -2,6 +2,7 @@
 //! programs) as the scheduler serves them: resumed in turns, anonymous
 //! slots run one at a time on their thread, waits with their timeouts.
 
+use super::ids::{AnonId, PluginId, WaiterId};
 use std::rc::Rc;
 
 use super::commands::AnonymousSlot;
@@ -26,7 +27,7 @@ impl State {
     /// Hands the next delivery of anonymous slot `slot` to Radar's
     /// anonymous-slot thread, which runs one slot at a time (a slot that
     /// blocks in `sleep` holds the thread, not the scheduler).
-    pub(super) fn dispatch_anonymous(&mut self, slot: u64) {
+    pub(super) fn dispatch_anonymous(&mut self, slot: AnonId) {
         let Some(a) = self.anonymous.get_mut(&slot) else {
             return;
         };
@@ -53,7 +54,7 @@ impl State {
         self.turns.wake(Box::new(move || jobs.send(job).is_ok()));
     }
 
-    pub(super) fn anonymous_done(&mut self, slot: u64, closure: AnonymousSlot, panicked: bool) {
+    pub(super) fn anonymous_done(&mut self, slot: AnonId, closure: AnonymousSlot, panicked: bool) {
         self.turns.block();
         self.runner_busy = false;
         if panicked {
@@ -87,13 +88,13 @@ impl State {
         core: &Rc<Core>,
         reply: WaiterReply,
         lockstep: bool,
-        from: Option<(usize, Signal)>,
+        from: Option<(PluginId, Signal)>,
         deadline: Option<u64>,
-    ) -> u64 {
+    ) -> WaiterId {
         if lockstep {
             self.turns.block();
         }
-        self.next_waiter += 1;
+        self.next_waiter = self.next_waiter.next();
         let w = self.next_waiter;
         // Registered before the connection exists so that an immediate
         // delivery finds it.
@@ -103,7 +104,7 @@ impl State {
                 reply,
                 lockstep,
                 timeout_task: None,
-                connection: 0,
+                connection: None,
             },
         );
         let connection = from.map(|from| {
@@ -126,21 +127,21 @@ impl State {
         });
         if let Some(waiter) = self.waiters.get_mut(&w) {
             waiter.timeout_task = timeout_task;
-            waiter.connection = connection.unwrap_or(0);
+            waiter.connection = connection;
         }
         w
     }
 
-    pub(super) fn finish_waiter(&mut self, w: u64, payload: Option<Payload>) {
+    pub(super) fn finish_waiter(&mut self, w: WaiterId, payload: Option<Payload>) {
         let Some(waiter) = self.waiters.remove(&w) else {
             return;
         };
         if let Some(task) = waiter.timeout_task {
             self.cancelled.push(task);
         }
-        if payload.is_none() {
+        if let (None, Some(connection)) = (&payload, waiter.connection) {
             // Timed out (or ended by the run stopping): end the wait's connection.
-            self.disconnect(waiter.connection, "timeout");
+            self.disconnect(connection, "timeout");
         }
         match waiter.reply {
             WaiterReply::WaitFor(reply) => self.resume(

@@ -5,6 +5,7 @@
 //! replay makes the same change at the same place (`docs/network.md`).
 
 use super::commands::{LinkSpec, LinkTarget};
+use super::ids::{ConnId, PluginId};
 use super::state::{Lifecycle, State};
 use crate::error::RadarError;
 use crate::plugin::remote::static_level;
@@ -15,7 +16,10 @@ use crate::trace::Entry;
 
 impl State {
     /// A connection asked for from outside: recorded as an input, then made.
-    pub(super) fn connect_from_outside(&mut self, link: LinkSpec) -> Result<Vec<u64>, RadarError> {
+    pub(super) fn connect_from_outside(
+        &mut self,
+        link: LinkSpec,
+    ) -> Result<Vec<ConnId>, RadarError> {
         if let LinkTarget::Slot(to) = &link.to {
             self.record_input(Input::Connect {
                 from: link.from.clone(),
@@ -232,14 +236,14 @@ impl State {
 
     /// The plugins placed on agent `node` (running there, or here in a
     /// replay or a scenario).
-    fn on_node(&self, node: &str) -> Vec<usize> {
-        (0..self.plugins.len())
+    fn on_node(&self, node: &str) -> Vec<PluginId> {
+        PluginId::all(self.plugins.len())
             .filter(|pid| self.plugins[*pid].def.node.as_deref() == Some(node))
             .collect()
     }
 
     /// Whether the agent plugin `pid` is placed on is there now.
-    pub(super) fn node_is_up(&self, pid: usize) -> bool {
+    pub(super) fn node_is_up(&self, pid: PluginId) -> bool {
         let def = &self.plugins[pid].def;
         match (&def.remote, &def.node) {
             (Some(remote), _) => remote.link.is_alive(&remote.node),
@@ -251,7 +255,7 @@ impl State {
     /// Resets plugin `pid` `after` from now, as an operator or a supervisor
     /// would after a fault (an injected fault says when: see
     /// `crate::plugin::InjectedFault`).
-    pub(super) fn reset_later(&mut self, pid: usize, after: std::time::Duration) {
+    pub(super) fn reset_later(&mut self, pid: PluginId, after: std::time::Duration) {
         let Some(core) = self.core.upgrade() else {
             return;
         };
@@ -273,7 +277,7 @@ impl State {
     }
 
     /// A plugin's state as deliberative code sees it.
-    pub(super) fn state_of(&self, pid: usize) -> PluginState {
+    pub(super) fn state_of(&self, pid: PluginId) -> PluginState {
         let entry = &self.plugins[pid];
         match (entry.lifecycle, entry.is_event()) {
             (Lifecycle::Error, _) => PluginState::Error,
@@ -285,7 +289,7 @@ impl State {
 
     /// The system now: plugins and live connections.
     pub(super) fn overview(&self) -> Overview {
-        let plugins = (0..self.plugins.len())
+        let plugins = PluginId::all(self.plugins.len())
             .map(|pid| {
                 let entry = &self.plugins[pid];
                 PluginOverview {
@@ -311,7 +315,7 @@ impl State {
             .connections
             .iter()
             .map(|(id, conn)| ConnectionOverview {
-                id: *id,
+                id: id.get(),
                 from: self.signal_label(conn.from),
                 to: conn.to_label.to_string(),
                 mode: conn.mode.as_str().into(),

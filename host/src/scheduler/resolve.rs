@@ -2,13 +2,14 @@
 //! ports a plugin has (for errors that list them), and whether a
 //! connection's types fit (`docs/semantics.md#typing`).
 
+use super::ids::PluginId;
 use super::state::State;
 use super::typing::{fits, type_text};
 use crate::error::RadarError;
 use crate::ports::{split_port, Signal, Slot};
 
 impl State {
-    pub(super) fn resolve_signal(&self, spec: &str) -> Result<(usize, Signal), RadarError> {
+    pub(super) fn resolve_signal(&self, spec: &str) -> Result<(PluginId, Signal), RadarError> {
         let (name, port) = split_port(spec);
         let pid = self.plugin(name)?;
         let entry = &self.plugins[pid];
@@ -38,7 +39,7 @@ impl State {
         Ok((pid, signal))
     }
 
-    pub(super) fn resolve_slot(&self, spec: &str) -> Result<(usize, Slot), RadarError> {
+    pub(super) fn resolve_slot(&self, spec: &str) -> Result<(PluginId, Slot), RadarError> {
         let (name, port) = split_port(spec);
         let pid = self.plugin(name)?;
         let slot = match port.unwrap_or("start") {
@@ -53,7 +54,7 @@ impl State {
         Ok((pid, slot))
     }
 
-    pub(super) fn unknown_port(&self, pid: usize, what: &'static str, name: &str) -> RadarError {
+    pub(super) fn unknown_port(&self, pid: PluginId, what: &'static str, name: &str) -> RadarError {
         let entry = &self.plugins[pid];
         let known = if what == "signal" {
             let built_in = if entry.is_event() {
@@ -85,11 +86,11 @@ impl State {
         }
     }
 
-    pub(super) fn signal_label(&self, (pid, signal): (usize, Signal)) -> String {
+    pub(super) fn signal_label(&self, (pid, signal): (PluginId, Signal)) -> String {
         format!("{}.{}", self.plugins[pid].def.name, signal.as_str())
     }
 
-    pub(super) fn slot_label(&self, pid: usize, slot: Slot) -> String {
+    pub(super) fn slot_label(&self, pid: PluginId, slot: Slot) -> String {
         format!("{}.{}", self.plugins[pid].def.name, slot.as_str())
     }
 
@@ -97,8 +98,8 @@ impl State {
     /// slot takes the payload at all.
     pub(super) fn check_types(
         &self,
-        from: (usize, Signal),
-        pid: usize,
+        from: (PluginId, Signal),
+        pid: PluginId,
         slot: Slot,
     ) -> Result<bool, RadarError> {
         let emits = self.plugins[from.0].signal_type(from.1).flatten();

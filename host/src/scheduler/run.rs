@@ -1,6 +1,7 @@
 //! The scheduler's thread: the run loop under either clock, and the end
 //! of a run.
 
+use super::ids::{ConnId, NativeTaskId, PluginId, WaiterId};
 use std::cell::RefCell;
 use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::rc::Rc;
@@ -139,7 +140,7 @@ pub(crate) struct Scheduler {
     /// Static inputs applied at their recorded places (see `inputs`).
     pub(super) placed: inputs::Placed,
     /// Each plugin's actor task, by task: whose steps a step is.
-    pub(super) actors: foldhash::HashMap<TaskId, usize>,
+    pub(super) actors: foldhash::HashMap<TaskId, PluginId>,
     /// What stops a call from outside it (a signal, a stall).
     pub(super) watch: Arc<RunWatch>,
     /// The threads calls compute on (see `ahead`).
@@ -182,7 +183,7 @@ impl Scheduler {
             .into_iter()
             .enumerate()
             .map(|(i, mut def)| {
-                by_name.insert(def.name.clone(), i);
+                by_name.insert(def.name.clone(), PluginId::new(i));
                 let faults = Arc::new(crate::plugin::FaultPlan::new(std::mem::take(
                     &mut def.faults,
                 )));
@@ -222,10 +223,10 @@ impl Scheduler {
             by_name,
             connections: BTreeMap::new(),
             routes: vec![Vec::new(); plugin_count],
-            next_connection: 0,
+            next_connection: ConnId::default(),
             anonymous: HashMap::new(),
             waiters: HashMap::new(),
-            next_waiter: 0,
+            next_waiter: WaiterId::default(),
             trace,
             turns: Turns::new(base.kind() == ClockKind::Virtual, programs > 0),
             runner_busy: false,
@@ -239,7 +240,7 @@ impl Scheduler {
             instant: InstantCounts::new(plugin_count),
             program_outcome: None,
             native_tasks: HashMap::new(),
-            next_native_task: 0,
+            next_native_task: NativeTaskId::default(),
             route_buffer: Vec::new(),
             board: board::Blackboard::new(board),
             mailboxes: HashMap::new(),
@@ -278,7 +279,7 @@ impl Scheduler {
     /// lets `Radar::swap` make the new version's instance on its own thread.
     pub fn instance_setups(&self) -> HashMap<String, InstanceSetup> {
         self.core.with(|st| {
-            (0..st.plugins.len())
+            PluginId::all(st.plugins.len())
                 .map(|pid| (st.plugins[pid].name.to_string(), st.setup(pid).1))
                 .collect()
         })
@@ -331,7 +332,7 @@ impl Scheduler {
                 });
             }
         });
-        for pid in 0..count {
+        for pid in PluginId::all(count) {
             let core = self.core.clone();
             let task: LocalTask = if self.core.with(|st| st.plugins[pid].is_event()) {
                 Box::pin(event_actor(core, pid))

@@ -16,6 +16,7 @@ use super::backlog::Backlog;
 use super::board::Grants;
 use super::commands::AnonymousSlot;
 use super::commands::{AnonymousJob, ProgramFailure, Woke};
+use super::ids::{AnonId, ConnId, MailboxId, NativeTaskId, PluginId, Via, WaiterId};
 use super::livelock::Burst;
 use super::livelock::InstantCounts;
 use super::recording::TraceOut;
@@ -67,33 +68,33 @@ impl Phase {
 /// A start signal a response has accepted but not begun.
 pub(super) struct StartRequest {
     pub(super) payload: Shared,
-    /// The connection that delivered it (0: an injection).
-    pub(super) via: u64,
+    /// The connection that delivered it, or an injection.
+    pub(super) via: Via,
     /// The `F → R.interrupt` connection of `once E start R until F`, which
     /// lives as long as the activation this start begins.
-    pub(super) until: Option<u64>,
+    pub(super) until: Option<ConnId>,
 }
 
 /// A payload on its way into a response's slot.
 pub(super) struct Delivery {
-    /// The connection it came through (0: an injection).
-    pub(super) via: u64,
+    /// The connection it came through, or an injection.
+    pub(super) via: Via,
     pub(super) payload: Shared,
     pub(super) busy: Busy,
     /// See [`StartRequest::until`].
-    pub(super) until: Option<u64>,
+    pub(super) until: Option<ConnId>,
     /// For an `until` connection: the start connection it serves.
-    pub(super) serves: Option<u64>,
+    pub(super) serves: Option<ConnId>,
 }
 
 /// The activation a response is running: its start slot has begun.
 pub(super) struct Activation {
-    /// The connection whose start began it (0: an injection).
-    pub(super) via: u64,
+    /// The connection whose start began it, or an injection.
+    pub(super) via: Via,
     /// Its start payload, for a `restart` swap that starts it again.
     pub(super) payload: Shared,
     /// See [`StartRequest::until`].
-    pub(super) until: Option<u64>,
+    pub(super) until: Option<ConnId>,
 }
 
 /// A response whose `start` or `interrupt` faulted, while its exit is owed
@@ -101,14 +102,14 @@ pub(super) struct Activation {
 pub(super) struct FaultExit {
     /// The `until` connection of the activation that faulted: it ends
     /// with the exit.
-    pub(super) until: Option<u64>,
+    pub(super) until: Option<ConnId>,
 }
 
 /// A stop of the run under way: the responses whose exits it waits for.
 pub(crate) struct Winding {
     /// Responses with an activation (or an exit after a fault) when the
     /// stop began, as long as they have one.
-    pub(super) waiting: Vec<usize>,
+    pub(super) waiting: Vec<PluginId>,
     /// When the run ends whatever is left: every bound has passed by then.
     pub(super) cap: u64,
 }
@@ -192,7 +193,7 @@ impl PluginEntry {
 
     /// The connection whose start the running (or about to begin)
     /// activation came through.
-    pub(super) fn activation_via(&self) -> Option<u64> {
+    pub(super) fn activation_via(&self) -> Option<Via> {
         match (&self.activation, &self.next) {
             (Some(a), _) => Some(a.via),
             (None, Some(n)) if self.phase == Phase::Running => Some(n.via),
@@ -217,14 +218,14 @@ impl PluginEntry {
 
 #[derive(Clone, Copy, Debug)]
 pub(super) enum Target {
-    Slot(usize, Slot),
-    Anonymous(u64),
-    Waiter(u64),
-    Mailbox(u64),
+    Slot(PluginId, Slot),
+    Anonymous(AnonId),
+    Waiter(WaiterId),
+    Mailbox(MailboxId),
 }
 
 pub(super) struct Connection {
-    pub(super) from: (usize, Signal),
+    pub(super) from: (PluginId, Signal),
     pub(super) target: Target,
     pub(super) mode: Mode,
     pub(super) busy: Busy,
@@ -233,10 +234,10 @@ pub(super) struct Connection {
     /// For `E start R until F`: the `F → R.interrupt` connection. It lives
     /// as long as a `whenever` connection, or as long as the activation a
     /// `once` connection starts.
-    pub(super) until: Option<u64>,
+    pub(super) until: Option<ConnId>,
     /// For that `F → R.interrupt` connection: the start connection whose
     /// activations it interrupts (and no others).
-    pub(super) serves: Option<u64>,
+    pub(super) serves: Option<ConnId>,
     pub(super) to_label: Arc<str>,
     /// Whether the target takes the payload (a slot without parameter drops it).
     pub(super) pass_payload: bool,
@@ -252,7 +253,8 @@ pub(super) struct Waiter {
     pub(super) reply: WaiterReply,
     pub(super) lockstep: bool,
     pub(super) timeout_task: Option<TaskId>,
-    pub(super) connection: u64,
+    /// The connection of the signal it waits for, if it waits for one.
+    pub(super) connection: Option<ConnId>,
 }
 
 /// Who a wait answers: native `waitfor`, or a deliberative component's
@@ -260,7 +262,7 @@ pub(super) struct Waiter {
 pub(super) enum WaiterReply {
     WaitFor(Sender<Result<Option<Payload>, RadarError>>),
     Wait {
-        mailbox: u64,
+        mailbox: MailboxId,
         reply: Sender<Result<Woke, RadarError>>,
     },
 }
@@ -270,23 +272,24 @@ pub(crate) struct State {
     /// The core this state lives in, for tasks spawned from inside it.
     pub(super) core: std::rc::Weak<Core>,
     pub(super) plugins: Vec<PluginEntry>,
-    pub(super) by_name: BTreeMap<String, usize>,
-    pub(super) connections: BTreeMap<u64, Connection>,
+    pub(super) by_name: BTreeMap<String, PluginId>,
+    pub(super) connections: BTreeMap<ConnId, Connection>,
     /// The live connections of each plugin's signals, by plugin, in the
     /// order they were made: what an emission reaches, found without
     /// looking at any other connection.
-    pub(super) routes: Vec<Vec<(Signal, Vec<u64>)>>,
-    pub(super) next_connection: u64,
-    pub(super) anonymous: HashMap<u64, Anonymous>,
-    pub(super) waiters: HashMap<u64, Waiter>,
-    pub(super) next_waiter: u64,
+    pub(super) routes: Vec<Vec<(Signal, Vec<ConnId>)>>,
+    /// The last connection made (0 before the first).
+    pub(super) next_connection: ConnId,
+    pub(super) anonymous: HashMap<AnonId, Anonymous>,
+    pub(super) waiters: HashMap<WaiterId, Waiter>,
+    pub(super) next_waiter: WaiterId,
     pub(super) trace: TraceOut,
     /// Native contexts (deliberative threads, anonymous slots) in lockstep.
     pub(super) turns: Turns,
     /// The anonymous-slot thread is running (or about to run) a slot.
     pub(super) runner_busy: bool,
     /// Anonymous slots with deliveries waiting for the thread, in order.
-    pub(super) runner_waiting: VecDeque<u64>,
+    pub(super) runner_waiting: VecDeque<AnonId>,
     pub(super) spawned: Vec<(TaskId, LocalTask)>,
     pub(super) cancelled: Vec<TaskId>,
     pub(super) next_task: TaskId,
@@ -298,11 +301,11 @@ pub(crate) struct State {
     pub(super) instant: InstantCounts,
     pub(super) program_outcome: Option<Result<(), ProgramFailure>>,
     /// Tasks started with `Radar::spawn`, by id.
-    pub(super) native_tasks: HashMap<u64, NativeTask>,
-    pub(super) next_native_task: u64,
-    pub(super) route_buffer: Vec<u64>,
+    pub(super) native_tasks: HashMap<NativeTaskId, NativeTask>,
+    pub(super) next_native_task: NativeTaskId,
+    pub(super) route_buffer: Vec<ConnId>,
     pub(super) board: board::Blackboard,
-    pub(super) mailboxes: HashMap<u64, Mailbox>,
+    pub(super) mailboxes: HashMap<MailboxId, Mailbox>,
     /// Plugins that faulted on a limit of the machine: how many, and the
     /// first one's fault.
     pub(super) machine_limit: Option<(usize, String)>,
@@ -339,15 +342,15 @@ pub(super) struct ConnectionParts {
     pub(super) to_label: String,
     pub(super) pass_payload: bool,
     /// For an `until` connection: the start connection it serves.
-    pub(super) serves: Option<u64>,
+    pub(super) serves: Option<ConnId>,
 }
 
 /// A deliberative component's anonymous-slot deliveries, and its wait.
 #[derive(Default)]
 pub(crate) struct Mailbox {
-    pub(super) queue: Backlog<(u64, Payload)>,
+    pub(super) queue: Backlog<(ConnId, Payload)>,
     /// The waiter of the program's current wait, if it waits.
-    pub(super) waiter: Option<u64>,
+    pub(super) waiter: Option<WaiterId>,
 }
 
 impl Core {
@@ -357,7 +360,7 @@ impl Core {
 
     /// Waits until `ready` holds for plugin `pid` (the actor is woken by
     /// whatever may have changed it).
-    pub(super) async fn until_ready(&self, pid: usize, ready: fn(&PluginEntry) -> bool) {
+    pub(super) async fn until_ready(&self, pid: PluginId, ready: fn(&PluginEntry) -> bool) {
         poll_fn(|cx| {
             let mut st = self.st.borrow_mut();
             let entry = &mut st.plugins[pid];
@@ -386,7 +389,7 @@ impl State {
         self.next_task
     }
 
-    pub(super) fn plugin(&self, name: &str) -> Result<usize, RadarError> {
+    pub(super) fn plugin(&self, name: &str) -> Result<PluginId, RadarError> {
         self.by_name
             .get(name)
             .copied()
@@ -396,7 +399,7 @@ impl State {
             })
     }
 
-    pub(super) fn setup(&self, pid: usize) -> (Rc<PluginCode>, InstanceSetup) {
+    pub(super) fn setup(&self, pid: PluginId) -> (Rc<PluginCode>, InstanceSetup) {
         let entry = &self.plugins[pid];
         (
             entry.def.code.clone(),
@@ -524,7 +527,7 @@ impl State {
 /// The livelock guard's counts, applied (see `livelock`).
 impl State {
     /// Counts a signal `pid` emits at the current virtual instant.
-    pub(super) fn count_signal(&mut self, pid: usize) {
+    pub(super) fn count_signal(&mut self, pid: PluginId) {
         let now = self.now();
         if let Some(burst) = self.instant.signal(now, pid) {
             self.burst(burst);
@@ -533,7 +536,7 @@ impl State {
 
     /// Counts a task step at the current virtual instant, `pid`'s if the
     /// task is a plugin's actor.
-    pub(super) fn count_task_step(&mut self, pid: Option<usize>) {
+    pub(super) fn count_task_step(&mut self, pid: Option<PluginId>) {
         let now = self.now();
         if let Some(burst) = self.instant.step(now, pid) {
             self.burst(burst);

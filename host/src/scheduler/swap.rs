@@ -14,6 +14,7 @@
 //! [`Core::transition`], the one path by which a plugin gets a new instance
 //! (reset, swap, rollback), shared by events and responses.
 
+use super::ids::{ConnId, PluginId};
 use std::rc::Rc;
 
 use super::state::{Core, Lifecycle, Phase, StartRequest, State, Target};
@@ -99,7 +100,7 @@ impl State {
                     via: activation.via,
                     until: activation.until.take(),
                 };
-                restarted = Some(again.via);
+                restarted = Some(again.via.trace_id());
                 if let Some(next) = entry.next.replace(again) {
                     entry.queue.push_front(next);
                 }
@@ -130,7 +131,7 @@ impl State {
         Ok(())
     }
 
-    fn refuse_swap(&mut self, pid: usize, version: &str, reason: String) {
+    fn refuse_swap(&mut self, pid: PluginId, version: &str, reason: String) {
         let plugin = self.plugins[pid].name.clone();
         self.record(Entry::SwapRefused {
             plugin,
@@ -145,7 +146,7 @@ impl State {
     /// connection, or the waiting starts, and both types.
     pub(super) fn check_swap(
         &self,
-        pid: usize,
+        pid: PluginId,
         code: &PluginCode,
         restart: bool,
     ) -> Result<(), String> {
@@ -224,8 +225,8 @@ impl State {
     }
 
     /// After a swap: whether each connection of the plugin passes payloads.
-    fn refresh_payloads(&mut self, pid: usize) {
-        let updates: Vec<(u64, bool)> = self
+    fn refresh_payloads(&mut self, pid: PluginId) {
+        let updates: Vec<(ConnId, bool)> = self
             .connections
             .iter()
             .filter_map(|(id, c)| match c.target {
@@ -246,7 +247,7 @@ impl State {
 
     /// A plugin that has a new instance after `error`: back to its lifecycle
     /// (an event active again if anything listens, a response idle).
-    fn revive(&mut self, pid: usize) {
+    fn revive(&mut self, pid: PluginId) {
         let entry = &mut self.plugins[pid];
         let name = entry.name.clone();
         let listening = entry.listeners > 0;
@@ -279,7 +280,7 @@ impl Core {
     /// fails anywhere leaves the old version serving and says why.
     pub(super) async fn transition(
         &self,
-        pid: usize,
+        pid: PluginId,
         instance: &mut Option<PluginInstance>,
         transition: Transition,
     ) {

@@ -28,6 +28,7 @@ use crate::executor::block_on;
 use crate::limiter::{MemoryBudget, StoreLimiter};
 use crate::plugin::Limits;
 use crate::ports::Busy;
+use crate::scheduler::MailboxId;
 use crate::scheduler::ProgramFailure;
 use crate::watchdog::{CallWatch, RunWatch};
 
@@ -100,7 +101,7 @@ fn validate(engine: &Engine, component: &Component) -> Result<(), String> {
 pub(crate) struct ProgramCtx {
     radar: Radar,
     /// Where its anonymous slots' deliveries wait (unique per program).
-    mailbox: u64,
+    mailbox: MailboxId,
     /// Its anonymous slots (resource reps): they end with the program,
     /// `keep` or not.
     listeners: std::collections::HashSet<u32>,
@@ -167,7 +168,7 @@ impl system::HostConnection for ProgramCtx {
     fn ids(&mut self, connection: Resource<Connection>) -> Vec<u64> {
         self.table
             .get(&connection)
-            .map(|c| c.ids().to_vec())
+            .map(|c| c.ids().iter().map(|id| id.get()).collect())
             .unwrap_or_default()
     }
 
@@ -246,7 +247,7 @@ impl Host for ProgramCtx {
             crate::scheduler::Woke::Signal(payload) => Woke::Signal(payload.to_json().to_string()),
             crate::scheduler::Woke::Delivery(connection, payload) => {
                 Woke::Delivery(system::Delivery {
-                    connection,
+                    connection: connection.get(),
                     payload: payload.to_json().to_string(),
                 })
             }
@@ -368,7 +369,7 @@ pub(crate) fn run(
         waits: WaitClock::Program(Arc::new(ProgramSleeps(radar.clone()))),
         watch: CallWatch::new(watch, Arc::new(StopFlag::default()), name.clone()),
         radar,
-        mailbox: MAILBOXES.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+        mailbox: MailboxId::new(MAILBOXES.fetch_add(1, std::sync::atomic::Ordering::Relaxed)),
         listeners: std::collections::HashSet::new(),
         kept: false,
         stopped: None,

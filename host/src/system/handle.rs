@@ -16,7 +16,9 @@ use crate::executor::block_on;
 use crate::payload::Payload;
 use crate::plugin::Loader;
 use crate::ports::{PluginState, SwapPolicy};
-use crate::scheduler::{Command, NewVersion, ProgramFailure, Woke};
+use crate::scheduler::{
+    Command, ConnId, MailboxId, NativeTaskId, NewVersion, ProgramFailure, Woke,
+};
 use crate::trace::inputs::Origin;
 use crate::watchdog::{RunWatch, Stopping};
 
@@ -189,7 +191,7 @@ impl Radar {
     /// `signal`, or until a delivery to one of its anonymous slots.
     pub(crate) fn wait(
         &self,
-        mailbox: u64,
+        mailbox: MailboxId,
         deadline: Option<Duration>,
         signal: Option<&str>,
     ) -> Result<Woke, RadarError> {
@@ -230,7 +232,7 @@ impl Radar {
     /// outside it (`radar ctl connect`): recorded as an input, so that a
     /// replay makes it too, and ended only by [`Radar::disconnect`].
     /// Returns its ids (two for `once ... until`).
-    pub fn connect_from_outside(&self, link: Link) -> Result<Vec<u64>, RadarError> {
+    pub fn connect_from_outside(&self, link: Link) -> Result<Vec<ConnId>, RadarError> {
         self.ask(|reply| Command::Connect {
             link: link.spec,
             external: true,
@@ -240,7 +242,7 @@ impl Radar {
 
     /// Ends connection `id`, whoever made it (`radar ctl disconnect`):
     /// recorded as an input, and in the trace with reason `closed`.
-    pub fn disconnect(&self, id: u64) -> Result<(), RadarError> {
+    pub fn disconnect(&self, id: ConnId) -> Result<(), RadarError> {
         self.tx
             .send(Command::Disconnect {
                 ids: vec![id],
@@ -550,7 +552,7 @@ impl std::fmt::Debug for PreparedVersion {
 /// Deliberative code started with [`Radar::spawn`](crate::Radar::spawn). Dropping it detaches
 /// the task (it runs on until it ends or the run does).
 pub struct Task {
-    id: u64,
+    id: NativeTaskId,
     radar: Radar,
 }
 

@@ -7,7 +7,7 @@ use crossbeam_channel::Sender;
 
 use crate::payload::Payload;
 use crate::ports::{Busy, Mode};
-use crate::scheduler::{AnonymousSlot, Command, LinkSpec, LinkTarget};
+use crate::scheduler::{AnonymousSlot, Command, ConnId, LinkSpec, LinkTarget, MailboxId};
 
 /// A connection as deliberative code describes it, before it is made.
 ///
@@ -69,7 +69,7 @@ impl Link {
     }
 
     /// `from` into a deliberative component's mailbox (its anonymous slot).
-    pub(crate) fn to_mailbox(from: &str, mode: Mode, mailbox: u64) -> Self {
+    pub(crate) fn to_mailbox(from: &str, mode: Mode, mailbox: MailboxId) -> Self {
         Self::new(from, LinkTarget::Mailbox(mailbox), mode)
     }
 
@@ -101,14 +101,14 @@ impl Link {
 #[must_use = "a connection ends when its guard is dropped"]
 #[derive(Debug)]
 pub struct Connection {
-    pub(super) ids: Vec<u64>,
+    pub(super) ids: Vec<ConnId>,
     pub(super) tx: Sender<Command>,
     pub(super) armed: bool,
 }
 
 impl Connection {
     /// The trace ids of this connection (two for `once ... until`).
-    pub fn ids(&self) -> &[u64] {
+    pub fn ids(&self) -> &[ConnId] {
         &self.ids
     }
 

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use crate::plugin::Answer;
 use crate::ports::{Mode, SwapPolicy};
-use crate::scheduler::{LinkSpec, LinkTarget, StaticWhat};
+use crate::scheduler::{ConnId, LinkSpec, LinkTarget, StaticWhat};
 use crate::trace::inputs::Input;
 
 /// What `input` makes the scheduler do; `None` for a recording's own lines
@@ -55,7 +55,7 @@ pub(super) fn static_what(input: &Input) -> Option<StaticWhat> {
                 until: until.clone(),
             })
         }
-        Input::Disconnect { id } => StaticWhat::Disconnect(*id),
+        Input::Disconnect { id } => StaticWhat::Disconnect(ConnId::new(*id)),
         Input::Reset { plugin } => StaticWhat::Reset(plugin.clone()),
         Input::NodeLost { node } => StaticWhat::NodeLost(node.clone()),
         Input::NodeBack { node } => StaticWhat::NodeBack(node.clone()),
