@@ -50,7 +50,7 @@ pub use plugin::{
 pub use ports::{
     Busy, ConnectionOverview, Mode, Overview, PluginOverview, PluginState, SwapPolicy,
 };
-pub use scheduler::{AnonymousSlot, ConnId, ProgramFailure};
+pub use scheduler::{AnonymousSlot, ConfigChange, ConnId, ProgramFailure};
 pub use system::{
     Connection, Deliberative, Interrupter, Link, Plugin, PreparedVersion, Radar, RunReport, System,
     SystemBuilder, Task,

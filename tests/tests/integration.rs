@@ -19,6 +19,7 @@ mod board;
 mod board_in_languages;
 mod c_languages;
 mod commands;
+mod config;
 mod deliberative;
 mod determinism;
 mod exits;

@@ -2,10 +2,13 @@
 //! manifest's `config` table, the builder's `config` calls), as text.
 //!
 //! A plugin's values can change while it runs (a ROS 2 parameter set, a
-//! `configure` input: `docs/manifest.md#config`). The change must land at
-//! one place in the run, the same in a replay and with `--threads`, so an
-//! instance takes new values only when a call begins: the call reads the
-//! values as they were when it began, to its end.
+//! `configure` input: `docs/manifest.md#config`): each read sees them as
+//! they are at that moment, as a blackboard read does. That is the same
+//! place in a replay and with `--threads`: a change is made by the
+//! scheduler between its tasks' polls, never while a call computes, and a
+//! read happens inside a poll. A plugin on an agent gets the values with
+//! each call and each wake (`crate::plugin::remote`), the points where its
+//! call can have waited while a change was made.
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -18,7 +21,9 @@ use crate::script::SCRIPT_KEY;
 
 /// A plugin's config values as they are now: one for the plugin, shared
 /// by each instance it makes (a swap's and a reset's too), changed by the
-/// scheduler when it applies a `configure` input.
+/// scheduler when it applies a `configure` input. Every set and read
+/// happens on the scheduler's thread or during a poll it waits for; the
+/// lock and the atomic make it `Sync`, as a store's state must be.
 #[derive(Debug, Default)]
 pub(crate) struct LiveConfig {
     /// Bumped by every change, so that a call sees one cheaply.
@@ -60,10 +65,10 @@ impl LiveConfig {
     }
 }
 
-/// What config reaches: the plugin's values as its current call began
-/// (taken from its [`LiveConfig`], if it has one), and for a development
-/// runtime its script ([`crate::script`]), read under [`SCRIPT_KEY`] but
-/// not listed by `keys`.
+/// What config reaches: the plugin's values (taken from its
+/// [`LiveConfig`] when they changed, if it has one), and for a
+/// development runtime its script ([`crate::script`]), read under
+/// [`SCRIPT_KEY`] but not listed by `keys`.
 pub(crate) struct ConfigState {
     values: Arc<BTreeMap<String, String>>,
     live: Option<(Arc<LiveConfig>, u64)>,
@@ -90,8 +95,8 @@ impl ConfigState {
         }
     }
 
-    /// A call begins: the values it reads are the live ones now.
-    pub(crate) fn begin_call(&mut self) {
+    /// The values now: the live ones, if they changed since last read.
+    fn refresh(&mut self) {
         if let Some((live, seen)) = &mut self.live {
             if live.version() != *seen {
                 (*seen, self.values) = live.current();
@@ -112,6 +117,7 @@ pub(crate) fn add_to_linker<T: ConfigView>(linker: &mut Linker<T>) -> wasmtime::
 
 impl Host for ConfigState {
     fn get(&mut self, key: String) -> Option<String> {
+        self.refresh();
         match &self.script {
             Some(script) if key == SCRIPT_KEY => Some(script.to_string()),
             _ => self.values.get(&key).cloned(),
@@ -119,6 +125,7 @@ impl Host for ConfigState {
     }
 
     fn keys(&mut self) -> Vec<String> {
+        self.refresh();
         self.values.keys().cloned().collect()
     }
 }
@@ -128,7 +135,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_change_reaches_a_store_when_its_next_call_begins() {
+    fn a_read_sees_the_values_as_they_are_at_that_moment() {
         let live = Arc::new(LiveConfig::new(BTreeMap::from([(
             "threshold".to_string(),
             "0.5".to_string(),
@@ -137,9 +144,6 @@ mod tests {
         assert_eq!(state.get("threshold".into()).as_deref(), Some("0.5"));
         live.set("threshold", "0.3");
         live.set("mode", "careful");
-        // The call under way keeps what it began with.
-        assert_eq!(state.get("threshold".into()).as_deref(), Some("0.5"));
-        state.begin_call();
         assert_eq!(state.get("threshold".into()).as_deref(), Some("0.3"));
         assert_eq!(state.keys(), ["mode", "threshold"]);
     }

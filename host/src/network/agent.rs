@@ -342,6 +342,7 @@ fn worker(rx: Receiver<(ToAgent, Vec<u8>)>, place: Place) {
         },
         activation: Cell::new(false),
         exiting: Cell::new(false),
+        config: config.clone(),
     });
     // Named signals and the blackboard are the coordinator's.
     let _running = running::enter(link.clone());

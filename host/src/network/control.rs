@@ -13,8 +13,8 @@ use super::keys;
 use super::protocol::{self, Command, Reply, Request, MAX_REQUEST_BYTES};
 use super::settings::Control;
 use crate::ports::{Busy, SwapPolicy};
+use crate::scheduler::ConnId;
 use crate::system::{Link, Radar};
-use crate::ConnId;
 
 /// Refusals of puts printed on stderr in full before only every
 /// thousandth is (a flood must not flood the terminal).

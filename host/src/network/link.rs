@@ -19,6 +19,7 @@ use zenoh::qos::CongestionControl;
 use zenoh::{Session, Wait};
 
 use super::ros2::outlets::AgentNodes;
+use crate::capability::config::LiveConfig;
 use crate::capability::running::RunningSystem;
 use crate::clock::{StopFlag, StopReason, TimeBase};
 use crate::plugin::remote::{mirror_stop, ExitReport, FromAgent, ToAgent, WireLog, WireVal};
@@ -76,6 +77,8 @@ pub(super) struct Link {
     pub(super) activation: Cell<bool>,
     /// The slot running is `exit`: alone, only what it emits is published.
     pub(super) exiting: Cell<bool>,
+    /// The plugin's config values, as the coordinator last sent them.
+    pub(super) config: Arc<LiveConfig>,
 }
 
 /// The agent's own ROS 2 node, as one plugin's worker publishes from it
@@ -259,10 +262,14 @@ impl Link {
                             now,
                             stop: code,
                             fault,
+                            config,
                             ..
                         },
                         _,
                     )) => {
+                        if let Some(values) = config {
+                            self.config.replace(values);
+                        }
                         self.sync(now);
                         mirror_stop(&self.stop, code, fault);
                         self.base.fire_due(now);

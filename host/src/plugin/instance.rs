@@ -294,7 +294,6 @@ impl LocalInstance {
             let data = self.store.data_mut();
             data.clock_mut().fuel_mark = self.fuel_per_call;
             data.log().begin_call();
-            data.config.begin_call();
             let now = data.clock().base.now();
             data.watch.begin(export, now);
             now

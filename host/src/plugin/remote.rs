@@ -130,6 +130,10 @@ pub(crate) enum ToAgent {
         now: u64,
         stop: Option<u8>,
         fault: Option<String>,
+        /// The plugin's config values, when they changed since the agent
+        /// last had them (while the call waited).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        config: Option<BTreeMap<String, String>>,
     },
     /// The answer to a named signal or a blackboard access.
     Answer {
@@ -538,6 +542,16 @@ impl RemoteInstance {
         ))
     }
 
+    /// The plugin's config values, if they changed since the agent last
+    /// had them.
+    fn config_changed(&mut self) -> Option<BTreeMap<String, String>> {
+        (self.config.version() != self.config_seen).then(|| {
+            let (seen, values) = self.config.current();
+            self.config_seen = seen;
+            (*values).clone()
+        })
+    }
+
     fn answer(&self, result: Result<Option<WireVal>, String>) -> Result<(), Fault> {
         self.send(
             &ToAgent::Answer {
@@ -565,12 +579,7 @@ impl RemoteInstance {
             .map(WireVal::from_val)
             .collect::<Result<Vec<_>, _>>()
             .map_err(Fault::new)?;
-        // Taken as the call begins, as a local store takes it.
-        let config = (self.config.version() != self.config_seen).then(|| {
-            let (seen, values) = self.config.current();
-            self.config_seen = seen;
-            (*values).clone()
-        });
+        let config = self.config_changed();
         self.send(
             &ToAgent::Call {
                 system: self.system.clone(),
@@ -598,6 +607,7 @@ impl RemoteInstance {
                         Some(deadline) => self.base.sleep_until(deadline, stop).await,
                         None => YieldNow::new(self.stop.clone()).await,
                     };
+                    let config = self.config_changed();
                     self.send(
                         &ToAgent::Wake {
                             system: self.system.clone(),
@@ -605,6 +615,7 @@ impl RemoteInstance {
                             now: self.base.now(),
                             stop: stop_code(&self.stop),
                             fault: self.stop.fault(),
+                            config,
                         },
                         &[],
                     )?;

@@ -113,11 +113,9 @@ pub(crate) enum Command {
         call: u64,
         answer: crate::plugin::Answer,
     },
-    /// A plugin's config value set from outside: recorded.
+    /// Plugins' config values set from outside, all or none: recorded.
     Configure {
-        plugin: String,
-        key: String,
-        value: String,
+        changes: Vec<ConfigChange>,
         from: String,
         reply: Sender<Result<(), RadarError>>,
     },
@@ -196,6 +194,34 @@ pub(crate) enum Command {
         reply: Sender<Result<(), ProgramFailure>>,
     },
     Stop,
+}
+
+/// A plugin's config value to set while the system runs
+/// ([`Radar::configure`](crate::Radar::configure)).
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct ConfigChange {
+    /// The plugin.
+    pub plugin: String,
+    /// The config key.
+    pub key: String,
+    /// The new value, as the plugin reads it (text: `0.3`, `true`).
+    pub value: String,
+}
+
+impl ConfigChange {
+    /// Plugin `plugin`'s `key` set to `value`.
+    pub fn new(
+        plugin: impl Into<String>,
+        key: impl Into<String>,
+        value: impl Into<String>,
+    ) -> Self {
+        Self {
+            plugin: plugin.into(),
+            key: key.into(),
+            value: value.into(),
+        }
+    }
 }
 
 /// How a deliberative program ended badly.

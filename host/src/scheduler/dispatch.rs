@@ -81,13 +81,11 @@ impl Scheduler {
                 reason,
             } => core.with(|st| st.refused(command, from, reason)),
             Command::Configure {
-                plugin,
-                key,
-                value,
+                changes,
                 from,
                 reply,
             } => {
-                let _ = reply.send(core.with(|st| st.configure(&plugin, key, value, from)));
+                let _ = reply.send(core.with(|st| st.configure(changes, &from)));
             }
             Command::Inject {
                 to,

@@ -20,6 +20,7 @@ use std::time::Duration;
 use serde_json::Value as Json;
 use wasmtime::component::Val;
 
+use super::commands::ConfigChange;
 use super::commands::{Injection, LinkSpec};
 use super::ids::ConnId;
 use super::state::{Core, State};
@@ -99,9 +100,7 @@ pub(crate) enum StaticWhat {
     },
     /// A plugin's config value set.
     Configure {
-        plugin: String,
-        key: String,
-        value: String,
+        change: ConfigChange,
         from: String,
     },
     /// A refused command's record.
@@ -224,8 +223,8 @@ impl State {
                         policy,
                     }
                 }
-                StaticWhat::Configure { ref plugin, .. } => {
-                    self.plugin(plugin)?;
+                StaticWhat::Configure { ref change, .. } => {
+                    self.check_configurable(change)?;
                     Action::Outside(what)
                 }
                 other => Action::Outside(other),
@@ -318,13 +317,8 @@ impl State {
                 from,
                 reason,
             }) => self.refused(command, from, reason),
-            Action::Outside(StaticWhat::Configure {
-                plugin,
-                key,
-                value,
-                from,
-            }) => {
-                let _ = self.configure(&plugin, key, value, from);
+            Action::Outside(StaticWhat::Configure { change, from }) => {
+                let _ = self.configure(vec![change], &from);
             }
             Action::Outside(_) => {}
         }

@@ -43,7 +43,7 @@ mod versions;
 
 pub(crate) use board::Grants;
 pub(crate) use commands::{AnonymousJob, Command, LinkSpec, LinkTarget, Woke};
-pub use commands::{AnonymousSlot, ProgramFailure};
+pub use commands::{AnonymousSlot, ConfigChange, ProgramFailure};
 pub use ids::ConnId;
 pub(crate) use ids::{MailboxId, NativeTaskId};
 pub(crate) use inputs::{Place, StaticInput, StaticWhat};

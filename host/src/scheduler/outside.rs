@@ -4,13 +4,14 @@
 //! Each one that changes the run is recorded as an input first, so a
 //! replay makes the same change at the same place (`docs/network.md`).
 
-use super::commands::{LinkSpec, LinkTarget};
+use super::commands::{ConfigChange, LinkSpec, LinkTarget};
 use super::ids::{ConnId, PluginId};
 use super::state::{Lifecycle, State};
 use crate::error::RadarError;
 use crate::plugin::remote::static_level;
 use crate::plugin::{Answer, Fault};
 use crate::ports::{ConnectionOverview, Overview, PluginOverview, PluginState};
+use crate::script::SCRIPT_KEY;
 use crate::trace::inputs::{Input, ReportedExit};
 use crate::trace::Entry;
 
@@ -64,33 +65,48 @@ impl State {
         });
     }
 
-    /// Sets plugin `plugin`'s config value `key` (recorded as an input,
-    /// and as `configured`): each of its instances reads it from its next
-    /// call on, a call under way keeps what it began with
-    /// (`crate::capability::config`).
+    /// Whether `change` can be made: its plugin exists and its key is not
+    /// the host's own.
+    pub(super) fn check_configurable(&self, change: &ConfigChange) -> Result<(), RadarError> {
+        self.plugin(&change.plugin)?;
+        if change.key == SCRIPT_KEY {
+            return Err(RadarError::BadSetting {
+                plugin: change.plugin.clone(),
+                cause: format!("config key `{SCRIPT_KEY}` is the host's and cannot be set"),
+            });
+        }
+        Ok(())
+    }
+
+    /// Sets plugins' config values, all of them at this one place or none
+    /// (each recorded as an input, and as `configured`): every read of a
+    /// plugin's config from now on sees them (`crate::capability::config`).
     pub(super) fn configure(
         &mut self,
-        plugin: &str,
-        key: String,
-        value: String,
-        from: String,
+        changes: Vec<ConfigChange>,
+        from: &str,
     ) -> Result<(), RadarError> {
-        let pid = self.plugin(plugin)?;
-        self.record_input(Input::Configure {
-            plugin: plugin.to_string(),
-            key: key.clone(),
-            value: value.clone(),
-            from: from.clone(),
-        });
-        let entry = &self.plugins[pid];
-        entry.def.config.set(&key, &value);
-        let plugin = entry.name.clone();
-        self.record(Entry::Configured {
-            plugin,
-            key,
-            value,
-            from,
-        });
+        for change in &changes {
+            self.check_configurable(change)?;
+        }
+        for ConfigChange { plugin, key, value } in changes {
+            let pid = self.plugin(&plugin)?;
+            self.record_input(Input::Configure {
+                plugin,
+                key: key.clone(),
+                value: value.clone(),
+                from: from.to_string(),
+            });
+            let entry = &self.plugins[pid];
+            entry.def.config.set(&key, &value);
+            let plugin = entry.name.clone();
+            self.record(Entry::Configured {
+                plugin,
+                key,
+                value,
+                from: from.to_string(),
+            });
+        }
         Ok(())
     }
 

@@ -17,7 +17,7 @@ use crate::payload::Payload;
 use crate::plugin::Loader;
 use crate::ports::{PluginState, SwapPolicy};
 use crate::scheduler::{
-    Command, ConnId, MailboxId, NativeTaskId, NewVersion, ProgramFailure, Woke,
+    Command, ConfigChange, ConnId, MailboxId, NativeTaskId, NewVersion, ProgramFailure, Woke,
 };
 use crate::trace::inputs::Origin;
 use crate::watchdog::{RunWatch, Stopping};
@@ -252,30 +252,23 @@ impl Radar {
             .map_err(|_| RadarError::Stopped)
     }
 
-    /// Sets plugin `plugin`'s config value `key` to `value` while the
-    /// system runs (a ROS 2 parameter set, `docs/manifest.md#config`):
-    /// recorded as an outside input and a `configured` record, `from`
-    /// saying who set it. Each instance of the plugin reads the new value
-    /// from its next call on; a call under way keeps the value it began
-    /// with.
+    /// Sets plugins' config values while the system runs (a ROS 2
+    /// parameter set, `docs/manifest.md#config`), all at one place in the
+    /// run or none (an unknown plugin, the host's key `radar.source`):
+    /// each recorded as an outside input and a `configured` record, `from`
+    /// saying who set it. Every read of a plugin's config from then on
+    /// sees the new values, a call already running included. A key the
+    /// plugin's config did not have is added.
     pub fn configure(
         &self,
-        plugin: &str,
-        key: &str,
-        value: impl Into<String>,
+        changes: Vec<ConfigChange>,
         from: impl Into<String>,
     ) -> Result<(), RadarError> {
-        let (reply, answer) = crossbeam_channel::bounded(1);
-        self.tx
-            .send(Command::Configure {
-                plugin: plugin.to_string(),
-                key: key.to_string(),
-                value: value.into(),
-                from: from.into(),
-                reply,
-            })
-            .map_err(|_| RadarError::Stopped)?;
-        answer.recv().map_err(|_| RadarError::Stopped)?
+        self.ask(|reply| Command::Configure {
+            changes,
+            from: from.into(),
+            reply,
+        })?
     }
 
     /// Records that a command from outside the process was refused, and

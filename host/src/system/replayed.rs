@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use crate::plugin::Answer;
 use crate::ports::{Mode, SwapPolicy};
-use crate::scheduler::{ConnId, LinkSpec, LinkTarget, StaticWhat};
+use crate::scheduler::{ConfigChange, ConnId, LinkSpec, LinkTarget, StaticWhat};
 use crate::trace::inputs::Input;
 
 /// What `input` makes the scheduler do; `None` for a recording's own lines
@@ -90,9 +90,7 @@ pub(super) fn static_what(input: &Input) -> Option<StaticWhat> {
             value,
             from,
         } => StaticWhat::Configure {
-            plugin: plugin.clone(),
-            key: key.clone(),
-            value: value.clone(),
+            change: ConfigChange::new(plugin, key, value),
             from: from.clone(),
         },
         Input::Recording { .. } | Input::Plugin { .. } | Input::End { .. } => return None,

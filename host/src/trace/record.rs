@@ -191,7 +191,7 @@ pub enum Entry {
         reason: String,
     },
     /// A plugin's config value was set while the system ran (a ROS 2
-    /// parameter set, `Radar::configure`): its calls from now on read
+    /// parameter set, `Radar::configure`): its reads from now on see
     /// `value` under `key`; `from` says who set it.
     Configured {
         plugin: Arc<str>,

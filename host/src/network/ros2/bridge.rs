@@ -32,7 +32,8 @@ use super::outgoing::{
     has_header, publish, publish_clock, zenoh_wire, Outgoing, Stamps, Tap, Wire,
 };
 use super::outlets::{briefs, NodeSpec};
-use super::parameters::{self, Parameters};
+use super::parameter_services;
+use super::parameters::Parameters;
 use super::recorded::{RecordedTopics, Sent, Taken};
 use super::routes::{check_publications, check_subscriptions, Publication, Subscription};
 use super::served::{Offered, Served};
@@ -209,7 +210,10 @@ impl Ros2 {
             stop: Arc::new(AtomicBool::new(false)),
             left_out: Arc::new(AtomicU64::new(0)),
             briefs: Vec::new(),
-            parameters: Arc::new(Parameters::new(&Default::default(), settings.use_sim_time)),
+            parameters: Arc::new(
+                Parameters::new(&Default::default(), settings.use_sim_time)
+                    .settable(settings.set_parameters),
+            ),
         })
     }
 
@@ -232,6 +236,7 @@ impl Ros2 {
                 .iter()
                 .map(|s| (s.response.clone(), s.watch()))
                 .collect(),
+            parameters: self.parameters.clone(),
         }
     }
 
@@ -378,8 +383,7 @@ impl Ros2 {
     /// Makes each plugin's config values (`radar.toml`'s `config` tables,
     /// by plugin) parameters of the node (`docs/ros2.md#parameters`).
     pub fn parameters_from(&mut self, config: &BTreeMap<String, BTreeMap<String, toml::Value>>) {
-        let parameters = Parameters::new(config, self.settings.use_sim_time);
-        self.parameters = Arc::new(parameters);
+        self.parameters.load(config, self.settings.use_sim_time);
     }
 
     /// What each agent is told before an instance of a plugin whose
@@ -593,7 +597,7 @@ impl Ros2 {
         if let Some(radar) = self.radar.clone() {
             let (params, stop) = (self.parameters.clone(), self.stop.clone());
             let (thread, tokens) =
-                parameters::start_zenoh(&session, &node, &mut entity, params, radar, stop)?;
+                parameter_services::start_zenoh(&session, &node, &mut entity, params, radar, stop)?;
             self.threads.push(thread);
             self.tokens.extend(tokens);
         }
@@ -718,7 +722,7 @@ impl Ros2 {
         let name = format!("{}/{name}", settings.namespace.trim_end_matches('/'));
         if let Some(radar) = self.radar.clone() {
             let (params, stop) = (self.parameters.clone(), self.stop.clone());
-            let thread = parameters::start_dds(&mut node, &name, params, radar, stop)?;
+            let thread = parameter_services::start_dds(&mut node, &name, params, radar, stop)?;
             self.threads.push(thread);
         }
         node.start(self.stop.clone())?;

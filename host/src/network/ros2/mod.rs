@@ -34,6 +34,7 @@ mod incoming;
 pub mod msg;
 mod outgoing;
 pub(crate) mod outlets;
+mod parameter_services;
 mod parameters;
 mod recorded;
 mod routes;

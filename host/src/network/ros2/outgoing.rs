@@ -288,6 +288,8 @@ pub(super) struct Tap {
     pub(super) left_out: Arc<AtomicU64>,
     /// Responses served as actions: what their servers hear of them.
     pub(super) watchers: std::collections::BTreeMap<String, Sender<super::served::Seen>>,
+    /// The node's parameters, told of each config value set.
+    pub(super) parameters: Arc<super::parameters::Parameters>,
 }
 
 impl Tap {
@@ -380,6 +382,12 @@ impl TraceSink for Tap {
     fn record(&mut self, record: &Record) {
         if !self.watchers.is_empty() {
             self.watch(&record.entry);
+        }
+        if let Entry::Configured {
+            plugin, key, value, ..
+        } = &record.entry
+        {
+            self.parameters.configured(plugin, key, value);
         }
         let Entry::Signal {
             plugin,

@@ -7,31 +7,21 @@
 //!
 //! A set (`ros2 param set`, rclpy's `set_parameters`) changes the
 //! plugin's config value while it runs: it is an outside input, recorded
-//! as `configured`, and the plugin's calls read the new value from their
-//! next one on (`Radar::configure`). As rclpy does by default, a set keeps
-//! a parameter's type; one that cannot be made (a name that is not a
-//! parameter, another type, `use_sim_time`) is answered unsuccessful with
-//! the reason and recorded as `refused`, so the trace says who tried.
+//! as `configured`, and every read of the plugin's config after it sees
+//! the new value (`Radar::configure`). As rclpy does by default, a set
+//! keeps a parameter's type; one that cannot be made (a name that is not
+//! a parameter, another type, `use_sim_time`, any with `[ros2]
+//! set_parameters = false`) is answered unsuccessful with the reason and
+//! recorded as `refused`, so the trace says who tried. This file is the
+//! table and its answers; `parameter_services` puts them on the wire.
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
-use std::thread::JoinHandle;
-use std::time::Duration;
+use std::sync::{Mutex, MutexGuard, PoisonError};
 
 use serde_json::{json, Value as Json};
 
-use super::cdr;
-use super::error::Ros2Error;
-#[cfg(feature = "dds")]
-use super::served_service::DdsRequests;
-use super::served_service::{zenoh_server, Requests, ZenohRequests};
-use super::types::{MessageTypes, Service};
-use crate::system::Radar;
-
-/// How often the services look for requests: a parameter call is rare and
-/// a person's (`ros2 param`), so 20 ms is soon enough.
-const LOOK_EVERY: Duration = Duration::from_millis(20);
+use crate::error::RadarError;
 
 /// rcl_interfaces' `ParameterType` constants (byte arrays are only read,
 /// in a set: a TOML array of small integers is an integer array).
@@ -52,6 +42,8 @@ const USE_SIM_TIME: &str = "use_sim_time";
 /// `ParameterValue` as JSON, as the last set left them.
 pub(crate) struct Parameters {
     values: Mutex<BTreeMap<String, (u8, Json)>>,
+    /// Whether sets are taken (`[ros2] set_parameters`).
+    settable: AtomicBool,
 }
 
 /// A set of one parameter that can be made: the plugin, its config key,
@@ -79,7 +71,7 @@ pub(super) enum Call {
 
 impl Call {
     /// Each service: its name under the node, and its type.
-    const ALL: [(Call, &'static str, &'static str); 6] = [
+    pub(super) const ALL: [(Call, &'static str, &'static str); 6] = [
         (Call::Describe, "describe_parameters", "DescribeParameters"),
         (Call::Get, "get_parameters", "GetParameters"),
         (Call::GetTypes, "get_parameter_types", "GetParameterTypes"),
@@ -93,32 +85,6 @@ impl Call {
     ];
 }
 
-/// A parameter service, ready for the wire: what it answers, its full name
-/// (`/<namespace>/<node>/<service>`) and its type.
-pub(super) struct ParameterService {
-    pub(super) call: Call,
-    pub(super) name: String,
-    pub(super) service: Service,
-}
-
-/// The six services of node `node` (its full name, `/ns/node`).
-pub(super) fn services(node: &str) -> Result<Vec<ParameterService>, Ros2Error> {
-    let types = MessageTypes::default();
-    Call::ALL
-        .iter()
-        .map(|(call, name, ty)| {
-            let service = types
-                .load_service(&format!("rcl_interfaces/srv/{ty}"))
-                .map_err(|e| Ros2Error::Settings(e.to_string()))?;
-            Ok(ParameterService {
-                call: *call,
-                name: format!("{}/{name}", node.trim_end_matches('/')),
-                service,
-            })
-        })
-        .collect()
-}
-
 impl Parameters {
     /// From each plugin's config, as `radar.toml` gives it, and the node's
     /// `use_sim_time`.
@@ -126,6 +92,27 @@ impl Parameters {
         config: &BTreeMap<String, BTreeMap<String, toml::Value>>,
         use_sim_time: bool,
     ) -> Self {
+        let this = Self {
+            values: Mutex::default(),
+            settable: AtomicBool::new(true),
+        };
+        this.load(config, use_sim_time);
+        this
+    }
+
+    /// Whether sets are taken (`[ros2] set_parameters`).
+    pub(crate) fn settable(self, settable: bool) -> Self {
+        self.settable.store(settable, Ordering::Relaxed);
+        self
+    }
+
+    /// Takes each plugin's config and `use_sim_time` in place of what it
+    /// had (the services and the tap hold this one).
+    pub(crate) fn load(
+        &self,
+        config: &BTreeMap<String, BTreeMap<String, toml::Value>>,
+        use_sim_time: bool,
+    ) {
         let mut values = BTreeMap::new();
         values.insert(
             USE_SIM_TIME.to_string(),
@@ -137,9 +124,7 @@ impl Parameters {
                 values.insert(format!("{plugin}.{key}"), (ty, value(ty, v)));
             }
         }
-        Self {
-            values: Mutex::new(values),
-        }
+        *self.values() = values;
     }
 
     fn values(&self) -> MutexGuard<'_, BTreeMap<String, (u8, Json)>> {
@@ -157,6 +142,11 @@ impl Parameters {
                     .to_string(),
             );
         }
+        if !self.settable.load(Ordering::Relaxed) {
+            return Err("the plugins' config values are read-only from ROS 2 here \
+                        ([ros2] set_parameters = false in radar.toml)"
+                .to_string());
+        }
         let values = self.values();
         let Some((declared, _)) = values.get(name) else {
             return Err(format!(
@@ -167,16 +157,23 @@ impl Parameters {
         let (plugin, key) = name.split_once('.').unwrap_or((name, ""));
         let ty = parameter["value"]["type"].as_u64().unwrap_or(0) as u8;
         if ty != *declared {
+            let hint = match (*declared, ty) {
+                (INTEGER, DOUBLE) => {
+                    "; radar.toml writes it as an integer: write it with a decimal point \
+                     there (`1.0`) to make it a double"
+                }
+                _ => "",
+            };
             return Err(format!(
                 "`{name}` is of type {}: setting it to {} is not allowed (Radar's parameters \
-                 keep their type, as rclpy's do by default)",
+                 keep their type, as rclpy's do by default){hint}",
                 type_name(*declared),
                 type_name(ty)
             ));
         }
         let field = field_of(ty).map_or(&Json::Null, |f| &parameter["value"][f]);
-        let text =
-            config_text(field).ok_or_else(|| format!("`{name}` cannot take the value {field}"))?;
+        let text = config_text(field, matches!(ty, DOUBLE | DOUBLE_ARRAY))
+            .ok_or_else(|| format!("`{name}` cannot take the value {field}"))?;
         Ok(Change {
             name: name.to_string(),
             plugin: plugin.to_string(),
@@ -191,6 +188,27 @@ impl Parameters {
         if let Some((_, value)) = self.values().get_mut(&change.name) {
             *value = change.value.clone();
         }
+    }
+
+    /// A `configured` record: plugin `plugin`'s `key` is now `text`,
+    /// however it was set (a set here, `Radar::configure`, a replayed
+    /// input). A parameter takes the value as radar.toml would type it; a
+    /// key that is not a parameter stays one that is not.
+    pub(super) fn configured(&self, plugin: &str, key: &str, text: &str) {
+        let mut values = self.values();
+        let Some(parameter) = values.get_mut(&format!("{plugin}.{key}")) else {
+            return;
+        };
+        let (ty, v) = if parameter.0 == STRING {
+            (STRING, json!(text))
+        } else {
+            let parsed = toml::from_str::<toml::Table>(&format!("v = {text}"));
+            match parsed.ok().and_then(|mut table| table.remove("v")) {
+                Some(v) => typed(&v),
+                None => (STRING, json!(text)),
+            }
+        };
+        *parameter = (ty, value(ty, v));
     }
 
     /// The answer to a call that reads (`request` and answer as JSON); a
@@ -229,9 +247,10 @@ impl Parameters {
                 json!({ "types": types })
             }
             Call::Describe => {
+                let settable = self.settable.load(Ordering::Relaxed);
                 let descriptors: Vec<Json> = known()
                     .into_iter()
-                    .map(|(name, v)| describe(name, v.0))
+                    .map(|(name, v)| describe(name, v.0, settable))
                     .collect();
                 json!({ "descriptors": descriptors })
             }
@@ -240,11 +259,11 @@ impl Parameters {
     }
 }
 
-/// What a set does to the running system: a [`Change`] made (the plugin's
-/// config value set, recorded), or a set refused (recorded).
+/// What a set does to the running system: [`Change`]s made (the plugins'
+/// config values set at one place, recorded), or a set refused (recorded).
 pub(super) trait Setter {
-    /// Makes `change`; an error says why it could not be.
-    fn configure(&self, change: &Change) -> Result<(), String>;
+    /// Makes `changes`, all or none.
+    fn configure(&self, changes: &[Change]) -> Result<(), RadarError>;
     /// Records that `command` was refused, and why.
     fn refused(&self, command: String, reason: &str);
 }
@@ -265,17 +284,22 @@ pub(super) fn set(
         Ok(()) => json!({ "successful": true, "reason": "" }),
         Err(reason) => json!({ "successful": false, "reason": reason }),
     };
-    let make = |change: Result<Change, String>| -> Result<(), String> {
-        let change = change?;
-        setter.configure(&change)?;
-        parameters.changed(&change);
+    // All or none: checked, then made at one place in the run.
+    let make = |changes: Result<Vec<Change>, String>| -> Result<(), String> {
+        let changes = changes?;
+        setter
+            .configure(&changes)
+            .map_err(|e| format!("the run did not take it: {e}"))?;
+        for change in &changes {
+            parameters.changed(change);
+        }
         Ok(())
     };
     if call == Call::Set {
         let results: Vec<Json> = tried
             .iter()
             .map(|parameter| {
-                let result = make(parameters.change(parameter));
+                let result = make(parameters.change(parameter).map(|c| vec![c]));
                 if let Err(reason) = &result {
                     setter.refused(format!("ros2 param set {}", shown(parameter)), reason);
                 }
@@ -285,18 +309,15 @@ pub(super) fn set(
         return json!({ "results": results });
     }
     let changes: Result<Vec<Change>, String> = tried.iter().map(|p| parameters.change(p)).collect();
-    let result = match changes {
-        Ok(changes) => changes.into_iter().try_for_each(|c| make(Ok(c))),
-        Err(reason) => {
-            let all: Vec<String> = tried.iter().map(|p| shown(p)).collect();
-            let reason = format!("{reason}; none of the set was made");
-            setter.refused(
-                format!("ros2 param set (atomically) {}", all.join(", ")),
-                &reason,
-            );
-            Err(reason)
-        }
-    };
+    let result = make(changes).map_err(|reason| {
+        let all: Vec<String> = tried.iter().map(|p| shown(p)).collect();
+        let reason = format!("{reason}; none of the set was made");
+        setter.refused(
+            format!("ros2 param set (atomically) {}", all.join(", ")),
+            &reason,
+        );
+        reason
+    });
     json!({ "result": outcome(result) })
 }
 
@@ -333,24 +354,34 @@ fn field_of(ty: u8) -> Option<&'static str> {
 }
 
 /// A parameter's value as a plugin reads it: as `radar.toml` would give
-/// it (text as is, the rest written as TOML writes it).
-fn config_text(value: &Json) -> Option<String> {
-    fn toml_of(value: &Json) -> Option<toml::Value> {
+/// it (text as is, the rest written as TOML writes it). `doubles`: the
+/// value is a double or doubles, where CDR's JSON form writes a NaN or an
+/// infinity as text (`"NaN"`, `"-Infinity"`), which TOML writes `nan`,
+/// `-inf`.
+fn config_text(value: &Json, doubles: bool) -> Option<String> {
+    let toml_of = |value: &Json| -> Option<toml::Value> {
         Some(match value {
             Json::Bool(b) => toml::Value::Boolean(*b),
             Json::Number(n) => match n.as_i64() {
-                Some(i) => toml::Value::Integer(i),
-                None => toml::Value::Float(n.as_f64()?),
+                Some(i) if !doubles => toml::Value::Integer(i),
+                _ => toml::Value::Float(n.as_f64()?),
             },
+            Json::String(s) if doubles => toml::Value::Float(match s.as_str() {
+                "NaN" => f64::NAN,
+                "Infinity" => f64::INFINITY,
+                "-Infinity" => f64::NEG_INFINITY,
+                _ => return None,
+            }),
             Json::String(s) => toml::Value::String(s.clone()),
-            Json::Array(items) => {
-                toml::Value::Array(items.iter().map(toml_of).collect::<Option<Vec<_>>>()?)
-            }
-            Json::Null | Json::Object(_) => return None,
+            Json::Null | Json::Array(_) | Json::Object(_) => return None,
         })
-    }
+    };
     match value {
-        Json::String(s) => Some(s.clone()),
+        Json::String(s) if !doubles => Some(s.clone()),
+        Json::Array(items) => {
+            let items = items.iter().map(toml_of).collect::<Option<Vec<_>>>()?;
+            Some(toml::Value::Array(items).to_string())
+        }
         other => toml_of(other).map(|v| v.to_string()),
     }
 }
@@ -441,12 +472,12 @@ fn typed(v: &toml::Value) -> (u8, Json) {
 }
 
 /// A parameter's `ParameterDescriptor`: a plugin's config value can be
-/// set (keeping its type), `use_sim_time` cannot.
-fn describe(name: &str, ty: u8) -> Json {
+/// set (keeping its type) when the node takes sets, `use_sim_time` cannot.
+fn describe(name: &str, ty: u8, settable: bool) -> Json {
     let (description, read_only) = match name.split_once('.') {
         Some((plugin, key)) => (
             format!("config value `{key}` of plugin `{plugin}` (radar.toml)"),
-            false,
+            !settable,
         ),
         None => (
             "whether the run follows /clock ([ros2] use_sim_time)".to_string(),
@@ -473,115 +504,6 @@ fn shown(parameter: &Json) -> String {
         Some(field) => format!("{name} = {}", v[field]),
         None => format!("{name} (unset)"),
     }
-}
-
-/// A set made on the running system: as an outside input from `from`
-/// (the service the set came on).
-struct OnRun<'a> {
-    radar: &'a Radar,
-    from: String,
-}
-
-impl Setter for OnRun<'_> {
-    fn configure(&self, change: &Change) -> Result<(), String> {
-        self.radar
-            .configure(&change.plugin, &change.key, change.text.clone(), &self.from)
-            .map_err(|e| e.to_string())
-    }
-
-    fn refused(&self, command: String, reason: &str) {
-        let _ = self.radar.refused(command, self.from.clone(), reason);
-    }
-}
-
-/// The services' thread: each request answered as it comes, a set made
-/// on the run or recorded as refused (`from`: the service it came on),
-/// until `stop`.
-pub(super) fn serve<R: Requests>(
-    mut wires: Vec<(ParameterService, R)>,
-    parameters: Arc<Parameters>,
-    radar: Radar,
-    stop: Arc<AtomicBool>,
-) {
-    while !stop.load(Ordering::Relaxed) {
-        for (service, wire) in &mut wires {
-            for (id, bytes) in wire.take() {
-                let request = match cdr::decode(&service.service.request, &bytes) {
-                    Ok(request) => request,
-                    Err(e) => {
-                        let why = format!("not a {}: {e}", service.service.request.name);
-                        wire.no_reply(id, Some(why));
-                        continue;
-                    }
-                };
-                let reply = match service.call {
-                    Call::Set | Call::SetAtomically => {
-                        let on_run = OnRun {
-                            radar: &radar,
-                            from: format!("a ROS 2 parameter client ({})", service.name),
-                        };
-                        set(&parameters, service.call, &request, &on_run)
-                    }
-                    call => parameters.answer(call, &request),
-                };
-                match cdr::encode(&service.service.response, &reply) {
-                    Ok(bytes) => wire.reply(id, bytes),
-                    Err(e) => wire.no_reply(id, Some(e.to_string())),
-                }
-            }
-        }
-        std::thread::sleep(LOOK_EVERY);
-    }
-}
-
-/// rmw_zenoh: the six services of node `node` (each a complete queryable
-/// with its liveliness token, endpoints `entity` on) and their thread.
-pub(super) fn start_zenoh(
-    session: &zenoh::Session,
-    node: &super::graph::Node,
-    entity: &mut u32,
-    parameters: Arc<Parameters>,
-    radar: Radar,
-    stop: Arc<AtomicBool>,
-) -> Result<(JoinHandle<()>, Vec<zenoh::liveliness::LivelinessToken>), Ros2Error> {
-    let full = format!("{}/{}", node.namespace.trim_end_matches('/'), node.name);
-    let mut tokens = Vec::new();
-    let mut wires = Vec::new();
-    for service in services(&full)? {
-        let (queryable, token) =
-            zenoh_server(session, node, *entity, &service.name, &service.service)?;
-        *entity += 1;
-        tokens.push(token);
-        wires.push((service, ZenohRequests::new(queryable)));
-    }
-    let thread = spawn(move || serve(wires, parameters, radar, stop))?;
-    Ok((thread, tokens))
-}
-
-/// DDS: the six services of node `name` (its full name) as servers of
-/// `node`, and their thread.
-#[cfg(feature = "dds")]
-pub(super) fn start_dds(
-    node: &mut super::dds::DdsNode,
-    name: &str,
-    parameters: Arc<Parameters>,
-    radar: Radar,
-    stop: Arc<AtomicBool>,
-) -> Result<JoinHandle<()>, Ros2Error> {
-    let mut wires = Vec::new();
-    for service in services(name)? {
-        let server = node.server(&service.name, &service.service)?;
-        let request = Arc::new(service.service.request.clone());
-        wires.push((service, DdsRequests { server, request }));
-    }
-    spawn(move || serve(wires, parameters, radar, stop))
-}
-
-fn spawn(run: impl FnOnce() + Send + 'static) -> Result<JoinHandle<()>, Ros2Error> {
-    std::thread::Builder::new()
-        .name("radar-ros2-parameters".into())
-        .spawn(run)
-        .map_err(|e| Ros2Error::Session(format!("cannot start a thread: {e}")))
 }
 
 #[cfg(test)]
@@ -655,13 +577,15 @@ mod tests {
     }
 
     impl Setter for Asked {
-        fn configure(&self, change: &Change) -> Result<(), String> {
-            let made = (
-                change.plugin.clone(),
-                change.key.clone(),
-                change.text.clone(),
-            );
-            self.made.borrow_mut().push(made);
+        fn configure(&self, changes: &[Change]) -> Result<(), RadarError> {
+            for change in changes {
+                let made = (
+                    change.plugin.clone(),
+                    change.key.clone(),
+                    change.text.clone(),
+                );
+                self.made.borrow_mut().push(made);
+            }
             Ok(())
         }
         fn refused(&self, command: String, reason: &str) {
@@ -751,58 +675,55 @@ mod tests {
     }
 
     #[test]
-    fn every_reply_encodes_as_its_service_type_with_rosidls_hashes() {
+    fn a_node_that_takes_no_sets_refuses_each_and_says_its_parameters_are_read_only() {
+        let p = parameters().settable(false);
+        let asked = Asked::default();
+        let request = json!({"parameters": [
+            {"name": "Avoid.distance", "value": value(DOUBLE, json!(0.8))},
+        ]});
+        let reply = set(&p, Call::Set, &request, &asked);
+        assert_eq!(reply["results"][0]["successful"], json!(false));
+        assert!(asked.made.borrow().is_empty());
+        assert!(asked.refused.borrow()[0]
+            .1
+            .contains("set_parameters = false"));
+        let described = p.answer(Call::Describe, &json!({"names": ["Avoid.distance"]}));
+        assert_eq!(described["descriptors"][0]["read-only"], json!(true));
+    }
+
+    #[test]
+    fn a_value_set_any_way_is_what_get_answers_typed_as_radar_toml_would_type_it() {
         let p = parameters();
-        // The hashes rosidl wrote into rcl_interfaces' .json files (Kilted).
-        let hashes = [
-            (
-                Call::Describe,
-                "RIHS01_845b484d71eb0673dae682f2e3ba3c4851a65a3dcfb97bddd82c5b57e91e4cff",
-            ),
-            (
-                Call::Get,
-                "RIHS01_bf9803d5c74cf989a5de3e0c2e99444599a627c7ff75f97b8c05b01003675cbc",
-            ),
-            (
-                Call::GetTypes,
-                "RIHS01_da199c878688b3e530bdfe3ca8f74cb9fa0c303101e980a9e8f260e25e1c80ca",
-            ),
-            (
-                Call::List,
-                "RIHS01_3e6062bfbb27bfb8730d4cef2558221f51a11646d78e7bb30a1e83afac3aad9d",
-            ),
-            (
-                Call::Set,
-                "RIHS01_56eed9a67e169f9cb6c1f987bc88f868c14a8fc9f743a263bc734c154015d7e0",
-            ),
-            (
-                Call::SetAtomically,
-                "RIHS01_0e192ef259c07fc3c07a13191d27002222e65e00ccec653ca05e856f79285fcd",
-            ),
-        ];
-        let request = json!({
-            "names": ["Avoid.distance", "Avoid.steps"], "prefixes": [], "depth": 0,
-            "parameters": [{"name": "Avoid.distance", "value": value(DOUBLE, json!(0.8))}],
-        });
-        for (service, (call, hash)) in services("/radar").expect("loads").iter().zip(hashes) {
-            assert_eq!(service.call, call);
-            assert_eq!(service.service.hash, hash, "{}", service.name);
-            let reply = match call {
-                Call::Set | Call::SetAtomically => set(&p, call, &request, &Asked::default()),
-                call => p.answer(call, &request),
-            };
-            let bytes = cdr::encode(&service.service.response, &reply)
-                .unwrap_or_else(|e| panic!("{}: {e}", service.name));
-            assert_eq!(
-                cdr::decode(&service.service.response, &bytes).expect("reads"),
-                reply,
-                "{}",
-                service.name
-            );
-        }
+        p.configured("Avoid", "distance", "0.25");
+        p.configured("Avoid", "retries", "7");
+        p.configured("Dock", "station", "0.5");
+        p.configured("Avoid", "unknown", "1");
+        let names = json!({"names": ["Avoid.distance", "Avoid.retries", "Dock.station"]});
+        let got = p.answer(Call::Get, &names);
+        assert_eq!(got["values"][0]["double-value"], json!(0.25));
+        assert_eq!(got["values"][1]["integer-value"], json!(7));
         assert_eq!(
-            services("/radar").expect("loads")[3].name,
-            "/radar/list_parameters"
+            got["values"][2]["string-value"],
+            json!("0.5"),
+            "a string stays one"
         );
+        let listed = p.answer(Call::List, &json!({"prefixes": ["Avoid"], "depth": 0}));
+        assert_eq!(listed["result"]["names"].as_array().map(Vec::len), Some(5));
+    }
+
+    #[test]
+    fn a_double_that_is_not_finite_reaches_the_plugin_as_toml_writes_it() {
+        assert_eq!(config_text(&json!("NaN"), true).as_deref(), Some("nan"));
+        assert_eq!(
+            config_text(&json!("-Infinity"), true).as_deref(),
+            Some("-inf")
+        );
+        assert_eq!(
+            config_text(&json!([1.0, "Infinity"]), true).as_deref(),
+            Some("[1.0, inf]")
+        );
+        assert_eq!(config_text(&json!(2), true).as_deref(), Some("2.0"));
+        assert_eq!(config_text(&json!("NaN"), false).as_deref(), Some("NaN"));
+        assert_eq!(config_text(&json!("nope"), true), None);
     }
 }

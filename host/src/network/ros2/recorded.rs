@@ -46,8 +46,8 @@ pub(super) struct RecordedTopics {
     taken: HashMap<String, (Arc<TopicChannel>, Message)>,
     /// `(plugin, signal)` → each publication of that signal.
     sent: BySignal,
-    /// By topic: how many messages were left out, and why.
-    left_out: Mutex<BTreeMap<String, (u64, &'static str)>>,
+    /// By topic and reason: how many messages were left out.
+    left_out: Mutex<BTreeMap<(String, &'static str), u64>>,
 }
 
 /// Why a message is left out.
@@ -96,9 +96,7 @@ impl RecordedTopics {
 
     fn leave_out(&self, topic: &str, why: &'static str) {
         let mut left_out = self.left_out.lock().unwrap_or_else(PoisonError::into_inner);
-        let (count, reason) = left_out.entry(topic.to_string()).or_insert((0, why));
-        *count += 1;
-        *reason = why;
+        *left_out.entry((topic.to_string(), why)).or_insert(0) += 1;
     }
 }
 
@@ -136,12 +134,14 @@ impl AlsoOnTopics for RecordedTopics {
                 routes
                     .iter()
                     .filter_map(|(channel, s)| {
-                        if payload.get("$cut").is_some() {
+                        // Its only error: a payload it uses that the trace cut.
+                        let Ok(value) =
+                            message(s.unwrap_ok, s.path.as_ref(), &s.base, payload.clone())
+                        else {
                             self.leave_out(&channel.topic, CUT);
                             return None;
-                        }
-                        let value = message(s.unwrap_ok, s.path.as_ref(), &s.base, payload.clone())
-                            .ok()??;
+                        };
+                        let value = value?;
                         let value = if s.stamp {
                             stamped(value, Duration::from_nanos(log_time))
                         } else {
@@ -164,12 +164,17 @@ impl AlsoOnTopics for RecordedTopics {
 
     fn left_out(&self) -> Vec<(String, String)> {
         let left_out = self.left_out.lock().unwrap_or_else(PoisonError::into_inner);
-        left_out
-            .iter()
-            .map(|(topic, (count, why))| {
-                let messages = if *count == 1 { "message" } else { "messages" };
-                (topic.clone(), format!("{count} {messages}: {why}"))
-            })
+        let mut by_topic: BTreeMap<String, Vec<String>> = BTreeMap::new();
+        for ((topic, why), count) in left_out.iter() {
+            let messages = if *count == 1 { "message" } else { "messages" };
+            by_topic
+                .entry(topic.clone())
+                .or_default()
+                .push(format!("{count} {messages}: {why}"));
+        }
+        by_topic
+            .into_iter()
+            .map(|(topic, reasons)| (topic, reasons.join("; ")))
             .collect()
     }
 }
@@ -280,5 +285,34 @@ mod tests {
                 .starts_with("2 messages: their values were over 16 KiB"),
             "{left_out:?}"
         );
+    }
+
+    #[test]
+    fn a_fixed_message_is_written_whatever_the_payload_the_trace_cut() {
+        let twist = MessageTypes::default()
+            .load("geometry_msgs/msg/Twist")
+            .expect("a built-in type");
+        let topics = RecordedTopics::new(
+            Vec::new(),
+            vec![Sent {
+                signal: "Stop.exited".into(),
+                topic: "/cmd_vel".into(),
+                message: twist,
+                path: None,
+                base: serde_json::json!({}),
+                unwrap_ok: false,
+                stamp: false,
+            }],
+        );
+        let cut = Record {
+            t: 5,
+            entry: Entry::Signal {
+                plugin: Arc::from("Stop"),
+                signal: "exited".into(),
+                payload: serde_json::json!({"$cut": {"bytes": 20_000}}),
+            },
+        };
+        assert_eq!(topics.messages(&cut, 5).len(), 1);
+        assert!(topics.left_out().is_empty());
     }
 }

@@ -51,6 +51,11 @@ pub struct Ros2Settings {
     /// nodes with `use_sim_time` follow Radar's time.
     #[serde(default)]
     pub publish_clock: bool,
+    /// Whether ROS 2 parameter clients (`ros2 param set`) may set the
+    /// plugins' config values (the default); `false`: every set is
+    /// refused and recorded, the values are read-only from ROS 2.
+    #[serde(default = "yes")]
+    pub set_parameters: bool,
     /// The responses ROS 2 backs (`[plugins.X] ros2 = { service = ... }`),
     /// by plugin: filled from the plugins' tables when the manifest is read.
     #[serde(skip)]
