@@ -111,7 +111,7 @@ fn run(n: usize, pairs: bool) -> Outcome {
     let faults = report.faults as usize;
     let fault = report
         .first_fault
-        .map(|(plugin, at, cause)| format!("{plugin} at {:.3} s: {cause}", at.as_secs_f64()));
+        .map(|f| format!("{} at {:.3} s: {}", f.plugin, f.at.as_secs_f64(), f.cause));
     Outcome {
         faults,
         fault,

@@ -19,7 +19,15 @@ pub(crate) type LocalTask = Pin<Box<dyn Future<Output = ()>>>;
 
 /// Identifies a task for its whole life; ids are never reused, so a stale
 /// waker can never wake the wrong task.
-pub(crate) type TaskId = u64;
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub(crate) struct TaskId(u64);
+
+impl TaskId {
+    /// The id after `self`.
+    pub(crate) fn next(self) -> Self {
+        Self(self.0 + 1)
+    }
+}
 
 #[derive(Default)]
 struct ReadyQueue(Mutex<VecDeque<TaskId>>);
@@ -226,9 +234,9 @@ mod tests {
     fn tasks_run_in_the_order_they_became_ready() {
         let log = Rc::new(RefCell::new(Vec::new()));
         let mut executor = Executor::default();
-        executor.insert(1, yielding("a", log.clone()));
-        executor.insert(2, yielding("b", log.clone()));
-        executor.insert(3, yielding("c", log.clone()));
+        executor.insert(TaskId(1), yielding("a", log.clone()));
+        executor.insert(TaskId(2), yielding("b", log.clone()));
+        executor.insert(TaskId(3), yielding("c", log.clone()));
         while executor.run_one().is_some() {}
         assert_eq!(*log.borrow(), ["a1", "b1", "c1", "a2", "b2", "c2"]);
     }
@@ -239,7 +247,7 @@ mod tests {
         let mut executor = Executor::default();
         let l = log.clone();
         executor.insert(
-            1,
+            TaskId(1),
             Box::pin(std::future::poll_fn(move |cx| {
                 l.borrow_mut().push("polled".to_string());
                 if l.borrow().len() == 1 {
@@ -251,8 +259,8 @@ mod tests {
                 }
             })),
         );
-        executor.insert(2, yielding("gone", log.clone()));
-        executor.cancel(2);
+        executor.insert(TaskId(2), yielding("gone", log.clone()));
+        executor.cancel(TaskId(2));
         while executor.run_one().is_some() {}
         assert_eq!(*log.borrow(), ["polled", "polled"]);
     }

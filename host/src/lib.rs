@@ -52,7 +52,7 @@ pub use ports::{
 };
 pub use scheduler::{AnonymousSlot, ConfigChange, ConnId, ProgramFailure};
 pub use system::{
-    Connection, Deliberative, Interrupter, Link, Plugin, PreparedVersion, Radar, RunReport, System,
-    SystemBuilder, Task,
+    Connection, Deliberative, FirstFault, Interrupter, Link, MachineLimit, Plugin, PreparedVersion,
+    Radar, RunReport, StoppedRun, System, SystemBuilder, Task,
 };
 pub use watchdog::DEFAULT_STALL_TIMEOUT;

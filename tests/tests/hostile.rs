@@ -370,7 +370,8 @@ fn a_virtual_run_that_makes_no_progress_is_stopped_naming_the_plugin_in_its_call
     })
     .expect("runs");
     assert!(began.elapsed() < Duration::from_secs(30));
-    let (reason, message) = report.stopped.clone().expect("stopped");
+    let stopped = report.stopped.clone().expect("stopped");
+    let (reason, message) = (stopped.reason, stopped.message);
     assert_eq!(reason, "stalled");
     assert!(
         message.contains("`Spin`'s check") && message.contains("3.000 s"),

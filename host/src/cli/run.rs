@@ -524,7 +524,10 @@ pub fn run(args: RunArgs) -> Result<()> {
             at.as_secs_f64()
         );
     }
-    if let Some((reason, message)) = &report.stopped {
+    if let Some(radar::system::StoppedRun {
+        reason, message, ..
+    }) = &report.stopped
+    {
         let trace = args
             .trace
             .as_ref()
@@ -538,8 +541,12 @@ pub fn run(args: RunArgs) -> Result<()> {
         // 130: the shell's code for a run ended by Ctrl-C.
         std::process::exit(if reason == "signal" { 130 } else { 1 });
     }
-    if let Some((count, first)) = &report.machine_limit {
-        anyhow::bail!("{count} plugin(s) faulted on a limit of the machine; the first, {first}");
+    if let Some(limit) = &report.machine_limit {
+        anyhow::bail!(
+            "{} plugin(s) faulted on a limit of the machine; the first, {}",
+            limit.plugins,
+            limit.first
+        );
     }
     if let Some(e) = report.trace_errors.first() {
         match &args.trace {
@@ -566,7 +573,10 @@ pub fn run(args: RunArgs) -> Result<()> {
             report.ended_at.as_secs_f64()
         ));
     }
-    if let Some((plugin, at, cause)) = &report.first_fault {
+    if let Some(radar::system::FirstFault {
+        plugin, at, cause, ..
+    }) = &report.first_fault
+    {
         // Said even with -q: a fault is what a user must not miss.
         let more = match report.faults {
             1 => String::new(),

@@ -233,7 +233,7 @@ impl Scheduler {
             runner_waiting: VecDeque::new(),
             spawned: Vec::new(),
             cancelled: Vec::new(),
-            next_task: 0,
+            next_task: TaskId::default(),
             anonymous_jobs,
             seed,
             stop: false,

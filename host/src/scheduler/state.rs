@@ -384,7 +384,7 @@ impl State {
     }
 
     pub(super) fn spawn(&mut self, task: LocalTask) -> TaskId {
-        self.next_task += 1;
+        self.next_task = self.next_task.next();
         self.spawned.push((self.next_task, task));
         self.next_task
     }

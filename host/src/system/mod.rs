@@ -60,4 +60,4 @@ pub use builder::{SystemBuilder, DEFAULT_TRACE_BYTES, DEFAULT_TRACE_LIMIT};
 pub use handle::{Interrupter, PreparedVersion, Radar, Task};
 pub use link::{Connection, Link};
 pub use parts::{Deliberative, Plugin};
-pub use run::{RunReport, System};
+pub use run::{FirstFault, MachineLimit, RunReport, StoppedRun, System};

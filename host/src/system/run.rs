@@ -101,24 +101,56 @@ pub struct RunReport {
     /// How many times a plugin faulted (trapped, ran out of fuel or
     /// memory, lost its agent) in the run, whatever the trace kept.
     pub faults: u64,
-    /// The first fault: the plugin, when, and the cause.
-    pub first_fault: Option<(String, Duration, String)>,
+    /// The first fault of the run.
+    pub first_fault: Option<FirstFault>,
     /// A replay ([`SystemBuilder::inputs`](crate::SystemBuilder::inputs) from a virtual-clock recording)
     /// that parted from its recording: where it first did.
     pub replay_divergence: Option<String>,
     /// Plugins that faulted on a limit of the machine (memory, the
-    /// kernel's memory mappings): how many, and the first one's fault,
-    /// which names the limit and how to raise it.
-    pub machine_limit: Option<(usize, String)>,
-    /// The run was stopped from outside its course: the reason (`signal`:
-    /// [`Radar::interrupt`](crate::Radar::interrupt); `stalled`: no progress for the stall timeout)
-    /// and what happened, as the trace's last record says.
-    pub stopped: Option<(String, String)>,
+    /// kernel's memory mappings).
+    pub machine_limit: Option<MachineLimit>,
+    /// The run was stopped from outside its course, as the trace's last
+    /// record says.
+    pub stopped: Option<StoppedRun>,
     /// Plugin calls that computed on several threads at once, beside
     /// others ready at the same instant
     /// ([`SystemBuilder::threads`](crate::SystemBuilder::threads)): 0 on
     /// one thread.
     pub computed_ahead: u64,
+}
+
+/// The first fault of a run ([`RunReport::first_fault`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct FirstFault {
+    /// The plugin that faulted.
+    pub plugin: String,
+    /// When, since the run began.
+    pub at: Duration,
+    /// Why (the `fault` record's `error`).
+    pub cause: String,
+}
+
+/// Plugins that faulted on a limit of the machine
+/// ([`RunReport::machine_limit`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct MachineLimit {
+    /// How many plugins did.
+    pub plugins: usize,
+    /// The first one's fault, which names the limit and how to raise it.
+    pub first: String,
+}
+
+/// How a run was stopped from outside its course ([`RunReport::stopped`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct StoppedRun {
+    /// `signal` ([`Radar::interrupt`](crate::Radar::interrupt)), `stalled`
+    /// (no progress for the stall timeout) or `livelock`.
+    pub reason: String,
+    /// What happened, as the `stopped` record says.
+    pub message: String,
 }
 
 impl RunReport {
@@ -354,13 +386,19 @@ impl System {
                 .collect(),
             instantiations: end.calls.into_iter().map(|(p, (_, i))| (p, i)).collect(),
             faults: end.faults.0,
-            first_fault: end
-                .faults
-                .1
-                .map(|(plugin, t, cause)| (plugin, Duration::from_nanos(t), cause)),
+            first_fault: end.faults.1.map(|(plugin, t, cause)| FirstFault {
+                plugin,
+                at: Duration::from_nanos(t),
+                cause,
+            }),
             replay_divergence: end.divergence,
-            machine_limit: end.machine_limit,
-            stopped: end.stopped.map(|s| (s.reason.to_string(), s.message)),
+            machine_limit: end
+                .machine_limit
+                .map(|(plugins, first)| MachineLimit { plugins, first }),
+            stopped: end.stopped.map(|s| StoppedRun {
+                reason: s.reason.to_string(),
+                message: s.message,
+            }),
             computed_ahead: end.computed_ahead,
         })
     }

@@ -167,7 +167,10 @@ impl Shadow {
             lines.extend(counts.into_iter().map(|c| format!("  {c}")));
         }
         for (what, report) in [("recorded run", &self.recorded), ("shadow", &self.shadow)] {
-            if let Some((plugin, at, cause)) = &report.first_fault {
+            if let Some(crate::system::FirstFault {
+                plugin, at, cause, ..
+            }) = &report.first_fault
+            {
                 lines.push(format!(
                     "{what}: {plugin} faulted at {:.3} s: {cause}",
                     at.as_secs_f64()
