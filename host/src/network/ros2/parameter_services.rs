@@ -178,16 +178,7 @@ mod tests {
     }
 
     fn parameters() -> Parameters {
-        let config: toml::Table =
-            toml::from_str("[Avoid]\ndistance = 0.5\nsteps = [1, 2.5]\n").expect("toml");
-        let config = config
-            .into_iter()
-            .map(|(plugin, table)| {
-                let table = table.as_table().expect("a table").clone();
-                (plugin, table.into_iter().collect())
-            })
-            .collect();
-        Parameters::new(&config, false)
+        Parameters::from_toml("[Avoid]\ndistance = 0.5\nsteps = [1, 2.5]\n")
     }
 
     #[test]

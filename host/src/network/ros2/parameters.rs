@@ -127,6 +127,20 @@ impl Parameters {
         *self.values() = values;
     }
 
+    /// For tests: from TOML text with a table of config values per plugin.
+    #[cfg(test)]
+    pub(super) fn from_toml(text: &str) -> Self {
+        let config: toml::Table = toml::from_str(text).expect("toml");
+        let config = config
+            .into_iter()
+            .map(|(plugin, table)| {
+                let table = table.as_table().expect("a table").clone();
+                (plugin, table.into_iter().collect())
+            })
+            .collect();
+        Parameters::new(&config, false)
+    }
+
     fn values(&self) -> MutexGuard<'_, BTreeMap<String, (u8, Json)>> {
         self.values.lock().unwrap_or_else(PoisonError::into_inner)
     }
@@ -512,19 +526,10 @@ mod tests {
     use std::cell::RefCell;
 
     fn parameters() -> Parameters {
-        let config: toml::Table = toml::from_str(
+        Parameters::from_toml(
             "[Avoid]\ndistance = 0.5\nretries = 3\nname = \"left\"\nbrave = true\n\
              steps = [1, 2.5]\n\n[Dock]\nstation = \"home\"\n",
         )
-        .expect("toml");
-        let config = config
-            .into_iter()
-            .map(|(plugin, table)| {
-                let table = table.as_table().expect("a table").clone();
-                (plugin, table.into_iter().collect())
-            })
-            .collect();
-        Parameters::new(&config, false)
     }
 
     #[test]
