@@ -524,7 +524,7 @@ pub fn run(args: RunArgs) -> Result<()> {
             at.as_secs_f64()
         );
     }
-    if let Some(radar::system::StoppedRun {
+    if let Some(radar::StoppedRun {
         reason, message, ..
     }) = &report.stopped
     {
@@ -573,7 +573,7 @@ pub fn run(args: RunArgs) -> Result<()> {
             report.ended_at.as_secs_f64()
         ));
     }
-    if let Some(radar::system::FirstFault {
+    if let Some(radar::FirstFault {
         plugin, at, cause, ..
     }) = &report.first_fault
     {

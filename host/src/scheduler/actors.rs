@@ -2,12 +2,12 @@
 //! its slots, an event's checks at their cadence, a response's
 //! start → [interrupt] → exit for each accepted start.
 
-use super::ids::PluginId;
 use std::rc::Rc;
 use std::sync::Arc;
 
 use serde_json::Value as Json;
 
+use super::ids::{PluginId, Via};
 use super::state::{Activation, Core, Lifecycle, Phase, State};
 use super::versions::Transition;
 use crate::clock::{ClockKind, StopReason};
@@ -238,16 +238,17 @@ pub(super) fn exit_begins_after(st: &mut State, pid: PluginId, after: &'static s
     });
 }
 
-/// `connection`: for `start`, the connection whose start began it;
-/// `queued`: for a start taken from the queue, how many still wait.
+/// `via`: for `start`, how its start came (the record's `connection`: the
+/// connection's id, 0 for an injection); `queued`: for a start taken from
+/// the queue, how many still wait.
 pub(super) fn slot_begin(
     st: &mut State,
     pid: PluginId,
     slot: Slot,
-    connection: Option<u64>,
+    via: Option<Via>,
     queued: Option<u64>,
 ) {
-    slot_begin_awaiting(st, pid, slot, connection, queued, false);
+    slot_begin_awaiting(st, pid, slot, via, queued, false);
 }
 
 /// As [`slot_begin`]; `accepted`: a start whose `started` waits for its
@@ -256,7 +257,7 @@ fn slot_begin_awaiting(
     st: &mut State,
     pid: PluginId,
     slot: Slot,
-    connection: Option<u64>,
+    via: Option<Via>,
     queued: Option<u64>,
     accepted: bool,
 ) {
@@ -267,7 +268,7 @@ fn slot_begin_awaiting(
     st.record(Entry::SlotBegin {
         plugin,
         slot: slot.as_str().into(),
-        connection,
+        connection: via.map(Via::trace_id),
         queued,
         after: None,
         ran: None,
@@ -380,7 +381,7 @@ pub(super) async fn response_actor(core: Rc<Core>, pid: PluginId) {
                 st,
                 pid,
                 Slot::Start,
-                Some(request.via.trace_id()),
+                Some(request.via),
                 queued,
                 progress.is_some(),
             );

@@ -1,13 +1,13 @@
 //! What deliberative code (or the CLI) asks of a running system, and how
 //! the scheduler answers: the [`Command`]s of the crossbeam channel.
 
-use super::ids::{AnonId, ConnId, MailboxId, NativeTaskId, PluginId};
 use std::sync::Arc;
 use std::time::Duration;
 
 use crossbeam_channel::Sender;
 use serde_json::Value as Json;
 
+use super::ids::{AnonId, ConnId, MailboxId, NativeTaskId, PluginId};
 use super::versions::NewVersion;
 use crate::error::RadarError;
 use crate::payload::Payload;

@@ -18,8 +18,8 @@ impl State {
         target: Target,
         conn: ConnectionParts,
     ) -> ConnId {
-        self.next_connection = self.next_connection.next();
-        let id = self.next_connection;
+        self.last_connection = self.last_connection.next();
+        let id = self.last_connection;
         let from_label = self.signal_label(from);
         self.record(Entry::Connect {
             id: id.get(),
@@ -93,7 +93,7 @@ impl State {
         }
         match link.to {
             LinkTarget::Closure(closure) => {
-                let slot = AnonId::fed_by(self.next_connection.next());
+                let slot = AnonId::fed_by(self.last_connection.next());
                 self.anonymous.insert(
                     slot,
                     Anonymous {
@@ -107,6 +107,7 @@ impl State {
                     Target::Anonymous(slot),
                     parts("(anonymous)".into(), true),
                 );
+                debug_assert_eq!(AnonId::fed_by(id), slot, "an anonymous slot shares its id");
                 Ok(vec![id])
             }
             LinkTarget::Mailbox(mailbox) => {

@@ -3,7 +3,6 @@
 //! and the conservation law's records (`docs/semantics.md`). Nothing here calls
 //! into wasm: a delivery only changes state and wakes the target's actor.
 
-use super::ids::{ConnId, PluginId, Via};
 use std::rc::Rc;
 use std::sync::Arc;
 use std::time::Duration;
@@ -12,6 +11,7 @@ use serde_json::Value as Json;
 use wasmtime::component::Val;
 
 use super::commands::Injection;
+use super::ids::{ConnId, PluginId, Via};
 use super::state::{Core, Delivery, FaultExit, Lifecycle, Phase, StartRequest, State, Target};
 use crate::clock::{duration_nanos, ClockKind, StopReason};
 use crate::error::RadarError;
@@ -453,14 +453,15 @@ impl State {
         };
         // Like a connection's delivery, an injection is recorded as
         // delivered or dropped, with id 0.
+        let id = Via::Injection.trace_id();
         match self.deliver_to_slot(pid, slot, delivery) {
             Ok(queued) => self.record(Entry::Deliver {
-                id: 0,
+                id,
                 to: label,
                 queued,
             }),
             Err(reason) => self.record(Entry::Dropped {
-                id: 0,
+                id,
                 to: label,
                 reason: reason.into(),
             }),

@@ -13,6 +13,7 @@ use std::ops::{Index, IndexMut};
 pub(crate) struct PluginId(usize);
 
 impl PluginId {
+    /// The plugin at `index` in the table.
     pub(crate) fn new(index: usize) -> Self {
         Self(index)
     }

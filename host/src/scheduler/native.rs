@@ -2,11 +2,11 @@
 //! programs) as the scheduler serves them: resumed in turns, anonymous
 //! slots run one at a time on their thread, waits with their timeouts.
 
-use super::ids::{AnonId, PluginId, WaiterId};
 use std::rc::Rc;
 
 use super::commands::AnonymousSlot;
 use super::commands::{AnonymousJob, Woke};
+use super::ids::{AnonId, PluginId, WaiterId};
 use super::state::{ConnectionParts, Core, State, Target, Waiter, WaiterReply};
 use super::turns;
 use crate::payload::Payload;

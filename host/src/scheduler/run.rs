@@ -1,7 +1,6 @@
 //! The scheduler's thread: the run loop under either clock, and the end
 //! of a run.
 
-use super::ids::{ConnId, NativeTaskId, PluginId, WaiterId};
 use std::cell::RefCell;
 use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::rc::Rc;
@@ -12,6 +11,7 @@ use crossbeam_channel::{Receiver, RecvTimeoutError, Sender};
 
 use super::actors::{event_actor, response_actor};
 use super::commands::{AnonymousJob, Command, LinkSpec, ProgramFailure};
+use super::ids::{ConnId, NativeTaskId, PluginId, WaiterId};
 use super::inputs::StaticInput;
 use super::livelock::InstantCounts;
 use super::recording::TraceOut;
@@ -223,7 +223,7 @@ impl Scheduler {
             by_name,
             connections: BTreeMap::new(),
             routes: vec![Vec::new(); plugin_count],
-            next_connection: ConnId::default(),
+            last_connection: ConnId::default(),
             anonymous: HashMap::new(),
             waiters: HashMap::new(),
             next_waiter: WaiterId::default(),

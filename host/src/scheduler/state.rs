@@ -279,7 +279,7 @@ pub(crate) struct State {
     /// looking at any other connection.
     pub(super) routes: Vec<Vec<(Signal, Vec<ConnId>)>>,
     /// The last connection made (0 before the first).
-    pub(super) next_connection: ConnId,
+    pub(super) last_connection: ConnId,
     pub(super) anonymous: HashMap<AnonId, Anonymous>,
     pub(super) waiters: HashMap<WaiterId, Waiter>,
     pub(super) next_waiter: WaiterId,

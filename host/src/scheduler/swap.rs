@@ -14,9 +14,9 @@
 //! [`Core::transition`], the one path by which a plugin gets a new instance
 //! (reset, swap, rollback), shared by events and responses.
 
-use super::ids::{ConnId, PluginId};
 use std::rc::Rc;
 
+use super::ids::{ConnId, PluginId};
 use super::state::{Core, Lifecycle, Phase, StartRequest, State, Target};
 use super::typing::{fits, signal_type, slot_type, type_text};
 use super::versions::{NewVersion, PendingSwap, Transition};
