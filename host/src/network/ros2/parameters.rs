@@ -47,15 +47,13 @@ pub(crate) struct Parameters {
 }
 
 /// A set of one parameter that can be made: the plugin, its config key,
-/// the value as the plugin reads it (text, as `radar.toml` would give
-/// it), and the parameter's new `ParameterValue`.
+/// and the value as the plugin reads it (text, as `radar.toml` would give
+/// it).
 #[derive(Debug, PartialEq)]
 pub(super) struct Change {
-    pub(super) name: String,
     pub(super) plugin: String,
     pub(super) key: String,
     pub(super) text: String,
-    pub(super) value: Json,
 }
 
 /// One of the six parameter services.
@@ -189,38 +187,30 @@ impl Parameters {
         let text = config_text(field, matches!(ty, DOUBLE | DOUBLE_ARRAY))
             .ok_or_else(|| format!("`{name}` cannot take the value {field}"))?;
         Ok(Change {
-            name: name.to_string(),
             plugin: plugin.to_string(),
             key: key.to_string(),
             text,
-            value: value(ty, field.clone()),
         })
-    }
-
-    /// A change made: `get_parameters` answers its value from now on.
-    pub(super) fn changed(&self, change: &Change) {
-        if let Some((_, value)) = self.values().get_mut(&change.name) {
-            *value = change.value.clone();
-        }
     }
 
     /// A `configured` record: plugin `plugin`'s `key` is now `text`,
     /// however it was set (a set here, `Radar::configure`, a replayed
-    /// input). A parameter takes the value as radar.toml would type it; a
-    /// key that is not a parameter stays one that is not.
+    /// input); the one way a value changes, so `get_parameters` answers
+    /// it from then on. A parameter keeps its type when the text reads as
+    /// one (as a set here always does), else takes the type radar.toml
+    /// would give the text; a key that is not a parameter stays one that
+    /// is not.
     pub(super) fn configured(&self, plugin: &str, key: &str, text: &str) {
         let mut values = self.values();
         let Some(parameter) = values.get_mut(&format!("{plugin}.{key}")) else {
             return;
         };
-        let (ty, v) = if parameter.0 == STRING {
-            (STRING, json!(text))
-        } else {
-            let parsed = toml::from_str::<toml::Table>(&format!("v = {text}"));
-            match parsed.ok().and_then(|mut table| table.remove("v")) {
-                Some(v) => typed(&v),
-                None => (STRING, json!(text)),
-            }
+        let parsed = toml::from_str::<toml::Table>(&format!("v = {text}"))
+            .ok()
+            .and_then(|mut table| table.remove("v"));
+        let (ty, v) = match as_type(parameter.0, text, parsed.as_ref()) {
+            Some(v) => (parameter.0, v),
+            None => parsed.as_ref().map_or((STRING, json!(text)), typed),
         };
         *parameter = (ty, value(ty, v));
     }
@@ -301,13 +291,10 @@ pub(super) fn set(
     // All or none: checked, then made at one place in the run.
     let make = |changes: Result<Vec<Change>, String>| -> Result<(), String> {
         let changes = changes?;
+        // The run's `configured` records update the table (the bridge's tap).
         setter
             .configure(&changes)
-            .map_err(|e| format!("the run did not take it: {e}"))?;
-        for change in &changes {
-            parameters.changed(change);
-        }
-        Ok(())
+            .map_err(|e| format!("the run did not take it: {e}"))
     };
     if call == Call::Set {
         let results: Vec<Json> = tried
@@ -333,6 +320,40 @@ pub(super) fn set(
         reason
     });
     json!({ "result": outcome(result) })
+}
+
+/// `text` (read as TOML: `parsed`) as a value of parameter type `ty`, if
+/// it is one: the inverse of [`config_text`].
+fn as_type(ty: u8, text: &str, parsed: Option<&toml::Value>) -> Option<Json> {
+    use toml::Value as T;
+    let double = |v: &T| match v {
+        T::Float(f) if f.is_nan() => Some(json!("NaN")),
+        T::Float(f) if f.is_infinite() => {
+            Some(json!(if *f > 0.0 { "Infinity" } else { "-Infinity" }))
+        }
+        T::Float(f) => Some(json!(f)),
+        T::Integer(i) => Some(json!(*i as f64)),
+        _ => None,
+    };
+    let all = |of: &dyn Fn(&T) -> Option<Json>| -> Option<Json> {
+        let items = parsed?.as_array()?;
+        items
+            .iter()
+            .map(of)
+            .collect::<Option<Vec<_>>>()
+            .map(Json::from)
+    };
+    match ty {
+        STRING => Some(json!(text)),
+        BOOL => parsed?.as_bool().map(Json::from),
+        INTEGER => parsed?.as_integer().map(Json::from),
+        DOUBLE => double(parsed?),
+        BOOL_ARRAY => all(&|v| v.as_bool().map(Json::from)),
+        INTEGER_ARRAY => all(&|v| v.as_integer().map(Json::from)),
+        DOUBLE_ARRAY => all(&double),
+        STRING_ARRAY => all(&|v| v.as_str().map(Json::from)),
+        _ => None,
+    }
 }
 
 /// The name of parameter type `ty`, as `ros2 param` says it.
@@ -574,16 +595,30 @@ mod tests {
         assert_eq!(described["descriptors"][0]["type"], json!(STRING));
     }
 
-    /// What a set asked of the run.
+    /// What a set asked of the run; the changes made reach `parameters`
+    /// as the run's `configured` records reach them through the tap.
     #[derive(Default)]
-    struct Asked {
+    struct Asked<'a> {
+        parameters: Option<&'a Parameters>,
         made: RefCell<Vec<(String, String, String)>>,
         refused: RefCell<Vec<(String, String)>>,
     }
 
-    impl Setter for Asked {
+    impl<'a> Asked<'a> {
+        fn on(parameters: &'a Parameters) -> Self {
+            Self {
+                parameters: Some(parameters),
+                ..Self::default()
+            }
+        }
+    }
+
+    impl Setter for Asked<'_> {
         fn configure(&self, changes: &[Change]) -> Result<(), RadarError> {
             for change in changes {
+                if let Some(parameters) = self.parameters {
+                    parameters.configured(&change.plugin, &change.key, &change.text);
+                }
                 let made = (
                     change.plugin.clone(),
                     change.key.clone(),
@@ -603,7 +638,7 @@ mod tests {
     #[test]
     fn a_set_changes_the_plugins_config_value_as_radar_toml_would_write_it() {
         let p = parameters();
-        let asked = Asked::default();
+        let asked = Asked::on(&p);
         let request = json!({"parameters": [
             {"name": "Avoid.distance", "value": value(DOUBLE, json!(0.8))},
             {"name": "Avoid.brave", "value": value(BOOL, json!(false))},
@@ -634,7 +669,7 @@ mod tests {
     #[test]
     fn a_set_that_cannot_be_made_is_refused_with_its_reason_and_recorded() {
         let p = parameters();
-        let asked = Asked::default();
+        let asked = Asked::on(&p);
         let request = json!({"parameters": [
             {"name": "Avoid.distance", "value": value(STRING, json!("far"))},
             {"name": "use_sim_time", "value": value(BOOL, json!(true))},
@@ -661,7 +696,7 @@ mod tests {
         assert_eq!(asked.made.borrow().len(), 1, "each on its own");
 
         // Atomically: one refusal refuses all, and nothing is made.
-        let asked = Asked::default();
+        let asked = Asked::on(&p);
         let reply = set(&p, Call::SetAtomically, &request, &asked);
         assert_eq!(reply["result"]["successful"], json!(false));
         assert!(asked.made.borrow().is_empty());
@@ -671,7 +706,7 @@ mod tests {
         let got = p.answer(Call::Get, &json!({"names": ["Avoid.distance"]}));
         assert_eq!(got["values"][0]["double-value"], json!(0.5), "unchanged");
 
-        let asked = Asked::default();
+        let asked = Asked::on(&p);
         set(&p, Call::Set, &json!({"parameters": []}), &asked);
         assert!(
             asked.refused.borrow().is_empty(),
@@ -682,7 +717,7 @@ mod tests {
     #[test]
     fn a_node_that_takes_no_sets_refuses_each_and_says_its_parameters_are_read_only() {
         let p = parameters().settable(false);
-        let asked = Asked::default();
+        let asked = Asked::on(&p);
         let request = json!({"parameters": [
             {"name": "Avoid.distance", "value": value(DOUBLE, json!(0.8))},
         ]});
@@ -714,6 +749,31 @@ mod tests {
         );
         let listed = p.answer(Call::List, &json!({"prefixes": ["Avoid"], "depth": 0}));
         assert_eq!(listed["result"]["names"].as_array().map(Vec::len), Some(5));
+    }
+
+    #[test]
+    fn a_value_set_keeps_its_parameters_type_when_its_text_reads_as_one() {
+        let p = parameters();
+        p.configured("Avoid", "distance", "1");
+        p.configured("Avoid", "steps", "[]");
+        p.configured("Avoid", "retries", "nan");
+        p.configured("Avoid", "brave", "maybe");
+        let names =
+            json!({"names": ["Avoid.distance", "Avoid.steps", "Avoid.retries", "Avoid.brave"]});
+        let types = p.answer(Call::GetTypes, &names);
+        assert_eq!(
+            types["types"],
+            json!([DOUBLE, DOUBLE_ARRAY, STRING, STRING])
+        );
+        let got = p.answer(Call::Get, &names);
+        assert_eq!(got["values"][0]["double-value"], json!(1.0));
+        assert_eq!(got["values"][1]["double-array-value"], json!([]));
+        assert_eq!(got["values"][3]["string-value"], json!("maybe"));
+        // The text a NaN set gives reads back as the same double.
+        assert_eq!(
+            as_type(DOUBLE, "nan", Some(&toml::Value::Float(f64::NAN))),
+            Some(json!("NaN"))
+        );
     }
 
     #[test]
