@@ -24,7 +24,7 @@ use crate::script::SCRIPT_KEY;
 /// scheduler when it applies a `configure` input. Every set and read
 /// happens on the scheduler's thread or during a poll it waits for; the
 /// lock and the atomic make it `Sync`, as a store's state must be.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub(crate) struct LiveConfig {
     /// Bumped by every change, so that a call sees one cheaply.
     version: AtomicU64,
@@ -45,9 +45,15 @@ impl LiveConfig {
         (self.version.load(Ordering::Acquire), values.clone())
     }
 
-    /// The version now: compared with the one a reader last took.
-    pub(crate) fn version(&self) -> u64 {
-        self.version.load(Ordering::Acquire)
+    /// The values, if they changed since version `seen` (which becomes
+    /// theirs): what a reader that keeps a copy takes.
+    pub(crate) fn changed_since(&self, seen: &mut u64) -> Option<Arc<BTreeMap<String, String>>> {
+        if self.version.load(Ordering::Acquire) == *seen {
+            return None;
+        }
+        let (version, values) = self.current();
+        *seen = version;
+        Some(values)
     }
 
     /// Sets `key` to `value`.
@@ -97,10 +103,12 @@ impl ConfigState {
 
     /// The values now: the live ones, if they changed since last read.
     fn refresh(&mut self) {
-        if let Some((live, seen)) = &mut self.live {
-            if live.version() != *seen {
-                (*seen, self.values) = live.current();
-            }
+        if let Some(values) = self
+            .live
+            .as_mut()
+            .and_then(|(live, seen)| live.changed_since(seen))
+        {
+            self.values = values;
         }
     }
 }

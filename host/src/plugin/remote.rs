@@ -545,11 +545,8 @@ impl RemoteInstance {
     /// The plugin's config values, if they changed since the agent last
     /// had them.
     fn config_changed(&mut self) -> Option<BTreeMap<String, String>> {
-        (self.config.version() != self.config_seen).then(|| {
-            let (seen, values) = self.config.current();
-            self.config_seen = seen;
-            (*values).clone()
-        })
+        let values = self.config.changed_since(&mut self.config_seen)?;
+        Some((*values).clone())
     }
 
     fn answer(&self, result: Result<Option<WireVal>, String>) -> Result<(), Fault> {
